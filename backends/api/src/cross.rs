@@ -1,0 +1,99 @@
+//! Running two backends on every problem and failing loudly when they disagree.
+
+use crate::{Projection, ProjectionError, ProjectionProblem, Projector};
+use serde::{Deserialize, Serialize};
+
+/// Runs two projectors on each problem; returns the first one's answer when the two points
+/// agree to within `tolerance` (∞-norm), and [`ProjectionError::Disagreement`] with the gap
+/// otherwise. The largest gap seen is kept in [`CrossCheck::stats`].
+///
+/// ```
+/// use sweeping_api::{conformance::ReferenceProjector, CrossCheck, ProjectionProblem,
+///                    Projector, SparseRows};
+/// let mut both = CrossCheck::new(ReferenceProjector::default(), ReferenceProjector::default(), 1e-9);
+/// let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
+/// let p = ProjectionProblem::new(vec![-1.0, -2.0], a, vec![0.0, 0.0]).unwrap();
+/// let x = both.project(&p).unwrap().x;
+/// assert!(x.iter().all(|v| v.abs() < 1e-9));
+/// assert!(both.stats().max_gap < 1e-9);
+/// ```
+pub struct CrossCheck<P1, P2> {
+    first: P1,
+    second: P2,
+    tolerance: f64,
+    name: String,
+    stats: CrossCheckStats,
+}
+
+/// What a [`CrossCheck`] has seen so far.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CrossCheckStats {
+    /// Problems compared.
+    pub compared: u64,
+    /// Largest ∞-norm gap between the two answers.
+    pub max_gap: f64,
+    /// Sum of the gaps (for a mean).
+    pub sum_gap: f64,
+    /// Seconds spent in the first backend.
+    pub first_seconds: f64,
+    /// Seconds spent in the second backend.
+    pub second_seconds: f64,
+}
+
+impl<P1: Projector, P2: Projector> CrossCheck<P1, P2> {
+    /// Compares `first` with `second`, allowing an ∞-norm gap of `tolerance`.
+    pub fn new(first: P1, second: P2, tolerance: f64) -> Self {
+        let name = format!("cross({}, {})", first.name(), second.name());
+        Self {
+            first,
+            second,
+            tolerance,
+            name,
+            stats: CrossCheckStats::default(),
+        }
+    }
+
+    /// The statistics gathered so far.
+    pub fn stats(&self) -> &CrossCheckStats {
+        &self.stats
+    }
+}
+
+impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let t0 = std::time::Instant::now();
+        let a = self.first.project(problem)?;
+        let t1 = std::time::Instant::now();
+        let b = self.second.project(problem)?;
+        self.stats.first_seconds += (t1 - t0).as_secs_f64();
+        self.stats.second_seconds += t1.elapsed().as_secs_f64();
+        let (coordinate, gap) = a
+            .x
+            .iter()
+            .zip(&b.x)
+            .map(|(u, v)| (u - v).abs())
+            .enumerate()
+            .fold((0, 0.0), |best, (i, g)| if g > best.1 { (i, g) } else { best });
+        self.stats.compared += 1;
+        self.stats.sum_gap += gap;
+        self.stats.max_gap = self.stats.max_gap.max(gap);
+        if gap.is_nan() || gap > self.tolerance {
+            return Err(ProjectionError::Disagreement {
+                first: self.first.name().to_string(),
+                second: self.second.name().to_string(),
+                gap,
+                coordinate,
+                tolerance: self.tolerance,
+            });
+        }
+        Ok(a)
+    }
+
+    fn tolerance(&self) -> f64 {
+        self.first.tolerance().max(self.second.tolerance())
+    }
+}

@@ -1,0 +1,398 @@
+//! The projection contract of `sweeping`.
+//!
+//! Every step of the Bernicot–Venel scheme is one Euclidean projection onto a convex polyhedron:
+//!
+//! ```text
+//!     x* = argmin ½‖x − y‖²   subject to   A x ≥ b,
+//! ```
+//!
+//! with a sparse `A` (one row per linearized constraint, a handful of non-zeros per row).
+//! This crate holds that problem ([`ProjectionProblem`]), its answer ([`Projection`], with the
+//! multipliers λ ≥ 0 of the rows), the statistics of a solve ([`SolveStats`]), the typed error
+//! ([`ProjectionError`]) and the object-safe [`Projector`] trait that every backend implements.
+//! A backend sees only this assembled QP: never scenes, constraints or time.
+//!
+//! The optimality (KKT) conditions of the projection are
+//!
+//! ```text
+//!     A x ≥ b,   x − y = Aᵀλ,   λ ≥ 0,   λᵢ (A x − b)ᵢ = 0,
+//! ```
+//!
+//! and [`ProjectionProblem::kkt_residuals`] measures how far an answer is from them. The
+//! [`conformance`] module runs the checks every backend must pass (closed forms, degenerate and
+//! infeasible sets, KKT on random instances, idempotence), and [`CrossCheck`] runs two backends
+//! on the same problem and fails loudly when they disagree.
+#![deny(missing_docs)]
+
+pub mod conformance;
+mod cross;
+mod matrix;
+
+pub use cross::{CrossCheck, CrossCheckStats};
+pub use matrix::SparseRows;
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// The QP `min ½‖x − y‖² s.t. A x ≥ b`, validated on construction.
+///
+/// `A` is stored by rows ([`SparseRows`]) because that is how the constraints are assembled:
+/// one linearized constraint `gᵢ + ⟨∇gᵢ, x − q⟩ ≥ 0` becomes the row `∇gᵢ` with
+/// `bᵢ = ⟨∇gᵢ, q⟩ − gᵢ`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProjectionProblem {
+    y: Vec<f64>,
+    a: SparseRows,
+    b: Vec<f64>,
+}
+
+impl ProjectionProblem {
+    /// Builds a problem, checking dimensions and finiteness.
+    ///
+    /// # Errors
+    /// [`ProjectionError::InvalidInput`] when `a` has a number of columns other than `y.len()`,
+    /// a number of rows other than `b.len()`, or when `y`, `a` or `b` hold a non-finite value.
+    pub fn new(y: Vec<f64>, a: SparseRows, b: Vec<f64>) -> Result<Self, ProjectionError> {
+        if a.n_cols() != y.len() {
+            return Err(ProjectionError::InvalidInput {
+                reason: format!(
+                    "A has {} columns but y has {} entries",
+                    a.n_cols(),
+                    y.len()
+                ),
+            });
+        }
+        if a.n_rows() != b.len() {
+            return Err(ProjectionError::InvalidInput {
+                reason: format!("A has {} rows but b has {} entries", a.n_rows(), b.len()),
+            });
+        }
+        if let Some(i) = y.iter().position(|v| !v.is_finite()) {
+            return Err(ProjectionError::InvalidInput {
+                reason: format!("y[{i}] = {} is not finite", y[i]),
+            });
+        }
+        if let Some(i) = b.iter().position(|v| !v.is_finite()) {
+            return Err(ProjectionError::InvalidInput {
+                reason: format!("b[{i}] = {} is not finite", b[i]),
+            });
+        }
+        for r in 0..a.n_rows() {
+            if let Some((c, v)) = a.row(r).find(|(_, v)| !v.is_finite()) {
+                return Err(ProjectionError::InvalidInput {
+                    reason: format!("A[{r}, {c}] = {v} is not finite"),
+                });
+            }
+        }
+        Ok(Self { y, a, b })
+    }
+
+    /// The point to project.
+    pub fn y(&self) -> &[f64] {
+        &self.y
+    }
+
+    /// The constraint matrix `A`, by rows.
+    pub fn a(&self) -> &SparseRows {
+        &self.a
+    }
+
+    /// The right-hand side `b`.
+    pub fn b(&self) -> &[f64] {
+        &self.b
+    }
+
+    /// Dimension of the space (length of `y`).
+    pub fn dim(&self) -> usize {
+        self.y.len()
+    }
+
+    /// Number of constraint rows.
+    pub fn n_rows(&self) -> usize {
+        self.b.len()
+    }
+
+    /// `max(0, max_i (b − A x)_i)`: the largest violation of the rows at `x`.
+    pub fn max_violation(&self, x: &[f64]) -> f64 {
+        let mut ax = vec![0.0; self.n_rows()];
+        self.a.mul_vec(x, &mut ax);
+        ax.iter()
+            .zip(&self.b)
+            .map(|(axi, bi)| bi - axi)
+            .fold(0.0, f64::max)
+    }
+
+    /// How far `(x, λ)` is from the KKT conditions of this projection.
+    ///
+    /// Every residual is an absolute, infinity-norm quantity; see [`KktResiduals`].
+    pub fn kkt_residuals(&self, x: &[f64], multipliers: &[f64]) -> KktResiduals {
+        assert_eq!(x.len(), self.dim(), "x has the wrong dimension");
+        assert_eq!(
+            multipliers.len(),
+            self.n_rows(),
+            "λ has the wrong dimension"
+        );
+        let mut ax = vec![0.0; self.n_rows()];
+        self.a.mul_vec(x, &mut ax);
+        let mut at_lambda = vec![0.0; self.dim()];
+        self.a.mul_transpose_vec(multipliers, &mut at_lambda);
+        let primal = ax
+            .iter()
+            .zip(&self.b)
+            .map(|(axi, bi)| bi - axi)
+            .fold(0.0, f64::max);
+        let stationarity = x
+            .iter()
+            .zip(&self.y)
+            .zip(&at_lambda)
+            .map(|((xi, yi), ai)| (xi - yi - ai).abs())
+            .fold(0.0, f64::max);
+        let dual = multipliers.iter().map(|l| -l).fold(0.0, f64::max);
+        let complementarity = multipliers
+            .iter()
+            .zip(ax.iter().zip(&self.b))
+            .map(|(l, (axi, bi))| (l.max(0.0) * (axi - bi)).abs())
+            .fold(0.0, f64::max);
+        KktResiduals {
+            primal,
+            stationarity,
+            dual,
+            complementarity,
+        }
+    }
+}
+
+/// Residuals of the KKT conditions `Ax ≥ b`, `x − y = Aᵀλ`, `λ ≥ 0`, `λᵢ(Ax − b)ᵢ = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct KktResiduals {
+    /// `max(0, maxᵢ (b − Ax)ᵢ)`.
+    pub primal: f64,
+    /// `‖x − y − Aᵀλ‖∞`.
+    pub stationarity: f64,
+    /// `max(0, maxᵢ −λᵢ)`.
+    pub dual: f64,
+    /// `maxᵢ |λᵢ⁺ (Ax − b)ᵢ|`.
+    pub complementarity: f64,
+}
+
+impl KktResiduals {
+    /// The largest of the four residuals.
+    pub fn max(&self) -> f64 {
+        self.primal
+            .max(self.stationarity)
+            .max(self.dual)
+            .max(self.complementarity)
+    }
+}
+
+/// The answer of a projection: the point, the multipliers of the rows, and how it was found.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Projection {
+    /// The projected point `x = P(y)`.
+    pub x: Vec<f64>,
+    /// Multipliers `λ ≥ 0`, one per row, with `x − y = Aᵀλ`.
+    pub multipliers: Vec<f64>,
+    /// Statistics of the solve.
+    pub stats: SolveStats,
+}
+
+impl Projection {
+    /// The answer for a problem without rows, or whose `y` already satisfies every row:
+    /// `x = y`, `λ = 0`. Backends use it to skip the solver when there is nothing to do.
+    pub fn identity(problem: &ProjectionProblem, backend: &str) -> Self {
+        Self {
+            x: problem.y().to_vec(),
+            multipliers: vec![0.0; problem.n_rows()],
+            stats: SolveStats {
+                backend: backend.to_string(),
+                status: SolveStatus::Trivial,
+                iterations: 0,
+                solve_seconds: 0.0,
+                setup_seconds: 0.0,
+                warm_started: false,
+            },
+        }
+    }
+
+    /// Number of rows whose multiplier exceeds `threshold` (the active constraints).
+    pub fn active_count(&self, threshold: f64) -> usize {
+        self.multipliers.iter().filter(|l| **l > threshold).count()
+    }
+}
+
+/// How a solve ended, when it produced an answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum SolveStatus {
+    /// Solved to the backend's requested accuracy.
+    Solved,
+    /// Solved, but only to the backend's reduced accuracy (the backend accepted it by setting).
+    SolvedReducedAccuracy,
+    /// No solve was needed: no rows, or `y` already feasible.
+    Trivial,
+}
+
+/// Statistics of one solve, a first-class value: summed over a run, compared across backends.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SolveStats {
+    /// Name of the backend that produced the answer.
+    pub backend: String,
+    /// How the solve ended.
+    pub status: SolveStatus,
+    /// Solver iterations (interior-point or ADMM); not reproducible across runs for every
+    /// backend (OSQP adapts its step to measured time).
+    pub iterations: u32,
+    /// Seconds spent in the solver's solve phase.
+    pub solve_seconds: f64,
+    /// Seconds spent setting the problem up (conversion, factorization set-up).
+    pub setup_seconds: f64,
+    /// Whether the solve started from a previous answer.
+    pub warm_started: bool,
+}
+
+/// Why a projection failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ProjectionError {
+    /// The problem itself is malformed (dimensions, non-finite numbers).
+    #[error("invalid projection problem: {reason}")]
+    InvalidInput {
+        /// What is wrong.
+        reason: String,
+    },
+    /// The polyhedron `{x : Ax ≥ b}` is empty (certified by the backend).
+    #[error("{backend}: the constraint set is infeasible ({detail})")]
+    Infeasible {
+        /// Backend that certified it.
+        backend: String,
+        /// Backend status or certificate summary.
+        detail: String,
+    },
+    /// The backend stopped before reaching its tolerances.
+    #[error("{backend}: not converged after {iterations} iterations (status {status})")]
+    NotConverged {
+        /// Backend name.
+        backend: String,
+        /// Iterations spent.
+        iterations: u32,
+        /// The backend's own status name.
+        status: String,
+    },
+    /// Any other failure inside the backend (numerical error, set-up failure).
+    #[error("{backend}: backend failure: {message}")]
+    Backend {
+        /// Backend name.
+        backend: String,
+        /// What it reported.
+        message: String,
+    },
+    /// Two backends run by [`CrossCheck`] returned points farther apart than allowed.
+    #[error(
+        "backends disagree: {first} and {second} differ by {gap:.3e} (∞-norm, coordinate {coordinate}) > tolerance {tolerance:.1e}"
+    )]
+    Disagreement {
+        /// First backend.
+        first: String,
+        /// Second backend.
+        second: String,
+        /// `‖x₁ − x₂‖∞`.
+        gap: f64,
+        /// Where the gap is largest.
+        coordinate: usize,
+        /// The allowed gap.
+        tolerance: f64,
+    },
+}
+
+/// A backend that projects onto `{x : Ax ≥ b}`.
+///
+/// Object-safe, so a simulation can hold a `Box<dyn Projector>` chosen at run time; `&mut self`
+/// so that a backend may cache its factorization or warm-start from the previous step.
+///
+/// # Implementing your own
+/// A backend needs one method. This one handles a single row in closed form
+/// (`x = y + max(0, b − a·y)/|a|² a`) and refuses anything larger:
+///
+/// ```
+/// use sweeping_api::{Projection, ProjectionError, ProjectionProblem, Projector, SparseRows,
+///                    SolveStats, SolveStatus};
+///
+/// struct OneRow;
+///
+/// impl Projector for OneRow {
+///     fn name(&self) -> &str { "one-row" }
+///
+///     fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+///         match p.n_rows() {
+///             0 => Ok(Projection::identity(p, self.name())),
+///             1 => {
+///                 let row: Vec<(usize, f64)> = p.a().row(0).collect();
+///                 let ay: f64 = row.iter().map(|&(j, v)| v * p.y()[j]).sum();
+///                 let norm2: f64 = row.iter().map(|&(_, v)| v * v).sum();
+///                 let lambda = ((p.b()[0] - ay) / norm2).max(0.0);
+///                 let mut x = p.y().to_vec();
+///                 for &(j, v) in &row { x[j] += lambda * v; }
+///                 Ok(Projection {
+///                     x,
+///                     multipliers: vec![lambda],
+///                     stats: SolveStats {
+///                         backend: self.name().into(), status: SolveStatus::Solved,
+///                         iterations: 0, solve_seconds: 0.0, setup_seconds: 0.0,
+///                         warm_started: false,
+///                     },
+///                 })
+///             }
+///             n => Err(ProjectionError::Backend {
+///                 backend: self.name().into(),
+///                 message: format!("{n} rows: this backend handles one"),
+///             }),
+///         }
+///     }
+/// }
+///
+/// // Project (0, 0) onto x₀ + x₁ ≥ 2.
+/// let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 1.0)]]);
+/// let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![2.0]).unwrap();
+/// let sol = OneRow.project(&p).unwrap();
+/// assert!((sol.x[0] - 1.0).abs() < 1e-12 && (sol.x[1] - 1.0).abs() < 1e-12);
+/// assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() < 1e-12);
+/// ```
+pub trait Projector: Send {
+    /// A short name for reports and errors ("clarabel", "osqp", …).
+    fn name(&self) -> &str;
+
+    /// Projects `problem.y()` onto `{x : A x ≥ b}`.
+    ///
+    /// # Errors
+    /// A [`ProjectionError`] saying why no answer within the backend's tolerances was found.
+    fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError>;
+
+    /// The accuracy this backend aims at, as an absolute tolerance on the KKT residuals; used
+    /// by callers to decide what "active" and "agree" mean. Defaults to `1e-6`.
+    fn tolerance(&self) -> f64 {
+        1e-6
+    }
+}
+
+impl<P: Projector + ?Sized> Projector for Box<P> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        (**self).project(problem)
+    }
+    fn tolerance(&self) -> f64 {
+        (**self).tolerance()
+    }
+}
+
+impl fmt::Display for SolveStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = match self {
+            SolveStatus::Solved => "solved",
+            SolveStatus::SolvedReducedAccuracy => "solved (reduced accuracy)",
+            SolveStatus::Trivial => "trivial",
+        };
+        f.write_str(s)
+    }
+}
