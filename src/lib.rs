@@ -1,1 +1,38 @@
-//! sweeping
+//! # sweeping
+//!
+//! Perturbed sweeping processes `dq/dt + N(Q(t), q) ∋ f(t, q)`, with
+//! `Q(t) = ∩ᵢ {q : gᵢ(t, q) ≥ 0}` and each `gᵢ` convex in `q`, solved by the
+//! prediction–correction scheme of Bernicot & Venel (see [`stepper`]), and the Maury–Venel
+//! crowd-motion model on top of it (see [`crowd`]).
+//!
+//! * [`constraint`] — write each `gᵢ` once over dual numbers; value, `∇g`, `D²g`, `∂ₜg`,
+//!   `∂ₜ∇g` by autodiff; constraint families.
+//! * [`problem`] — the process: constraints, perturbation, start.
+//! * [`stepper`] — the scheme, step reports, observers, culling with proof.
+//! * [`backends`] — the projection backends enabled by cargo features (`clarabel`, `osqp`) and
+//!   a by-name constructor.
+//! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles.
+#![deny(missing_docs)]
+
+pub mod backends;
+pub mod constraint;
+pub mod crowd;
+pub mod error;
+pub mod observers;
+pub mod problem;
+pub mod stepper;
+
+pub use error::SweepError;
+pub use sweeping_api as api;
+
+/// The names most programs need.
+pub mod prelude {
+    pub use crate::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily};
+    pub use crate::error::SweepError;
+    pub use crate::problem::{NoPerturbation, Perturbation, Problem};
+    pub use crate::stepper::{
+        Observer, Prediction, Run, RunFailure, StepReport, Stepper, StepperSettings,
+    };
+    pub use num_dual::DualNum;
+    pub use sweeping_api::{CrossCheck, ProjectionError, ProjectionProblem, Projector};
+}

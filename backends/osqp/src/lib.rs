@@ -1,1 +1,593 @@
-//! placeholder
+//! The [OSQP](https://osqp.org) backend of `sweeping` (osqp 0.6.3, an ADMM solver).
+//!
+//! # Formulation
+//!
+//! The projection `min ½‖x − y‖² s.t. A x ≥ b` is handed to OSQP, whose problems read
+//! `min ½ dᵀP d + qᵀd s.t. l ≤ A d ≤ u`, as a problem in the **displacement** `d = x − y`:
+//!
+//! ```text
+//!     P = I (upper-triangular CSC),   q = 0,   l = b − A y,   u = 1e30,   x = y + d.
+//! ```
+//!
+//! Solving for `d` rather than for `x` (with `q = −y`) keeps the data independent of where the
+//! problem sits in space: crowds live at coordinates ~10², and OSQP's relative stopping rule
+//! would otherwise measure the answer against `‖y‖`. The upper bound is OSQP's own "infinity"
+//! (`OSQP_INFTY = 1e30`), a large finite number: an infinite bound is not what the C library
+//! expects.
+//!
+//! # Multipliers
+//!
+//! OSQP's Lagrangian is `½dᵀPd + qᵀd + y_osqpᵀ(A d − z)`, so its optimality condition is
+//! `d + Aᵀ y_osqp = 0` with `y_osqp ≤ 0` on rows active at their lower bound. Ours is
+//! `x − y = Aᵀλ`, `λ ≥ 0`: hence `λ = −y_osqp`. ADMM iterates satisfy the sign condition only to
+//! within the solver tolerance, so the returned multipliers are `λᵢ = max(0, −y_osqp,ᵢ)`; the
+//! clamp moves them by at most that tolerance.
+//!
+//! # Accuracy
+//!
+//! OSQP's C defaults (`eps_abs = eps_rel = 1e-3`, no polishing) leave answers off by up to
+//! 3.5·10⁻² on crowd projections, far from what a second opinion must deliver; the defaults of
+//! [`OsqpSettings`] are tight (`1e-9`), and [`OsqpSettings::preset_loose`] restores OSQP's own
+//! for work–precision studies. ADMM converges linearly, so tight tolerances cost iterations on
+//! jammed crowds; see [`OsqpSettings`] for every knob.
+//!
+//! # Warm start
+//!
+//! [`OsqpProjector`] keeps the OSQP workspace of the previous solve. When the next problem has
+//! the same dimension and the same sparsity pattern of `A` ([`SparseRows::same_pattern`]), it
+//! updates the values of `A` (only if they changed) and the bounds in place and starts ADMM
+//! from the previous displacement and dual; otherwise it builds a new workspace, which starts
+//! from `d = 0`, i.e. `x = y`. [`SolveStats::warm_started`] tells which happened.
+//!
+//! # Failures
+//!
+//! Every OSQP status is mapped to a result: `Solved` to an answer, `SolvedInaccurate` to an
+//! answer of reduced accuracy or [`ProjectionError::NotConverged`] (per
+//! [`OsqpSettings::accept_inaccurate`]), iteration and time limits to
+//! [`ProjectionError::NotConverged`], primal infeasibility to [`ProjectionError::Infeasible`],
+//! and the statuses a projection cannot produce (dual infeasibility, non-convexity) to
+//! [`ProjectionError::Backend`]. The osqp crate panics when the C library reports an internal
+//! error (a failed refactorization, say); those panics are caught and reported as
+//! [`ProjectionError::Backend`], and the workspace is then discarded.
+#![deny(missing_docs)]
+
+use osqp::{CscMatrix, Problem, Settings, Status};
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::time::{Duration, Instant};
+use sweeping_api::{
+    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus, SparseRows,
+};
+
+/// The upper bound of every row: OSQP's own "infinity" (`OSQP_INFTY`), large but finite.
+pub const UPPER_BOUND: f64 = 1e30;
+
+/// The name this backend reports.
+const NAME: &str = "osqp";
+
+/// Settings of [`OsqpProjector`]: a plain, serialisable value.
+///
+/// The defaults are tight enough for cross-validation against an interior-point backend; they
+/// differ from the C library's (see [`OsqpSettings::preset_loose`]). Missing fields take their
+/// default when deserialising. Integer knobs use `0` for "off"/"automatic" where OSQP uses
+/// `None`, so that every setting can be written in a configuration file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OsqpSettings {
+    /// Absolute tolerance on OSQP's primal and dual residuals (∞-norm). Default `1e-9`
+    /// (OSQP: `1e-3`).
+    pub eps_abs: f64,
+    /// Relative tolerance on OSQP's primal and dual residuals. Default `1e-9` (OSQP: `1e-3`).
+    pub eps_rel: f64,
+    /// Tolerance of OSQP's primal infeasibility certificate. Default `1e-4` (OSQP's).
+    pub eps_prim_inf: f64,
+    /// Most ADMM iterations per solve. Default `100_000` (OSQP: `4000`).
+    pub max_iter: u32,
+    /// Polish the ADMM answer by solving the KKT system of the guessed active set. Default
+    /// `false` (OSQP's): on jammed crowds the guess is usually wrong and polishing is wasted
+    /// work. A failed polish keeps the ADMM answer, so `true` never makes an answer worse.
+    pub polish: bool,
+    /// Adapt the ADMM step `rho` during the solve. Default `true` (OSQP's).
+    pub adaptive_rho: bool,
+    /// Iterations between `rho` adaptations; `0` lets OSQP choose from the measured set-up
+    /// time, which makes iteration counts vary from run to run. A fixed value (e.g. `100`)
+    /// makes them reproducible. Default `0` (OSQP's).
+    pub adaptive_rho_interval: u32,
+    /// Initial ADMM step `rho`. Default `0.1` (OSQP's).
+    pub rho: f64,
+    /// ADMM regularization `sigma`. Default `1e-6` (OSQP's).
+    pub sigma: f64,
+    /// ADMM relaxation `alpha`, in `(0, 2)`. Default `1.6` (OSQP's).
+    pub alpha: f64,
+    /// Ruiz scaling iterations; `0` disables scaling. Default `10` (OSQP's).
+    pub scaling: u32,
+    /// Iterations between termination checks; `0` checks only at `max_iter`. Default `25`
+    /// (OSQP's).
+    pub check_termination: u32,
+    /// Time limit of one solve in seconds (set-up of a new workspace included); `None` for no
+    /// limit. Default `None`.
+    pub time_limit: Option<f64>,
+    /// Whether OSQP's `SolvedInaccurate` (its tolerances met only when multiplied by 10, at
+    /// the iteration or time limit) is accepted, as [`SolveStatus::SolvedReducedAccuracy`];
+    /// when `false` it is [`ProjectionError::NotConverged`]. Default `false`.
+    pub accept_inaccurate: bool,
+    /// Reuse the workspace and start from the previous answer when the sparsity pattern of `A`
+    /// is unchanged; when `false` every solve builds a new workspace and starts from `x = y`.
+    /// Default `true`.
+    pub warm_start: bool,
+    /// Let OSQP print its progress to standard output. Default `false`.
+    pub verbose: bool,
+}
+
+impl Default for OsqpSettings {
+    fn default() -> Self {
+        Self {
+            eps_abs: 1e-9,
+            eps_rel: 1e-9,
+            eps_prim_inf: 1e-4,
+            max_iter: 100_000,
+            polish: false,
+            adaptive_rho: true,
+            adaptive_rho_interval: 0,
+            rho: 0.1,
+            sigma: 1e-6,
+            alpha: 1.6,
+            scaling: 10,
+            check_termination: 25,
+            time_limit: None,
+            accept_inaccurate: false,
+            warm_start: true,
+            verbose: false,
+        }
+    }
+}
+
+impl OsqpSettings {
+    /// OSQP's own C defaults for its solver knobs (`eps_abs = eps_rel = 1e-3`,
+    /// `max_iter = 4000`, no polishing), for work–precision studies. Fast, but answers may be
+    /// off by ~10⁻²: not fit for cross-validation. The fields that are ours
+    /// ([`accept_inaccurate`](Self::accept_inaccurate), [`warm_start`](Self::warm_start),
+    /// [`verbose`](Self::verbose), [`time_limit`](Self::time_limit)) keep their defaults.
+    pub fn preset_loose() -> Self {
+        Self {
+            eps_abs: 1e-3,
+            eps_rel: 1e-3,
+            max_iter: 4000,
+            ..Self::default()
+        }
+    }
+
+    /// Checks the settings before they reach the C library (which, for instance, accepts a
+    /// NaN `rho`).
+    ///
+    /// # Errors
+    /// A message naming the first invalid setting.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v} must be finite and positive"))
+            }
+        };
+        let non_negative = |name: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v} must be finite and non-negative"))
+            }
+        };
+        non_negative("eps_abs", self.eps_abs)?;
+        non_negative("eps_rel", self.eps_rel)?;
+        if self.eps_abs == 0.0 && self.eps_rel == 0.0 {
+            return Err("eps_abs and eps_rel cannot both be zero".into());
+        }
+        non_negative("eps_prim_inf", self.eps_prim_inf)?;
+        positive("rho", self.rho)?;
+        positive("sigma", self.sigma)?;
+        if !(self.alpha > 0.0 && self.alpha < 2.0) {
+            return Err(format!("alpha = {} must lie in (0, 2)", self.alpha));
+        }
+        let int_limit = i32::MAX as u32;
+        for (name, v) in [
+            ("max_iter", self.max_iter),
+            ("adaptive_rho_interval", self.adaptive_rho_interval),
+            ("scaling", self.scaling),
+            ("check_termination", self.check_termination),
+        ] {
+            if v > int_limit {
+                return Err(format!("{name} = {v} exceeds {int_limit}"));
+            }
+        }
+        if self.max_iter == 0 {
+            return Err("max_iter must be positive".into());
+        }
+        if let Some(t) = self.time_limit {
+            non_negative("time_limit", t)?;
+            Duration::try_from_secs_f64(t).map_err(|e| format!("time_limit = {t}: {e}"))?;
+        }
+        Ok(())
+    }
+
+    /// The osqp crate's settings (after [`validate`](Self::validate)).
+    fn to_osqp(&self) -> Result<Settings, String> {
+        self.validate()?;
+        let optional = |v: u32| (v > 0).then_some(v);
+        let time_limit = match self.time_limit {
+            Some(t) => {
+                Some(Duration::try_from_secs_f64(t).map_err(|e| format!("time_limit: {e}"))?)
+            }
+            None => None,
+        };
+        Ok(Settings::default()
+            .eps_abs(self.eps_abs)
+            .eps_rel(self.eps_rel)
+            .eps_prim_inf(self.eps_prim_inf)
+            .max_iter(self.max_iter)
+            .polish(self.polish)
+            .adaptive_rho(self.adaptive_rho)
+            .adaptive_rho_interval(optional(self.adaptive_rho_interval))
+            .rho(self.rho)
+            .sigma(self.sigma)
+            .alpha(self.alpha)
+            .scaling(optional(self.scaling))
+            .check_termination(optional(self.check_termination))
+            .time_limit(time_limit)
+            .warm_start(self.warm_start)
+            .verbose(self.verbose))
+    }
+}
+
+/// A workspace kept between solves for warm starting.
+struct Cache {
+    problem: Problem,
+    /// `A` as it was last given to OSQP (pattern and values).
+    a: SparseRows,
+    /// The last converged displacement `d`.
+    d: Vec<f64>,
+    /// The last converged OSQP dual (`−λ`, unclamped).
+    y_osqp: Vec<f64>,
+}
+
+/// How a solve ended, read out of OSQP's borrowed status.
+enum Outcome {
+    Converged {
+        accurate: bool,
+        d: Vec<f64>,
+        y_osqp: Vec<f64>,
+    },
+    Error(ProjectionError),
+}
+
+/// Projection by OSQP, with warm start across steps of a time loop.
+///
+/// ```
+/// use sweeping_api::{ProjectionProblem, Projector, SparseRows};
+/// use sweeping_osqp::OsqpProjector;
+///
+/// // Project (0, 0) onto x₀ + x₁ ≥ 2, then a nearby point with the same pattern.
+/// let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 1.0)]]);
+/// let mut osqp = OsqpProjector::default();
+/// let p = ProjectionProblem::new(vec![0.0, 0.0], a.clone(), vec![2.0]).unwrap();
+/// let sol = osqp.project(&p).unwrap();
+/// assert!((sol.x[0] - 1.0).abs() < 1e-6 && (sol.x[1] - 1.0).abs() < 1e-6);
+/// assert!((sol.multipliers[0] - 1.0).abs() < 1e-6);
+/// assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() < osqp.tolerance());
+///
+/// let q = ProjectionProblem::new(vec![0.5, 0.0], a, vec![2.0]).unwrap();
+/// let sol = osqp.project(&q).unwrap();
+/// assert!(sol.stats.warm_started);
+/// assert!((sol.x[0] - 1.25).abs() < 1e-6 && (sol.x[1] - 0.75).abs() < 1e-6);
+/// ```
+pub struct OsqpProjector {
+    settings: OsqpSettings,
+    cache: Option<Cache>,
+}
+
+impl Default for OsqpProjector {
+    /// A projector with [`OsqpSettings::default`].
+    fn default() -> Self {
+        Self::new(OsqpSettings::default())
+    }
+}
+
+impl std::fmt::Debug for OsqpProjector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OsqpProjector")
+            .field("settings", &self.settings)
+            .field("has_workspace", &self.cache.is_some())
+            .finish()
+    }
+}
+
+impl OsqpProjector {
+    /// A projector with the given settings (checked at the first solve: invalid settings make
+    /// every solve fail with [`ProjectionError::Backend`]).
+    pub fn new(settings: OsqpSettings) -> Self {
+        Self {
+            settings,
+            cache: None,
+        }
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &OsqpSettings {
+        &self.settings
+    }
+
+    /// Forgets the kept workspace: the next solve builds a new one and starts from `x = y`.
+    pub fn reset(&mut self) {
+        self.cache = None;
+    }
+
+    fn backend_error(message: impl Into<String>) -> ProjectionError {
+        ProjectionError::Backend {
+            backend: NAME.to_string(),
+            message: message.into(),
+        }
+    }
+
+    /// Solves a problem that needs the solver (`y` violates a row, `A` has columns).
+    fn solve(
+        &mut self,
+        problem: &ProjectionProblem,
+        l: Vec<f64>,
+    ) -> Result<Projection, ProjectionError> {
+        let settings = &self.settings;
+        let a = problem.a();
+        let m = problem.n_rows();
+        let u = vec![UPPER_BOUND; m];
+
+        let setup_start = Instant::now();
+        let (col_ptr, row_idx, values) = a.to_csc();
+        let reusable = settings.warm_start
+            && self
+                .cache
+                .as_ref()
+                .is_some_and(|c| c.a.same_pattern(a) && c.d.len() == problem.dim());
+        let mut cache = if reusable {
+            let mut cache = self.cache.take().expect("checked above");
+            let values_changed = cache.a.values() != a.values();
+            let updated = catch_unwind(AssertUnwindSafe(|| {
+                if values_changed {
+                    cache.problem.update_A(CscMatrix {
+                        nrows: m,
+                        ncols: problem.dim(),
+                        indptr: Cow::Borrowed(&col_ptr),
+                        indices: Cow::Borrowed(&row_idx),
+                        data: Cow::Borrowed(&values),
+                    });
+                }
+                cache.problem.update_bounds(&l, &u);
+                cache.problem.warm_start(&cache.d, &cache.y_osqp);
+            }));
+            if updated.is_err() {
+                // The workspace may be inconsistent: drop it (self.cache is already None).
+                return Err(Self::backend_error(
+                    "updating the OSQP workspace failed (see the message above)",
+                ));
+            }
+            if values_changed {
+                cache.a = a.clone();
+            }
+            cache
+        } else {
+            self.cache = None;
+            let osqp_settings = settings
+                .to_osqp()
+                .map_err(|e| Self::backend_error(format!("invalid settings: {e}")))?;
+            let n = problem.dim();
+            let identity = CscMatrix {
+                nrows: n,
+                ncols: n,
+                indptr: Cow::Owned((0..=n).collect()),
+                indices: Cow::Owned((0..n).collect()),
+                data: Cow::Owned(vec![1.0; n]),
+            };
+            let a_csc = CscMatrix {
+                nrows: m,
+                ncols: n,
+                indptr: Cow::Owned(col_ptr),
+                indices: Cow::Owned(row_idx),
+                data: Cow::Owned(values),
+            };
+            let q = vec![0.0; n];
+            let built = catch_unwind(AssertUnwindSafe(|| {
+                Problem::new(identity, &q, a_csc, &l, &u, &osqp_settings)
+            }));
+            let problem_osqp = match built {
+                Ok(Ok(p)) => p,
+                Ok(Err(e)) => {
+                    return Err(Self::backend_error(format!(
+                        "OSQP set-up failed: {e} (a row with a repeated column gives an invalid matrix)"
+                    )))
+                }
+                Err(_) => return Err(Self::backend_error("OSQP set-up panicked")),
+            };
+            Cache {
+                problem: problem_osqp,
+                a: a.clone(),
+                d: vec![0.0; n],
+                y_osqp: vec![0.0; m],
+            }
+        };
+        let setup_seconds = setup_start.elapsed().as_secs_f64();
+
+        let solve_start = Instant::now();
+        let accept_inaccurate = settings.accept_inaccurate;
+        let solved = catch_unwind(AssertUnwindSafe(|| {
+            read_status(cache.problem.solve(), accept_inaccurate)
+        }));
+        let solve_seconds = solve_start.elapsed().as_secs_f64();
+        let (outcome, iterations) = match solved {
+            Ok(r) => r,
+            Err(_) => {
+                return Err(Self::backend_error(
+                    "OSQP reported an internal error during the solve (see the message above)",
+                ))
+            }
+        };
+
+        match outcome {
+            Outcome::Converged {
+                accurate,
+                d,
+                y_osqp,
+            } => {
+                if d.iter().chain(&y_osqp).any(|v| !v.is_finite()) {
+                    return Err(Self::backend_error(
+                        "OSQP returned a non-finite answer with a converged status",
+                    ));
+                }
+                let x = problem.y().iter().zip(&d).map(|(y, d)| y + d).collect();
+                let multipliers = y_osqp.iter().map(|y| (-y).max(0.0)).collect();
+                cache.d = d;
+                cache.y_osqp = y_osqp;
+                self.cache = Some(cache);
+                Ok(Projection {
+                    x,
+                    multipliers,
+                    stats: SolveStats {
+                        backend: NAME.to_string(),
+                        status: if accurate {
+                            SolveStatus::Solved
+                        } else {
+                            SolveStatus::SolvedReducedAccuracy
+                        },
+                        iterations,
+                        solve_seconds,
+                        setup_seconds,
+                        warm_started: reusable,
+                    },
+                })
+            }
+            // A failed solve leaves iterates not worth starting from: drop the workspace.
+            Outcome::Error(e) => Err(e),
+        }
+    }
+}
+
+/// Maps every OSQP status to an outcome, with the iteration count.
+fn read_status(status: Status<'_>, accept_inaccurate: bool) -> (Outcome, u32) {
+    let not_converged = |iterations: u32, status: &str| {
+        Outcome::Error(ProjectionError::NotConverged {
+            backend: NAME.to_string(),
+            iterations,
+            status: status.to_string(),
+        })
+    };
+    let infeasible = |detail: &str| {
+        Outcome::Error(ProjectionError::Infeasible {
+            backend: NAME.to_string(),
+            detail: detail.to_string(),
+        })
+    };
+    let failure = |message: &str| Outcome::Error(OsqpProjector::backend_error(message));
+    match status {
+        Status::Solved(ref s) => (
+            Outcome::Converged {
+                accurate: true,
+                d: s.x().to_vec(),
+                y_osqp: s.y().to_vec(),
+            },
+            status.iter(),
+        ),
+        Status::SolvedInaccurate(ref s) if accept_inaccurate => (
+            Outcome::Converged {
+                accurate: false,
+                d: s.x().to_vec(),
+                y_osqp: s.y().to_vec(),
+            },
+            status.iter(),
+        ),
+        Status::SolvedInaccurate(_) => (
+            not_converged(status.iter(), "solved inaccurate"),
+            status.iter(),
+        ),
+        Status::MaxIterationsReached(_) => (
+            not_converged(status.iter(), "maximum iterations reached"),
+            status.iter(),
+        ),
+        Status::TimeLimitReached(_) => (
+            not_converged(status.iter(), "time limit reached"),
+            status.iter(),
+        ),
+        Status::PrimalInfeasible(_) => {
+            (infeasible("OSQP status: primal infeasible"), status.iter())
+        }
+        Status::PrimalInfeasibleInaccurate(_) => (
+            infeasible("OSQP status: primal infeasible (inaccurate)"),
+            status.iter(),
+        ),
+        Status::DualInfeasible(_) | Status::DualInfeasibleInaccurate(_) => (
+            failure(
+                "OSQP reported dual infeasibility, impossible for a projection \
+                 (its objective is bounded below): numerical trouble",
+            ),
+            status.iter(),
+        ),
+        Status::NonConvex(_) => (
+            failure(
+                "OSQP reported a non-convex problem (its residuals diverged past 1e30): \
+                 the problem is badly scaled",
+            ),
+            status.iter(),
+        ),
+        // osqp 0.6.3 marks `Status` non-exhaustive with this hidden variant instead of
+        // `#[non_exhaustive]`; it is never constructed, and naming it keeps this match free of
+        // a wildcard, so a new status in another version fails to compile here.
+        Status::__Nonexhaustive => (failure("OSQP returned an unknown status"), 0),
+    }
+}
+
+impl Projector for OsqpProjector {
+    fn name(&self) -> &str {
+        NAME
+    }
+
+    /// `100 × max(eps_abs, eps_rel)` (`1e-7` with the defaults): the KKT residuals of
+    /// problems scaled to O(1) stay below this in the conformance kit.
+    fn tolerance(&self) -> f64 {
+        100.0 * self.settings.eps_abs.max(self.settings.eps_rel)
+    }
+
+    fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        if problem.n_rows() == 0 {
+            return Ok(Projection::identity(problem, NAME));
+        }
+        let mut ay = vec![0.0; problem.n_rows()];
+        problem.a().mul_vec(problem.y(), &mut ay);
+        // Clamped below at OSQP's −∞ (such a row is slack anyway); a NaN stays NaN.
+        let l: Vec<f64> = problem
+            .b()
+            .iter()
+            .zip(&ay)
+            .map(|(b, ay)| {
+                let v = b - ay;
+                if v < -UPPER_BOUND {
+                    -UPPER_BOUND
+                } else {
+                    v
+                }
+            })
+            .collect();
+        if l.iter().all(|v| *v <= 0.0) {
+            return Ok(Projection::identity(problem, NAME));
+        }
+        if problem.dim() == 0 {
+            // Rows without coordinates read 0 ≥ bᵢ, and one of them has bᵢ > 0.
+            return Err(ProjectionError::Infeasible {
+                backend: NAME.to_string(),
+                detail: "no coordinates, and a row requires 0 ≥ b with b > 0".into(),
+            });
+        }
+        if let Some(i) = l.iter().position(|v| v.is_nan() || *v >= UPPER_BOUND) {
+            return Err(Self::backend_error(format!(
+                "b − A y = {} at row {i} is out of OSQP's range (|·| < 1e30)",
+                l[i]
+            )));
+        }
+        self.solve(problem, l)
+    }
+}

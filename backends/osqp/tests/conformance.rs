@@ -1,0 +1,374 @@
+//! The conformance kit and the OSQP-specific behaviour: warm start, rebuilds, statuses.
+
+use sweeping_api::conformance::{random_instance, ReferenceProjector, Tolerances};
+use sweeping_api::{
+    Projection, ProjectionError, ProjectionProblem, Projector, SolveStatus, SparseRows,
+};
+use sweeping_osqp::{OsqpProjector, OsqpSettings};
+
+// With the default settings (eps_abs = eps_rel = 1e-9) the kit passes down to 5e-8 on KKT and
+// on closed-form points; it fails at 2e-8 (the near-parallel rows, whose answer is
+// ill-conditioned, and complementarity λ·(Ax − b) on random instances with large λ). Iteration
+// counts, hence answers, vary slightly from run to run (OSQP adapts rho on measured time), so
+// the kit is run at 1e-7, which is also what `OsqpProjector::tolerance()` claims.
+sweeping_api::conformance_tests!(
+    OsqpProjector::default(),
+    Tolerances {
+        kkt: 1e-7,
+        point: 1e-7,
+        certifies_infeasibility: true
+    }
+);
+
+fn gap(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(u, v)| (u - v).abs())
+        .fold(0.0, f64::max)
+}
+
+fn kkt(p: &ProjectionProblem, sol: &Projection) -> f64 {
+    p.kkt_residuals(&sol.x, &sol.multipliers).max()
+}
+
+/// A problem with the pattern of `base`, `y` moved, `b` lowered (so the known feasible point of
+/// `random_instance` stays feasible) and, when `scale_rows`, every row scaled by a positive
+/// factor (with its `b`), which changes the values of `A` but not its pattern.
+fn perturbed(base: &ProjectionProblem, k: usize, scale_rows: bool) -> ProjectionProblem {
+    let kf = k as f64;
+    let y: Vec<f64> = base
+        .y()
+        .iter()
+        .enumerate()
+        .map(|(i, v)| v + 0.3 * (kf + 1.7 * i as f64).sin())
+        .collect();
+    let scale = |r: usize| {
+        if scale_rows {
+            1.0 + 0.2 * (0.9 * kf + r as f64).cos()
+        } else {
+            1.0
+        }
+    };
+    let mut a = SparseRows::new(base.dim());
+    let mut b = Vec::with_capacity(base.n_rows());
+    for r in 0..base.n_rows() {
+        let c = scale(r);
+        a.push_row(base.a().row(r).map(|(j, v)| (j, c * v)));
+        b.push(c * (base.b()[r] - 0.1 * (1.0 + (kf * 0.7 + r as f64).sin())));
+    }
+    ProjectionProblem::new(y, a, b).unwrap()
+}
+
+#[test]
+fn agrees_with_reference_on_random_instances() {
+    let mut osqp = OsqpProjector::default();
+    let mut reference = ReferenceProjector::default();
+    let mut compared = 0;
+    for seed in 0..80u64 {
+        let n = 2 + (seed as usize * 11) % 40;
+        let m = (seed as usize * 17) % 60;
+        let p = random_instance(10_000 + seed, n, m);
+        let sol = osqp.project(&p).unwrap();
+        assert!(
+            kkt(&p, &sol) <= osqp.tolerance(),
+            "seed {seed}: KKT {:e}",
+            kkt(&p, &sol)
+        );
+        // The reference (coordinate ascent) may run out of sweeps on a degenerate instance.
+        let Ok(r) = reference.project(&p) else {
+            continue;
+        };
+        compared += 1;
+        let g = gap(&sol.x, &r.x);
+        assert!(g <= 1e-6, "seed {seed} (n = {n}, m = {m}): gap {g:e}");
+    }
+    assert!(compared >= 70, "only {compared} instances compared");
+}
+
+#[test]
+fn warm_start_on_a_sequence_with_one_pattern() {
+    let base = random_instance(4242, 25, 40);
+    let mut warm = OsqpProjector::default();
+    let mut solved = 0;
+    for k in 0..12 {
+        // Values of A change on odd steps (update_A), only y and b on even ones.
+        let p = perturbed(&base, k, k % 2 == 1);
+        let sol = warm.project(&p).unwrap();
+        assert!(
+            kkt(&p, &sol) <= warm.tolerance(),
+            "step {k}: KKT {:e}",
+            kkt(&p, &sol)
+        );
+        if sol.stats.status == SolveStatus::Trivial {
+            continue;
+        }
+        assert_eq!(sol.stats.status, SolveStatus::Solved);
+        assert_eq!(sol.stats.backend, "osqp");
+        assert_eq!(sol.stats.warm_started, solved > 0, "step {k}");
+        assert!(sol.stats.iterations > 0);
+        assert!(sol.stats.solve_seconds >= 0.0 && sol.stats.setup_seconds >= 0.0);
+        solved += 1;
+        // The same problem solved from scratch: same answer.
+        let cold = OsqpProjector::default().project(&p).unwrap();
+        assert!(!cold.stats.warm_started);
+        let g = gap(&sol.x, &cold.x);
+        assert!(g <= 1e-6, "step {k}: warm and cold answers differ by {g:e}");
+    }
+    assert!(solved >= 10, "only {solved} non-trivial steps");
+}
+
+#[test]
+fn pattern_change_rebuilds() {
+    let first = random_instance(1, 10, 15);
+    let other_rows = random_instance(2, 10, 15);
+    let more_rows = random_instance(3, 10, 22);
+    let other_dim = random_instance(4, 14, 15);
+    assert!(!first.a().same_pattern(other_rows.a()));
+    let mut osqp = OsqpProjector::default();
+    let sequence = [
+        (&first, false),
+        (&first, true),
+        (&other_rows, false),
+        (&more_rows, false),
+        (&other_dim, false),
+        (&first, false),
+        (&first, true),
+    ];
+    for (i, (p, expect_warm)) in sequence.into_iter().enumerate() {
+        let sol = osqp.project(p).unwrap();
+        assert_ne!(sol.stats.status, SolveStatus::Trivial, "problem {i}");
+        assert_eq!(sol.stats.warm_started, expect_warm, "problem {i}");
+        assert!(kkt(p, &sol) <= osqp.tolerance(), "problem {i}");
+    }
+}
+
+#[test]
+fn reset_and_disabled_warm_start_build_afresh() {
+    let p = random_instance(5, 12, 18);
+    let mut osqp = OsqpProjector::default();
+    osqp.project(&p).unwrap();
+    osqp.reset();
+    assert!(!osqp.project(&p).unwrap().stats.warm_started);
+
+    let mut cold = OsqpProjector::new(OsqpSettings {
+        warm_start: false,
+        ..OsqpSettings::default()
+    });
+    for _ in 0..3 {
+        let sol = cold.project(&p).unwrap();
+        assert!(!sol.stats.warm_started);
+        assert!(kkt(&p, &sol) <= cold.tolerance());
+    }
+}
+
+#[test]
+fn infeasible_sets_are_certified_cold_and_warm() {
+    let mut osqp = OsqpProjector::default();
+    // x₀ + x₁ ≥ 1 and −x₀ − x₁ ≥ c: a slab when c ≤ −1, empty otherwise.
+    let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 1.0)], vec![(0, -1.0), (1, -1.0)]]);
+    let problem = |c: f64| ProjectionProblem::new(vec![3.0, 3.0], a.clone(), vec![1.0, c]).unwrap();
+    match osqp.project(&problem(0.0)) {
+        Err(ProjectionError::Infeasible { backend, .. }) => assert_eq!(backend, "osqp"),
+        other => panic!("expected Infeasible, got {other:?}"),
+    }
+    // Same pattern: feasible, then empty (from a warm workspace), then feasible again.
+    let slab = problem(-2.0);
+    let sol = osqp.project(&slab).unwrap();
+    assert!(kkt(&slab, &sol) <= osqp.tolerance());
+    assert!(matches!(
+        osqp.project(&problem(-0.5)),
+        Err(ProjectionError::Infeasible { .. })
+    ));
+    let sol = osqp.project(&slab).unwrap();
+    assert!(kkt(&slab, &sol) <= osqp.tolerance());
+    assert!((sol.x[0] + sol.x[1] - 2.0).abs() < 1e-7);
+}
+
+#[test]
+fn iteration_and_time_limits_are_not_converged() {
+    let p = random_instance(6, 20, 35);
+    let mut capped = OsqpProjector::new(OsqpSettings {
+        max_iter: 1,
+        check_termination: 1,
+        ..OsqpSettings::default()
+    });
+    match capped.project(&p) {
+        Err(ProjectionError::NotConverged {
+            backend,
+            iterations,
+            ..
+        }) => {
+            assert_eq!(backend, "osqp");
+            assert!(iterations <= 1);
+        }
+        other => panic!("expected NotConverged, got {other:?}"),
+    }
+    let mut timed = OsqpProjector::new(OsqpSettings {
+        time_limit: Some(0.0),
+        ..OsqpSettings::default()
+    });
+    assert!(matches!(
+        timed.project(&p),
+        Err(ProjectionError::NotConverged { .. })
+    ));
+}
+
+#[test]
+fn inaccurate_answers_follow_the_setting() {
+    // Without adaptive rho the iterates are deterministic: look for an iteration cap at which
+    // OSQP stops with SolvedInaccurate (its tolerances met only when multiplied by 10).
+    let p = random_instance(7, 15, 25);
+    let settings = |max_iter, accept_inaccurate| OsqpSettings {
+        max_iter,
+        check_termination: 1,
+        adaptive_rho: false,
+        accept_inaccurate,
+        eps_abs: 1e-6,
+        eps_rel: 1e-6,
+        ..OsqpSettings::default()
+    };
+    let mut found = false;
+    for max_iter in 1..3000 {
+        let sol = OsqpProjector::new(settings(max_iter, true)).project(&p);
+        if let Ok(sol) = &sol {
+            if sol.stats.status == SolveStatus::Solved {
+                break;
+            }
+            assert_eq!(sol.stats.status, SolveStatus::SolvedReducedAccuracy);
+            assert!(kkt(&p, sol) <= 1e-3);
+            match OsqpProjector::new(settings(max_iter, false)).project(&p) {
+                Err(ProjectionError::NotConverged { status, .. }) => {
+                    assert_eq!(status, "solved inaccurate")
+                }
+                other => panic!("expected NotConverged, got {other:?}"),
+            }
+            found = true;
+            break;
+        }
+    }
+    assert!(found, "no iteration cap gave SolvedInaccurate");
+}
+
+#[test]
+fn invalid_settings_are_errors_not_panics() {
+    let p = random_instance(8, 6, 9);
+    let bad = [
+        OsqpSettings {
+            rho: f64::NAN,
+            ..OsqpSettings::default()
+        },
+        OsqpSettings {
+            alpha: 2.0,
+            ..OsqpSettings::default()
+        },
+        OsqpSettings {
+            eps_abs: 0.0,
+            eps_rel: 0.0,
+            ..OsqpSettings::default()
+        },
+        OsqpSettings {
+            max_iter: 0,
+            ..OsqpSettings::default()
+        },
+        OsqpSettings {
+            time_limit: Some(-1.0),
+            ..OsqpSettings::default()
+        },
+        OsqpSettings {
+            time_limit: Some(f64::INFINITY),
+            ..OsqpSettings::default()
+        },
+    ];
+    for s in bad {
+        assert!(s.validate().is_err(), "{s:?}");
+        assert!(matches!(
+            OsqpProjector::new(s).project(&p),
+            Err(ProjectionError::Backend { .. })
+        ));
+    }
+    assert!(OsqpSettings::default().validate().is_ok());
+    assert!(OsqpSettings::preset_loose().validate().is_ok());
+}
+
+#[test]
+fn odd_inputs_do_not_panic() {
+    let mut osqp = OsqpProjector::default();
+    // No coordinates: rows read 0 ≥ b.
+    let none = ProjectionProblem::new(vec![], SparseRows::from_rows(0, &[vec![]]), vec![1.0]);
+    assert!(matches!(
+        osqp.project(&none.unwrap()),
+        Err(ProjectionError::Infeasible { .. })
+    ));
+    let none = ProjectionProblem::new(vec![], SparseRows::from_rows(0, &[vec![]]), vec![-1.0]);
+    assert_eq!(
+        osqp.project(&none.unwrap()).unwrap().stats.status,
+        SolveStatus::Trivial
+    );
+    // An empty row that cannot hold.
+    let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![]]);
+    let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 1.0]).unwrap();
+    assert!(osqp.project(&p).is_err());
+    // An explicit zero, and a zero row that holds.
+    let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 0.0)], vec![(1, 0.0)]]);
+    let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, -1.0]).unwrap();
+    let sol = osqp.project(&p).unwrap();
+    assert!(kkt(&p, &sol) <= osqp.tolerance());
+    // A repeated column within a row (outside the SparseRows contract): an error, no panic.
+    let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (0, 1.0)]]);
+    let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0]).unwrap();
+    assert!(matches!(
+        osqp.project(&p),
+        Err(ProjectionError::Backend { .. })
+    ));
+    // Huge and tiny magnitudes.
+    for scale in [1e-150, 1e150, 1e300] {
+        let a = SparseRows::from_rows(2, &[vec![(0, scale), (1, 1.0)], vec![(1, -scale)]]);
+        let p = ProjectionProblem::new(vec![-scale, scale], a, vec![scale, -scale]).unwrap();
+        let _ = osqp.project(&p);
+    }
+    // And the projector still works afterwards.
+    let p = random_instance(9, 8, 12);
+    let sol = osqp.project(&p).unwrap();
+    assert!(kkt(&p, &sol) <= osqp.tolerance());
+}
+
+#[test]
+fn settings_are_plain_serialisable_values() {
+    let s = OsqpSettings {
+        time_limit: Some(0.5),
+        polish: true,
+        ..OsqpSettings::preset_loose()
+    };
+    let json = serde_json::to_string(&s).unwrap();
+    let back: OsqpSettings = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, s);
+    // Missing fields take their defaults.
+    let partial: OsqpSettings = serde_json::from_str(r#"{ "eps_abs": 1e-6 }"#).unwrap();
+    assert_eq!(
+        partial,
+        OsqpSettings {
+            eps_abs: 1e-6,
+            ..OsqpSettings::default()
+        }
+    );
+    assert!(serde_json::from_str::<OsqpSettings>(r#"{ "eps": 1e-6 }"#).is_err());
+    let loose = OsqpSettings::preset_loose();
+    assert_eq!(
+        (loose.eps_abs, loose.eps_rel, loose.max_iter),
+        (1e-3, 1e-3, 4000)
+    );
+    assert!(!loose.polish);
+}
+
+#[test]
+fn loose_preset_is_fast_and_roughly_right() {
+    let mut loose = OsqpProjector::new(OsqpSettings::preset_loose());
+    let mut tight = OsqpProjector::default();
+    for seed in 0..10 {
+        let p = random_instance(300 + seed, 20, 30);
+        let a = loose.project(&p).unwrap();
+        let b = tight.project(&p).unwrap();
+        assert!(gap(&a.x, &b.x) < 0.1, "seed {seed}");
+    }
+    assert!(loose.tolerance() > tight.tolerance());
+}

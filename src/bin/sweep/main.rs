@@ -1,0 +1,38 @@
+//! `sweep`: run, check and study sweeping processes and crowd scenes.
+
+use clap::{Parser, Subcommand};
+
+mod check;
+mod converge;
+mod run;
+
+/// Perturbed sweeping processes and crowd motion by the Bernicot–Venel scheme.
+#[derive(Parser)]
+#[command(name = "sweep", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene and write its trajectory, summary, snapshots and animation.
+    Run(run::RunArgs),
+    /// Validate a scene without running it, and print the constants of assumptions A0–A5.
+    Check(check::CheckArgs),
+    /// The paper's convergence experiment on a scene: error against h and the fitted order.
+    Converge(converge::ConvergeArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(a) => run::main(a),
+        Command::Check(a) => check::main(a),
+        Command::Converge(a) => converge::main(a),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}

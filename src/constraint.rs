@@ -1,0 +1,436 @@
+//! Constraints written once, differentiated by num-dual.
+//!
+//! A constraint `g(t, q) ≥ 0` reads only a few coordinates of the configuration `q` (its
+//! *support*: four for a pair of disks in the plane, two for a disk and a wall). The user
+//! writes its value once, as a function generic over num-dual's [`DualNum`], on those `K`
+//! coordinates ([`ConstraintKernel`]); [`linearize`] and [`second_order`] evaluate it on
+//! fixed-size dual numbers on the stack to get
+//!
+//! * `g`, `∇_q g` (and `∂ₜg` when the constraint moves): the row of the linearized set
+//!   `Q̃(t, q) = {x : g(t,q) + ⟨∇g(t,q), x − q⟩ ≥ 0}` of the scheme (paper, equation `schema`);
+//! * `D²_q g` and `∂ₜ∇_q g`: the quantities bounded by assumptions A3 and A4.
+//!
+//! Constraints come in *families* ([`ConstraintFamily`], object-safe): all the pairs of a crowd
+//! are one family that emits rows only for the candidates it is asked about, so a crowd of 10⁴
+//! people is not 10⁸ boxed objects. [`KernelFamily`] is the family of an explicit list of
+//! instances of one kernel; crowds ship their own families built on the same kernels.
+
+use nalgebra::SVector;
+use num_dual::{
+    first_derivative, gradient, hessian, partial_hessian, Dual2SVec64, Dual64, DualNum,
+    DualSVec64, HyperDualSVec64,
+};
+
+/// One kind of constraint `g(t, z) ≥ 0`, written once over dual numbers on its `K` coordinates.
+///
+/// `Params` carries what distinguishes one instance from another (two radii, a wall's
+/// endpoints…); a single user constraint uses `()`.
+///
+/// # Example
+/// A point of the plane kept outside a ball of radius 1 whose centre moves at speed 0.5 along
+/// the first axis: `g(t, z) = |z − c(t)| − 1`.
+///
+/// ```
+/// use num_dual::DualNum;
+/// use sweeping::constraint::{linearize, ConstraintKernel};
+///
+/// struct OutsideMovingBall;
+///
+/// impl ConstraintKernel<2> for OutsideMovingBall {
+///     type Params = ();
+///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), t: D, z: [D; 2]) -> D {
+///         let dx = z[0] - t * 0.5;
+///         (dx * dx + z[1] * z[1]).sqrt() - 1.0
+///     }
+/// }
+///
+/// let lin = linearize(&OutsideMovingBall, &(), 2.0, [4.0, 4.0], true);
+/// assert!((lin.value - 4.0).abs() < 1e-12);            // |(3, 4)| − 1
+/// assert!((lin.gradient[0] - 0.6).abs() < 1e-12);      // (3, 4)/5
+/// assert!((lin.dt.unwrap() + 0.3).abs() < 1e-12);      // −0.5 · 0.6
+/// ```
+pub trait ConstraintKernel<const K: usize>: Send + Sync {
+    /// Per-instance data.
+    type Params: Send + Sync;
+
+    /// `g(t, z)`, with `z` the `K` coordinates of the support, in support order.
+    fn value<D: DualNum<Primitive = f64> + Copy>(&self, params: &Self::Params, t: D, z: [D; K])
+        -> D;
+
+    /// Whether `g` depends on `t`. When `false`, `∂ₜg` and `∂ₜ∇g` are not computed (they are
+    /// zero). Default `true`.
+    fn is_time_dependent(&self) -> bool {
+        true
+    }
+
+    /// Whether `g` is affine in `z`. When `true`, `D²g` is not computed (it is zero), and
+    /// the linearization is exact. Default `false`.
+    fn is_affine(&self) -> bool {
+        false
+    }
+}
+
+/// Value and first derivatives of a constraint at `(t, z)`, on its support.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KernelLinearization<const K: usize> {
+    /// `g(t, z)`.
+    pub value: f64,
+    /// `∇_z g(t, z)`.
+    pub gradient: [f64; K],
+    /// `∂ₜ g(t, z)`, when asked for and the kernel is time-dependent (`Some(0.0)` for a
+    /// static kernel asked for it).
+    pub dt: Option<f64>,
+}
+
+/// Second derivatives of a constraint at `(t, z)`, on its support.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KernelSecondOrder<const K: usize> {
+    /// `g(t, z)`.
+    pub value: f64,
+    /// `∇_z g`.
+    pub gradient: [f64; K],
+    /// `∂ₜ g`.
+    pub dt: f64,
+    /// `D²_z g`, row-major `K × K` (symmetric).
+    pub hessian: [[f64; K]; K],
+    /// `∂ₜ ∇_z g`.
+    pub dt_gradient: [f64; K],
+}
+
+/// `g`, `∇g` and (if `want_dt`) `∂ₜg` of a kernel, by forward-mode duals on the stack.
+pub fn linearize<C: ConstraintKernel<K> + ?Sized, const K: usize>(
+    kernel: &C,
+    params: &C::Params,
+    t: f64,
+    z: [f64; K],
+    want_dt: bool,
+) -> KernelLinearization<K> {
+    let zv = SVector::<f64, K>::from(z);
+    let (value, grad) = gradient(
+        |v: SVector<DualSVec64<K>, K>| {
+            kernel.value(
+                params,
+                DualSVec64::<K>::from_re(t),
+                std::array::from_fn(|i| v[i]),
+            )
+        },
+        &zv,
+    );
+    let dt = if !want_dt {
+        None
+    } else if kernel.is_time_dependent() {
+        let (_, d) = first_derivative(
+            |tt: Dual64| kernel.value(params, tt, z.map(Dual64::from_re)),
+            t,
+        );
+        Some(d)
+    } else {
+        Some(0.0)
+    };
+    KernelLinearization {
+        value,
+        gradient: grad.into(),
+        dt,
+    }
+}
+
+/// Everything A1–A4 bound: value, `∇g`, `∂ₜg`, `D²g`, `∂ₜ∇g`. Skips the Hessian of an affine
+/// kernel and the time derivatives of a static one.
+pub fn second_order<C: ConstraintKernel<K> + ?Sized, const K: usize>(
+    kernel: &C,
+    params: &C::Params,
+    t: f64,
+    z: [f64; K],
+) -> KernelSecondOrder<K> {
+    let zv = SVector::<f64, K>::from(z);
+    let mut out = KernelSecondOrder {
+        value: 0.0,
+        gradient: [0.0; K],
+        dt: 0.0,
+        hessian: [[0.0; K]; K],
+        dt_gradient: [0.0; K],
+    };
+    if kernel.is_time_dependent() {
+        let tv = SVector::<f64, 1>::from([t]);
+        let (value, grad, dt, dtgrad) = partial_hessian(
+            |(v, s): (
+                SVector<HyperDualSVec64<K, 1>, K>,
+                SVector<HyperDualSVec64<K, 1>, 1>,
+            )| { kernel.value(params, s[0], std::array::from_fn(|i| v[i])) },
+            (&zv, &tv),
+        );
+        out.value = value;
+        out.gradient = grad.into();
+        out.dt = dt[0];
+        for i in 0..K {
+            out.dt_gradient[i] = dtgrad[(i, 0)];
+        }
+    } else {
+        let lin = linearize(kernel, params, t, z, false);
+        out.value = lin.value;
+        out.gradient = lin.gradient;
+    }
+    if !kernel.is_affine() {
+        let (_, _, h) = hessian(
+            |v: SVector<Dual2SVec64<K>, K>| {
+                kernel.value(
+                    params,
+                    Dual2SVec64::<K>::from_re(t),
+                    std::array::from_fn(|i| v[i]),
+                )
+            },
+            &zv,
+        );
+        for i in 0..K {
+            for j in 0..K {
+                out.hessian[i][j] = h[(i, j)];
+            }
+        }
+    }
+    out
+}
+
+/// A linearized constraint: `value + ⟨gradient, x_support − q_support⟩ ≥ 0`, on the
+/// coordinates `columns`. Reused across calls to avoid allocation.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LinearizedRow {
+    /// `g(t, q)`.
+    pub value: f64,
+    /// `∂ₜ g(t, q)` when asked for.
+    pub dt: Option<f64>,
+    /// Coordinates of `q` the constraint reads.
+    pub columns: Vec<usize>,
+    /// `∇_q g` on those coordinates.
+    pub gradient: Vec<f64>,
+}
+
+impl LinearizedRow {
+    /// `|∇_q g|`.
+    pub fn gradient_norm(&self) -> f64 {
+        self.gradient.iter().map(|v| v * v).sum::<f64>().sqrt()
+    }
+}
+
+/// Second-order data of one constraint on its support (for the assumption checks).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SecondOrderData {
+    /// `g(t, q)`.
+    pub value: f64,
+    /// Coordinates of `q` the constraint reads.
+    pub columns: Vec<usize>,
+    /// `∇_q g` on those coordinates.
+    pub gradient: Vec<f64>,
+    /// `∂ₜ g`.
+    pub dt: f64,
+    /// `D²_q g`, row-major, `columns.len()` squared.
+    pub hessian: Vec<f64>,
+    /// `∂ₜ ∇_q g` on those coordinates.
+    pub dt_gradient: Vec<f64>,
+}
+
+/// A family of constraints `gᵢ(t, q) ≥ 0`, indexed by family-defined identifiers.
+///
+/// Object-safe: a problem holds `Box<dyn ConstraintFamily>`s. The generic code (the stepper,
+/// the assumption checks) asks a family for *candidates* near a configuration and for the
+/// linearization of each; it never enumerates a crowd's 10⁸ pairs.
+///
+/// # The candidate contract
+/// [`candidates`](Self::candidates) must return every index `i` with `gᵢ(t, q) ≤ cutoff`
+/// (it may return more). Everything else follows from it: the feasibility check of `q₀`, the
+/// largest violation after a step, and — with [`linearization_drift_bound`](Self::linearization_drift_bound)
+/// — the proof that culling loses nothing (see [`crate::stepper`]).
+///
+/// # Example
+/// See [`KernelFamily`] for the family of an explicit list of kernel instances; a family of
+/// one user constraint is `KernelFamily::single`.
+pub trait ConstraintFamily: Send + Sync {
+    /// Name of the family, for reports ("disk pairs", "walls", "user: ellipse"…).
+    fn name(&self) -> &str;
+
+    /// Number of constraints in the family.
+    fn count(&self) -> usize;
+
+    /// Whether any member depends on `t`.
+    fn is_time_dependent(&self) -> bool;
+
+    /// Whether every member is affine in `q` (zero Hessian).
+    fn is_affine(&self) -> bool;
+
+    /// A human-readable name of member `index`, for errors ("pair of people 3 and 17").
+    fn describe(&self, index: usize) -> String;
+
+    /// Pushes onto `out` every index whose value at `(t, q)` is `≤ cutoff` (and possibly
+    /// more). The default pushes all `count()` indices `0..count()`.
+    fn candidates(&self, t: f64, q: &[f64], cutoff: f64, out: &mut Vec<usize>) {
+        let _ = (t, q, cutoff);
+        out.extend(0..self.count());
+    }
+
+    /// Whether [`candidates`](Self::candidates) may omit members (then
+    /// [`linearization_drift_bound`](Self::linearization_drift_bound) must be implemented).
+    /// Default `false`.
+    fn culls(&self) -> bool {
+        false
+    }
+
+    /// An upper bound, over every member `i`, of `|⟨∇gᵢ(t, q), x − q⟩|`, computed without
+    /// enumerating the members. A culling family must implement it; the stepper uses it to
+    /// prove that no omitted member's linearized constraint is violated at the solution
+    /// `x`. The default returns `0.0`, correct for families that never omit anything.
+    fn linearization_drift_bound(&self, t: f64, q: &[f64], x: &[f64]) -> f64 {
+        let _ = (t, q, x);
+        0.0
+    }
+
+    /// `g`, `∇_q g` (and `∂ₜg` if `want_dt`) of member `index` at `(t, q)`, into `out`.
+    fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow);
+
+    /// The second-order data of member `index` at `(t, q)` (A3, A4).
+    fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData;
+
+    /// The largest coordinate index any member reads, plus one (checked against the
+    /// problem's dimension before a run).
+    fn min_dimension(&self) -> usize;
+}
+
+/// One instance of a kernel: its support and parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KernelInstance<P, const K: usize> {
+    /// Coordinates of `q` read, in the order the kernel expects them.
+    pub support: [usize; K],
+    /// The instance's parameters.
+    pub params: P,
+    /// A name for errors and reports.
+    pub label: String,
+}
+
+/// The family of an explicit list of instances of one [`ConstraintKernel`].
+///
+/// ```
+/// use num_dual::DualNum;
+/// use sweeping::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily, LinearizedRow};
+///
+/// /// x_a ≤ x_b − gap: an ordering constraint, affine and static.
+/// struct Ordered;
+/// impl ConstraintKernel<2> for Ordered {
+///     type Params = f64;
+///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, gap: &f64, _t: D, z: [D; 2]) -> D {
+///         z[1] - z[0] - *gap
+///     }
+///     fn is_time_dependent(&self) -> bool { false }
+///     fn is_affine(&self) -> bool { true }
+/// }
+///
+/// let mut fam = KernelFamily::new("ordering", Ordered);
+/// fam.push([0, 1], 0.5, "x0 before x1");
+/// let mut row = LinearizedRow::default();
+/// fam.linearize(0, 0.0, &[0.0, 2.0], false, &mut row);
+/// assert_eq!(row.columns, vec![0, 1]);
+/// assert!((row.value - 1.5).abs() < 1e-15);
+/// assert_eq!(row.gradient, vec![-1.0, 1.0]);
+/// ```
+pub struct KernelFamily<C: ConstraintKernel<K>, const K: usize> {
+    name: String,
+    kernel: C,
+    instances: Vec<KernelInstance<C::Params, K>>,
+}
+
+impl<C: ConstraintKernel<K>, const K: usize> KernelFamily<C, K> {
+    /// An empty family of `kernel` instances.
+    pub fn new(name: impl Into<String>, kernel: C) -> Self {
+        Self {
+            name: name.into(),
+            kernel,
+            instances: Vec::new(),
+        }
+    }
+
+    /// Adds an instance reading `support` with `params`.
+    pub fn push(&mut self, support: [usize; K], params: C::Params, label: impl Into<String>) {
+        self.instances.push(KernelInstance {
+            support,
+            params,
+            label: label.into(),
+        });
+    }
+
+    /// The instances.
+    pub fn instances(&self) -> &[KernelInstance<C::Params, K>] {
+        &self.instances
+    }
+
+    /// The kernel.
+    pub fn kernel(&self) -> &C {
+        &self.kernel
+    }
+
+    fn gather(&self, index: usize, q: &[f64]) -> [f64; K] {
+        let s = &self.instances[index].support;
+        std::array::from_fn(|i| q[s[i]])
+    }
+}
+
+impl<C: ConstraintKernel<K, Params = ()>, const K: usize> KernelFamily<C, K> {
+    /// A family of one parameterless constraint reading `support`.
+    pub fn single(name: impl Into<String>, kernel: C, support: [usize; K]) -> Self {
+        let name = name.into();
+        let mut f = Self::new(name.clone(), kernel);
+        f.push(support, (), name);
+        f
+    }
+}
+
+impl<C: ConstraintKernel<K>, const K: usize> ConstraintFamily for KernelFamily<C, K> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn count(&self) -> usize {
+        self.instances.len()
+    }
+
+    fn is_time_dependent(&self) -> bool {
+        self.kernel.is_time_dependent()
+    }
+
+    fn is_affine(&self) -> bool {
+        self.kernel.is_affine()
+    }
+
+    fn describe(&self, index: usize) -> String {
+        format!("{} #{index} ({})", self.name, self.instances[index].label)
+    }
+
+    fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {
+        let inst = &self.instances[index];
+        let lin = linearize(&self.kernel, &inst.params, t, self.gather(index, q), want_dt);
+        out.value = lin.value;
+        out.dt = lin.dt;
+        out.columns.clear();
+        out.columns.extend_from_slice(&inst.support);
+        out.gradient.clear();
+        out.gradient.extend_from_slice(&lin.gradient);
+    }
+
+    fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData {
+        let inst = &self.instances[index];
+        let so = second_order(&self.kernel, &inst.params, t, self.gather(index, q));
+        SecondOrderData {
+            value: so.value,
+            columns: inst.support.to_vec(),
+            gradient: so.gradient.to_vec(),
+            dt: so.dt,
+            hessian: so.hessian.iter().flatten().copied().collect(),
+            dt_gradient: so.dt_gradient.to_vec(),
+        }
+    }
+
+    fn min_dimension(&self) -> usize {
+        self.instances
+            .iter()
+            .flat_map(|i| i.support.iter())
+            .map(|c| c + 1)
+            .max()
+            .unwrap_or(0)
+    }
+}

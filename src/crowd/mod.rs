@@ -1,0 +1,19 @@
+//! The Maury–Venel crowd-motion model: people are disks that may not overlap.
+//!
+//! The configuration is `q = (x₁, y₁, …, x_N, y_N) ∈ R^{2N}`; person `i` has radius `rᵢ` and
+//! the constraints are
+//!
+//! * pairs: `D_ij(q) = |qᵢ − qⱼ| − (rᵢ + rⱼ) ≥ 0` ([`DiskPairs`], culled by a uniform grid);
+//! * walls and obstacles: `|qᵢ − P_S(t)(qᵢ)| − rᵢ ≥ 0` for segments and disks that may move
+//!   ([`PersonShapes`]); walls are exact segments, never rasterized.
+//!
+//! People who have left through an exit (their centre outside the room by more than their
+//! radius, see [`Population`]) drop out of every constraint and keep walking straight on.
+
+mod pairs;
+mod population;
+mod shapes;
+
+pub use pairs::{DiskPairKernel, DiskPairs};
+pub use population::{Population, Room};
+pub use shapes::{Motion, PersonShapeKernel, PersonShapes, Shape, ShapeParams};

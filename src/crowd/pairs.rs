@@ -1,0 +1,244 @@
+//! Pairs of people: `D_ij(q) = |qᵢ − qⱼ| − (rᵢ + rⱼ) ≥ 0`, culled by a uniform grid.
+
+use super::Population;
+use crate::constraint::{
+    linearize, second_order, ConstraintFamily, ConstraintKernel, LinearizedRow, SecondOrderData,
+};
+use num_dual::DualNum;
+use std::sync::{Arc, Mutex};
+
+/// The pair constraint on `z = (xᵢ, yᵢ, xⱼ, yⱼ)` with `params = rᵢ + rⱼ`:
+/// `D = |qⱼ − qᵢ| − (rᵢ + rⱼ)`. Static, convex, `|∇D| = √2`, `|D²D| = 2/|qᵢ − qⱼ|`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DiskPairKernel;
+
+impl ConstraintKernel<4> for DiskPairKernel {
+    type Params = f64;
+
+    fn value<D: DualNum<Primitive = f64> + Copy>(&self, sum_radii: &f64, _t: D, z: [D; 4]) -> D {
+        let dx = z[2] - z[0];
+        let dy = z[3] - z[1];
+        (dx * dx + dy * dy).sqrt() - *sum_radii
+    }
+
+    fn is_time_dependent(&self) -> bool {
+        false
+    }
+}
+
+/// All pairs of a crowd as one family; member `i·N + j` (`i < j`) is the pair `(i, j)`.
+///
+/// Candidates come from a uniform grid of cell size `2 r_max + cutoff`, so a pair within the
+/// cutoff lies in the same or a neighbouring cell: `O(N)` work for a crowd of bounded density,
+/// and no pair with `D_ij ≤ cutoff` is ever missed (the contract of
+/// [`ConstraintFamily::candidates`]). People who have left are in no pair.
+pub struct DiskPairs {
+    population: Arc<Population>,
+    scratch: Mutex<Vec<(i64, i64, usize)>>,
+    cull: bool,
+}
+
+impl DiskPairs {
+    /// The pairs of `population`, culled by the grid.
+    pub fn new(population: Arc<Population>) -> Self {
+        Self {
+            population,
+            scratch: Mutex::new(Vec::new()),
+            cull: true,
+        }
+    }
+
+    /// The same pairs without culling: every present pair is a candidate at every step
+    /// (`O(N²)`; the reference against which culling is tested).
+    pub fn all_pairs(population: Arc<Population>) -> Self {
+        Self {
+            cull: false,
+            ..Self::new(population)
+        }
+    }
+
+    fn n(&self) -> usize {
+        self.population.len()
+    }
+
+    fn pair(&self, index: usize) -> (usize, usize) {
+        (index / self.n(), index % self.n())
+    }
+
+    fn gather(q: &[f64], i: usize, j: usize) -> [f64; 4] {
+        [q[2 * i], q[2 * i + 1], q[2 * j], q[2 * j + 1]]
+    }
+
+    /// Present pairs with `D_ij ≤ cutoff`, by brute force (for tests).
+    pub fn brute_force_candidates(&self, q: &[f64], cutoff: f64) -> Vec<usize> {
+        let pop = &self.population;
+        let n = self.n();
+        let mut out = Vec::new();
+        for i in 0..n {
+            if !pop.is_present(q, i) {
+                continue;
+            }
+            for j in (i + 1)..n {
+                if !pop.is_present(q, j) {
+                    continue;
+                }
+                let d = ((q[2 * i] - q[2 * j]).powi(2) + (q[2 * i + 1] - q[2 * j + 1]).powi(2))
+                    .sqrt()
+                    - pop.radius(i)
+                    - pop.radius(j);
+                if d <= cutoff {
+                    out.push(i * n + j);
+                }
+            }
+        }
+        out
+    }
+}
+
+impl ConstraintFamily for DiskPairs {
+    fn name(&self) -> &str {
+        "pairs of people"
+    }
+
+    fn count(&self) -> usize {
+        let n = self.n();
+        n * n.saturating_sub(1) / 2
+    }
+
+    fn is_time_dependent(&self) -> bool {
+        false
+    }
+
+    fn is_affine(&self) -> bool {
+        false
+    }
+
+    fn describe(&self, index: usize) -> String {
+        let (i, j) = self.pair(index);
+        format!("no overlap of people {i} and {j}")
+    }
+
+    fn culls(&self) -> bool {
+        self.cull
+    }
+
+    fn candidates(&self, _t: f64, q: &[f64], cutoff: f64, out: &mut Vec<usize>) {
+        let pop = &self.population;
+        let n = self.n();
+        if !self.cull || !cutoff.is_finite() {
+            for i in 0..n {
+                if !pop.is_present(q, i) {
+                    continue;
+                }
+                for j in (i + 1)..n {
+                    if pop.is_present(q, j) {
+                        out.push(i * n + j);
+                    }
+                }
+            }
+            return;
+        }
+        // Two disks with D_ij ≤ cutoff have centres closer than r_i + r_j + cutoff ≤ cell.
+        let cell = 2.0 * pop.max_radius() + cutoff.max(0.0) + 1e-12;
+        let mut keys = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        keys.clear();
+        for i in 0..n {
+            if pop.is_present(q, i) {
+                let cx = (q[2 * i] / cell).floor() as i64;
+                let cy = (q[2 * i + 1] / cell).floor() as i64;
+                keys.push((cx, cy, i));
+            }
+        }
+        keys.sort_unstable();
+        let keys = &*keys;
+        let find = |cx: i64, cy: i64| -> std::ops::Range<usize> {
+            let lo = keys.partition_point(|k| (k.0, k.1) < (cx, cy));
+            let hi = keys.partition_point(|k| (k.0, k.1) <= (cx, cy));
+            lo..hi
+        };
+        let mut push = |a: usize, b: usize| {
+            let (i, j) = if a < b { (a, b) } else { (b, a) };
+            let d = ((q[2 * i] - q[2 * j]).powi(2) + (q[2 * i + 1] - q[2 * j + 1]).powi(2)).sqrt()
+                - pop.radius(i)
+                - pop.radius(j);
+            if d <= cutoff {
+                out.push(i * n + j);
+            }
+        };
+        let mut start = 0;
+        while start < keys.len() {
+            let (cx, cy, _) = keys[start];
+            let mut end = start;
+            while end < keys.len() && keys[end].0 == cx && keys[end].1 == cy {
+                end += 1;
+            }
+            // Pairs inside the cell.
+            for a in start..end {
+                for b in (a + 1)..end {
+                    push(keys[a].2, keys[b].2);
+                }
+            }
+            // Pairs with the four "forward" neighbours, so each neighbouring pair of cells is
+            // visited once.
+            for (dx, dy) in [(1, -1), (1, 0), (1, 1), (0, 1)] {
+                let r = find(cx + dx, cy + dy);
+                for a in start..end {
+                    for b in r.clone() {
+                        push(keys[a].2, keys[b].2);
+                    }
+                }
+            }
+            start = end;
+        }
+    }
+
+    /// `|⟨∇D_ij, x − q⟩| = |⟨e_ij, Δⱼ − Δᵢ⟩| ≤ |Δᵢ| + |Δⱼ|`, bounded by the sum of the two
+    /// largest displacements of present people.
+    fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
+        let (mut m1, mut m2) = (0.0f64, 0.0f64);
+        for i in 0..self.n() {
+            if !self.population.is_present(q, i) {
+                continue;
+            }
+            let d = ((x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2)).sqrt();
+            if d > m1 {
+                m2 = m1;
+                m1 = d;
+            } else if d > m2 {
+                m2 = d;
+            }
+        }
+        m1 + m2
+    }
+
+    fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {
+        let (i, j) = self.pair(index);
+        let r = self.population.radius(i) + self.population.radius(j);
+        let lin = linearize(&DiskPairKernel, &r, t, Self::gather(q, i, j), want_dt);
+        out.value = lin.value;
+        out.dt = lin.dt;
+        out.columns.clear();
+        out.columns
+            .extend_from_slice(&[2 * i, 2 * i + 1, 2 * j, 2 * j + 1]);
+        out.gradient.clear();
+        out.gradient.extend_from_slice(&lin.gradient);
+    }
+
+    fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData {
+        let (i, j) = self.pair(index);
+        let r = self.population.radius(i) + self.population.radius(j);
+        let so = second_order(&DiskPairKernel, &r, t, Self::gather(q, i, j));
+        SecondOrderData {
+            value: so.value,
+            columns: vec![2 * i, 2 * i + 1, 2 * j, 2 * j + 1],
+            gradient: so.gradient.to_vec(),
+            dt: so.dt,
+            hessian: so.hessian.iter().flatten().copied().collect(),
+            dt_gradient: so.dt_gradient.to_vec(),
+        }
+    }
+
+    fn min_dimension(&self) -> usize {
+        2 * self.n()
+    }
+}

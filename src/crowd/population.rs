@@ -1,0 +1,159 @@
+//! Who is in the crowd, and who has left.
+
+use std::sync::Arc;
+
+/// A closed polygonal room (counter-clockwise or clockwise), used to tell who has left.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Room {
+    /// Vertices of the boundary, in order (the last connects back to the first).
+    pub vertices: Vec<[f64; 2]>,
+}
+
+impl Room {
+    /// An axis-aligned rectangle `[x0, x1] × [y0, y1]`.
+    pub fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Self {
+        Self {
+            vertices: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]],
+        }
+    }
+
+    /// Whether `p` lies inside the polygon (even–odd rule).
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        let v = &self.vertices;
+        let mut inside = false;
+        let mut j = v.len() - 1;
+        for i in 0..v.len() {
+            let (a, b) = (v[i], v[j]);
+            if (a[1] > p[1]) != (b[1] > p[1]) {
+                let x = a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1]);
+                if p[0] < x {
+                    inside = !inside;
+                }
+            }
+            j = i;
+        }
+        inside
+    }
+
+    /// Distance from `p` to the polygon's boundary.
+    pub fn boundary_distance(&self, p: [f64; 2]) -> f64 {
+        let v = &self.vertices;
+        (0..v.len())
+            .map(|i| segment_distance(p, v[i], v[(i + 1) % v.len()]))
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Distance from `p` to the segment `[a, b]`.
+pub fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let s = if len2 > 0.0 {
+        (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let c = [a[0] + s * ab[0], a[1] + s * ab[1]];
+    ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt()
+}
+
+/// The people of a crowd: their radii, and the rule that says who has left.
+///
+/// Shared (behind an `Arc`) by the constraint families and the velocity field, so that all
+/// agree on who is present. Presence is a function of the configuration only: person `i` has
+/// left when a room is set and its centre is outside the room by at least `rᵢ` (the disk is
+/// wholly out). Walls are enforced, so that can only happen through an exit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Population {
+    radii: Vec<f64>,
+    max_radius: f64,
+    room: Option<Room>,
+}
+
+impl Population {
+    /// `radii.len()` people; nobody ever leaves unless [`Population::with_room`] is set.
+    pub fn new(radii: Vec<f64>) -> Self {
+        let max_radius = radii.iter().copied().fold(0.0, f64::max);
+        Self {
+            radii,
+            max_radius,
+            room: None,
+        }
+    }
+
+    /// People whose disk is wholly outside `room` have left.
+    pub fn with_room(mut self, room: Room) -> Self {
+        self.room = Some(room);
+        self
+    }
+
+    /// Shares it.
+    pub fn shared(self) -> Arc<Self> {
+        Arc::new(self)
+    }
+
+    /// Number of people (present or not).
+    pub fn len(&self) -> usize {
+        self.radii.len()
+    }
+
+    /// Whether there is nobody.
+    pub fn is_empty(&self) -> bool {
+        self.radii.is_empty()
+    }
+
+    /// Radius of person `i`.
+    pub fn radius(&self, i: usize) -> f64 {
+        self.radii[i]
+    }
+
+    /// All radii.
+    pub fn radii(&self) -> &[f64] {
+        &self.radii
+    }
+
+    /// The largest radius.
+    pub fn max_radius(&self) -> f64 {
+        self.max_radius
+    }
+
+    /// The room, if set.
+    pub fn room(&self) -> Option<&Room> {
+        self.room.as_ref()
+    }
+
+    /// Position of person `i` in `q`.
+    pub fn position(q: &[f64], i: usize) -> [f64; 2] {
+        [q[2 * i], q[2 * i + 1]]
+    }
+
+    /// Whether person `i` is still in the room at configuration `q`.
+    pub fn is_present(&self, q: &[f64], i: usize) -> bool {
+        match &self.room {
+            None => true,
+            Some(room) => {
+                let p = Self::position(q, i);
+                room.contains(p) || room.boundary_distance(p) < self.radii[i]
+            }
+        }
+    }
+
+    /// How many people are still in the room.
+    pub fn present_count(&self, q: &[f64]) -> usize {
+        (0..self.len()).filter(|&i| self.is_present(q, i)).count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presence_needs_the_whole_disk_out() {
+        let pop = Population::new(vec![0.2]).with_room(Room::rectangle(0.0, 0.0, 10.0, 10.0));
+        assert!(pop.is_present(&[5.0, 5.0], 0));
+        assert!(pop.is_present(&[10.1, 5.0], 0)); // half out
+        assert!(!pop.is_present(&[10.25, 5.0], 0));
+        assert_eq!(pop.present_count(&[10.25, 5.0]), 0);
+    }
+}

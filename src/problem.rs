@@ -1,0 +1,214 @@
+//! A perturbed sweeping process: the configuration space, the constraints `gᵢ(t, q) ≥ 0`, the
+//! perturbation `f(t, q)` and the start `q₀`.
+
+use crate::constraint::{ConstraintFamily, LinearizedRow};
+use crate::error::{SweepError, Violation};
+
+/// The perturbation `f(t, q)` of `dq/dt + N(Q(t), q) ∋ f(t, q)` (in crowds: the desired
+/// velocities).
+///
+/// Closures `Fn(f64, &[f64], &mut [f64])` implement it.
+///
+/// ```
+/// use sweeping::problem::Perturbation;
+/// let f = |_t: f64, q: &[f64], out: &mut [f64]| { out[0] = -q[0]; out[1] = 1.0; };
+/// let mut v = [0.0; 2];
+/// f.eval(0.0, &[2.0, 0.0], &mut v);
+/// assert_eq!(v, [-2.0, 1.0]);
+/// ```
+pub trait Perturbation: Send + Sync {
+    /// Writes `f(t, q)` into `out` (same length as `q`).
+    fn eval(&self, t: f64, q: &[f64], out: &mut [f64]);
+
+    /// Whether `f` depends on `t` (the averaged prediction integrates only then). Default
+    /// `true`.
+    fn is_time_dependent(&self) -> bool {
+        true
+    }
+}
+
+impl<F: Fn(f64, &[f64], &mut [f64]) + Send + Sync> Perturbation for F {
+    fn eval(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        self(t, q, out)
+    }
+}
+
+/// `f = 0`: a pure sweeping process.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoPerturbation;
+
+impl Perturbation for NoPerturbation {
+    fn eval(&self, _t: f64, _q: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+    }
+    fn is_time_dependent(&self) -> bool {
+        false
+    }
+}
+
+/// The data of a sweeping process.
+///
+/// ```
+/// use sweeping::prelude::*;
+/// // One point on a line, pushed left at speed 1, kept right of the wall x ≥ t/2.
+/// struct Wall;
+/// impl ConstraintKernel<1> for Wall {
+///     type Params = ();
+///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), t: D, z: [D; 1]) -> D {
+///         z[0] - t * 0.5
+///     }
+///     fn is_affine(&self) -> bool { true }
+/// }
+/// let problem = Problem::new(vec![1.0], |_t: f64, _q: &[f64], f: &mut [f64]| f[0] = -1.0)
+///     .with_family(KernelFamily::single("wall", Wall, [0]));
+/// assert_eq!(problem.dim(), 1);
+/// problem.validate(1e-12).unwrap();
+/// ```
+pub struct Problem {
+    q0: Vec<f64>,
+    families: Vec<Box<dyn ConstraintFamily>>,
+    perturbation: Box<dyn Perturbation>,
+    t0: f64,
+}
+
+impl Problem {
+    /// A problem in dimension `q0.len()` starting at `q0` at `t = 0`, without constraints yet.
+    pub fn new(q0: Vec<f64>, perturbation: impl Perturbation + 'static) -> Self {
+        Self {
+            q0,
+            families: Vec::new(),
+            perturbation: Box::new(perturbation),
+            t0: 0.0,
+        }
+    }
+
+    /// Adds a constraint family.
+    pub fn with_family(mut self, family: impl ConstraintFamily + 'static) -> Self {
+        self.families.push(Box::new(family));
+        self
+    }
+
+    /// Adds a boxed constraint family.
+    pub fn push_family(&mut self, family: Box<dyn ConstraintFamily>) {
+        self.families.push(family);
+    }
+
+    /// Sets the initial time (default 0).
+    pub fn with_start_time(mut self, t0: f64) -> Self {
+        self.t0 = t0;
+        self
+    }
+
+    /// Dimension of the configuration space.
+    pub fn dim(&self) -> usize {
+        self.q0.len()
+    }
+
+    /// The initial configuration.
+    pub fn q0(&self) -> &[f64] {
+        &self.q0
+    }
+
+    /// The initial time.
+    pub fn t0(&self) -> f64 {
+        self.t0
+    }
+
+    /// The constraint families.
+    pub fn families(&self) -> &[Box<dyn ConstraintFamily>] {
+        &self.families
+    }
+
+    /// The perturbation.
+    pub fn perturbation(&self) -> &dyn Perturbation {
+        self.perturbation.as_ref()
+    }
+
+    /// Smallest `gᵢ(t, q)` over all constraints (found through the families' candidates, so
+    /// without enumerating far-apart pairs), with the constraint's description; `None` when
+    /// no constraint lies within `cutoff` of violation.
+    pub fn min_constraint(&self, t: f64, q: &[f64], cutoff: f64) -> Option<(f64, String)> {
+        let mut best: Option<(f64, String)> = None;
+        let mut cands = Vec::new();
+        let mut row = LinearizedRow::default();
+        for fam in &self.families {
+            cands.clear();
+            fam.candidates(t, q, cutoff, &mut cands);
+            for &i in &cands {
+                fam.linearize(i, t, q, false, &mut row);
+                if best.as_ref().is_none_or(|(v, _)| row.value < *v) {
+                    best = Some((row.value, fam.describe(i)));
+                }
+            }
+        }
+        best
+    }
+
+    /// Checks dimensions, finiteness and `q₀ ∈ Q(t₀)` up to `tolerance` (`gᵢ ≥ −tolerance`).
+    ///
+    /// # Errors
+    /// [`SweepError::InvalidInput`] for a dimension mismatch or a non-finite `q₀`, and
+    /// [`SweepError::InfeasibleStart`] listing the violated constraints (worst first).
+    pub fn validate(&self, tolerance: f64) -> Result<(), SweepError> {
+        if self.q0.is_empty() {
+            return Err(SweepError::InvalidInput(
+                "the configuration space has dimension 0 (q₀ is empty)".into(),
+            ));
+        }
+        if let Some(i) = self.q0.iter().position(|v| !v.is_finite()) {
+            return Err(SweepError::InvalidInput(format!(
+                "q₀[{i}] = {} is not finite",
+                self.q0[i]
+            )));
+        }
+        if !self.t0.is_finite() {
+            return Err(SweepError::InvalidInput(format!(
+                "the start time {} is not finite",
+                self.t0
+            )));
+        }
+        for fam in &self.families {
+            if fam.min_dimension() > self.dim() {
+                return Err(SweepError::InvalidInput(format!(
+                    "constraint family `{}` reads coordinate {} but q has dimension {}",
+                    fam.name(),
+                    fam.min_dimension() - 1,
+                    self.dim()
+                )));
+            }
+        }
+        let mut f = vec![0.0; self.dim()];
+        self.perturbation.eval(self.t0, &self.q0, &mut f);
+        if let Some(i) = f.iter().position(|v| !v.is_finite()) {
+            return Err(SweepError::InvalidInput(format!(
+                "f(t₀, q₀)[{i}] = {} is not finite",
+                f[i]
+            )));
+        }
+        let mut violations = Vec::new();
+        let mut cands = Vec::new();
+        let mut row = LinearizedRow::default();
+        for fam in &self.families {
+            cands.clear();
+            fam.candidates(self.t0, &self.q0, 0.0, &mut cands);
+            for &i in &cands {
+                fam.linearize(i, self.t0, &self.q0, false, &mut row);
+                if !row.value.is_finite() || row.value < -tolerance {
+                    violations.push(Violation {
+                        constraint: fam.describe(i),
+                        value: row.value,
+                    });
+                }
+            }
+        }
+        if violations.is_empty() {
+            return Ok(());
+        }
+        violations.sort_by(|a, b| a.value.total_cmp(&b.value));
+        violations.truncate(20);
+        Err(SweepError::InfeasibleStart {
+            t: self.t0,
+            violations,
+        })
+    }
+}

@@ -1,0 +1,788 @@
+//! The prediction–correction scheme of Bernicot & Venel (paper, equation `schema`):
+//!
+//! ```text
+//!     q_{k+1} = P_{Q̃(t_{k+1}, q_k)} ( q_k + h f(t_k, q_k) ),
+//!     Q̃(t, q) = { x : gᵢ(t, q) + ⟨∇gᵢ(t, q), x − q⟩ ≥ 0  ∀ i }.
+//! ```
+//!
+//! One step is a pipeline of named stages, each timed ([`StageTimes`]):
+//!
+//! 1. **effects** — the prediction `y = q_k + h f(t_k, q_k)` (or, with
+//!    [`Prediction::Averaged`], `y = q_k + ∫_{t_k}^{t_{k+1}} f(s, q_k) ds`, the paper's remark
+//!    after Theorem 3.2);
+//! 2. **broad phase** — each family proposes the members that may matter (all of them, unless
+//!    the family culls far-apart pairs);
+//! 3. **assembly** — each candidate is linearized at `(t_{k+1}, q_k)` by autodiff into the row
+//!    `∇gᵢ · x ≥ ⟨∇gᵢ, q_k⟩ − gᵢ`;
+//! 4. **projection** — one QP, solved by any [`Projector`];
+//! 5. **check** — the proof that culling lost nothing (below), then the largest violation of
+//!    the *true* constraints `gᵢ(t_{k+1}, q_{k+1}) ≥ 0`.
+//!
+//! # Why culling loses nothing
+//! Let `C` be the rows assembled and `x` the projection of `y` onto `Q̃_C ⊇ Q̃`. If `x` also
+//! satisfies every omitted row, then `x ∈ Q̃` and, being the closest point of the larger set
+//! `Q̃_C`, it is the closest point of `Q̃`: the projection onto all rows. A family omits only
+//! members with `gᵢ(t_{k+1}, q_k) > cutoff` (its candidate contract), and bounds
+//! `|⟨∇gᵢ, x − q_k⟩| ≤ δ` for all of them at once
+//! ([`ConstraintFamily::linearization_drift_bound`]); an omitted row then has
+//! `gᵢ + ⟨∇gᵢ, x − q_k⟩ > cutoff − δ`, which is `≥ 0` when `δ ≤ cutoff`. When the bound
+//! fails, the cutoff grows to `2δ` and the step is assembled and solved again, so the result
+//! is always the projection onto every row.
+
+use crate::constraint::{ConstraintFamily, LinearizedRow};
+use crate::error::SweepError;
+use crate::problem::Problem;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+use sweeping_api::{Projection, ProjectionProblem, Projector, SolveStats, SparseRows};
+
+/// How the prediction uses `f`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Prediction {
+    /// `y = q_k + h f(t_k, q_k)`: the paper's scheme as stated.
+    #[default]
+    Explicit,
+    /// `y = q_k + ∫_{t_k}^{t_{k+1}} f(s, q_k) ds`, by Gauss–Legendre quadrature with the given
+    /// number of points (1 to 5): the averaged `fⁿ` of the paper's remark.
+    Averaged {
+        /// Quadrature points (1–5).
+        points: usize,
+    },
+}
+
+/// Settings of a run; plain values with documented defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StepperSettings {
+    /// Time step `h` (> 0). Default `0.01` (the paper's `h_min`).
+    pub h: f64,
+    /// Final time `T`. The run makes `n = ⌈(T − t₀)/h⌉` steps, the last one shortened to land on
+    /// `T` when `h` does not divide `T − t₀`. Default `1.0`.
+    pub t_end: f64,
+    /// Explicit or averaged prediction. Default explicit.
+    pub prediction: Prediction,
+    /// A multiplier above this counts the row as active in reports. Default `1e-9`.
+    pub active_threshold: f64,
+    /// `q₀ ∈ Q(t₀)` is accepted when every `gᵢ(t₀, q₀) ≥ −feasibility_tolerance`. Default
+    /// `1e-9`.
+    pub feasibility_tolerance: f64,
+    /// Smallest cutoff a culling family is asked for (the cutoff of a step is
+    /// `max(min_cutoff, 2 δ(y))`, with `δ` the drift bound of the prediction). Default `0.0`.
+    pub min_cutoff: f64,
+    /// Most re-solves of a step whose culling proof fails. Default `12`.
+    pub max_cull_retries: usize,
+    /// Keep the configuration every this many steps in [`Run::trajectory`] (0: keep only the
+    /// start and the end). Default `1`.
+    pub record_every: usize,
+    /// Compute `∂ₜgᵢ` of every assembled row (for the run-time checks of A2). Default `false`.
+    pub want_time_derivatives: bool,
+}
+
+impl Default for StepperSettings {
+    fn default() -> Self {
+        Self {
+            h: 0.01,
+            t_end: 1.0,
+            prediction: Prediction::Explicit,
+            active_threshold: 1e-9,
+            feasibility_tolerance: 1e-9,
+            min_cutoff: 0.0,
+            max_cull_retries: 12,
+            record_every: 1,
+            want_time_derivatives: false,
+        }
+    }
+}
+
+/// Wall-clock seconds spent in each stage of a step (or summed over a run).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageTimes {
+    /// The prediction `y`.
+    pub effects: f64,
+    /// Candidate selection.
+    pub broad_phase: f64,
+    /// Linearization and row assembly.
+    pub assembly: f64,
+    /// The QP.
+    pub projection: f64,
+    /// Culling proof and true-constraint check.
+    pub check: f64,
+}
+
+impl StageTimes {
+    /// Sum of all stages.
+    pub fn total(&self) -> f64 {
+        self.effects + self.broad_phase + self.assembly + self.projection + self.check
+    }
+
+    fn add(&mut self, o: &StageTimes) {
+        self.effects += o.effects;
+        self.broad_phase += o.broad_phase;
+        self.assembly += o.assembly;
+        self.projection += o.projection;
+        self.check += o.check;
+    }
+}
+
+/// What one step did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepReport {
+    /// Step index `k` (this step computed `q_{k+1}`).
+    pub step: usize,
+    /// `t_{k+1}`.
+    pub t: f64,
+    /// The step length used (`h`, or less for a last shortened step).
+    pub h: f64,
+    /// Rows assembled in the final solve.
+    pub rows: usize,
+    /// Rows whose multiplier exceeds the active threshold at the solution.
+    pub active: usize,
+    /// Solves of this step (1 + re-solves after a failed culling proof).
+    pub solves: usize,
+    /// Solver iterations, summed over the solves.
+    pub iterations: u32,
+    /// Seconds per stage.
+    pub times: StageTimes,
+    /// `max(0, −minᵢ gᵢ(t_{k+1}, q_{k+1}))`: how far the new configuration is outside the true
+    /// `Q(t_{k+1})` (the linearization is an inner approximation for convex `gᵢ`, so this is of
+    /// the order of the solver's tolerance).
+    pub max_violation: f64,
+    /// The constraint achieving `max_violation` (empty when none is violated).
+    pub worst_constraint: String,
+    /// `‖q_{k+1} − q_k‖∞`.
+    pub max_displacement: f64,
+    /// Statistics of the final solve.
+    pub solve: SolveStats,
+}
+
+/// Totals and extremes over a run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunStats {
+    /// Steps completed.
+    pub steps: usize,
+    /// Time per stage, summed.
+    pub times: StageTimes,
+    /// Solver iterations, summed.
+    pub iterations: u64,
+    /// Solves, summed (more than `steps` when culling proofs failed).
+    pub solves: u64,
+    /// Rows assembled, summed over steps.
+    pub rows: u64,
+    /// Largest number of rows in one step.
+    pub max_rows: usize,
+    /// Largest number of active rows in one step.
+    pub max_active: usize,
+    /// Largest violation of the true constraints after any step.
+    pub max_violation: f64,
+    /// The constraint and time of that violation.
+    pub worst_constraint: String,
+}
+
+impl RunStats {
+    fn absorb(&mut self, r: &StepReport) {
+        self.steps += 1;
+        self.times.add(&r.times);
+        self.iterations += u64::from(r.iterations);
+        self.solves += r.solves as u64;
+        self.rows += r.rows as u64;
+        self.max_rows = self.max_rows.max(r.rows);
+        self.max_active = self.max_active.max(r.active);
+        if r.max_violation > self.max_violation {
+            self.max_violation = r.max_violation;
+            self.worst_constraint = format!("{} at t = {}", r.worst_constraint, r.t);
+        }
+    }
+}
+
+/// Configurations at recorded times.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Trajectory {
+    /// Recorded times.
+    pub times: Vec<f64>,
+    /// The configuration at each recorded time.
+    pub states: Vec<Vec<f64>>,
+}
+
+impl Trajectory {
+    /// The recorded state at time `t` (within `1e-9 · max(1, |t|)`), if any.
+    pub fn at(&self, t: f64) -> Option<&[f64]> {
+        let tol = 1e-9 * t.abs().max(1.0);
+        self.times
+            .iter()
+            .position(|s| (s - t).abs() <= tol)
+            .map(|i| self.states[i].as_slice())
+    }
+}
+
+/// The result of a run: what was computed, and the statistics.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Run {
+    /// Recorded configurations (always including the start and the last computed one).
+    pub trajectory: Trajectory,
+    /// Totals.
+    pub stats: RunStats,
+    /// The last configuration computed.
+    pub q_final: Vec<f64>,
+    /// The time of `q_final`.
+    pub t_final: f64,
+}
+
+/// A failed run: the error, and everything computed before it.
+#[derive(Debug, Clone)]
+pub struct RunFailure {
+    /// What went wrong.
+    pub error: SweepError,
+    /// What was computed before.
+    pub partial: Run,
+}
+
+impl std::fmt::Display for RunFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} (after {} completed steps, t = {})",
+            self.error, self.partial.stats.steps, self.partial.t_final
+        )
+    }
+}
+
+impl std::error::Error for RunFailure {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
+}
+
+/// Receives every step of a run. Every method defaults to doing nothing, so an observer
+/// implements only what it needs; `()` is the observer that does nothing.
+///
+/// ```
+/// use sweeping::stepper::{Observer, StepReport};
+/// /// Counts steps whose projection had an active constraint.
+/// #[derive(Default)]
+/// struct ContactSteps(usize);
+/// impl Observer for ContactSteps {
+///     fn on_step(&mut self, report: &StepReport, _q: &[f64]) -> Result<(), String> {
+///         if report.active > 0 { self.0 += 1; }
+///         Ok(())
+///     }
+/// }
+/// ```
+pub trait Observer {
+    /// A name for errors.
+    fn name(&self) -> &str {
+        "observer"
+    }
+    /// Called once before the first step with `(t₀, q₀)`.
+    ///
+    /// # Errors
+    /// A message; the run stops with [`SweepError::Observer`].
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+        let _ = (t, q);
+        Ok(())
+    }
+    /// Called after every step with its report and `q_{k+1}`.
+    ///
+    /// # Errors
+    /// A message; the run stops with [`SweepError::Observer`].
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+        let _ = (report, q);
+        Ok(())
+    }
+    /// Called once at the end, with the error if the run failed (also after a failure, so
+    /// writers can flush what they have).
+    ///
+    /// # Errors
+    /// A message; reported if the run had not already failed.
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+        let _ = error;
+        Ok(())
+    }
+}
+
+impl Observer for () {}
+
+/// The per-family cache of the assembly.
+struct FamilyState {
+    cutoff: f64,
+}
+
+/// Runs the scheme on a [`Problem`].
+///
+/// ```
+/// use sweeping::prelude::*;
+/// use sweeping_api::conformance::ReferenceProjector;
+///
+/// struct Floor;
+/// impl ConstraintKernel<1> for Floor {
+///     type Params = ();
+///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), _t: D, z: [D; 1]) -> D { z[0] }
+///     fn is_time_dependent(&self) -> bool { false }
+///     fn is_affine(&self) -> bool { true }
+/// }
+/// // Falling at speed 1 from height 0.5 onto the floor x ≥ 0.
+/// let problem = Problem::new(vec![0.5], |_t: f64, _q: &[f64], f: &mut [f64]| f[0] = -1.0)
+///     .with_family(KernelFamily::single("floor", Floor, [0]));
+/// let settings = StepperSettings { h: 0.1, t_end: 1.0, ..Default::default() };
+/// let run = Stepper::new(&problem, settings).unwrap()
+///     .run(&mut ReferenceProjector::default(), &mut [])
+///     .unwrap();
+/// assert!(run.q_final[0].abs() < 1e-9);
+/// assert_eq!(run.stats.steps, 10);
+/// ```
+pub struct Stepper<'p> {
+    problem: &'p Problem,
+    settings: StepperSettings,
+    k: usize,
+    n_steps: usize,
+    t: f64,
+    q: Vec<f64>,
+    y: Vec<f64>,
+    f: Vec<f64>,
+    rows: SparseRows,
+    b: Vec<f64>,
+    row_origin: Vec<(usize, usize)>,
+    cands: Vec<usize>,
+    lin: LinearizedRow,
+    families: Vec<FamilyState>,
+}
+
+impl<'p> Stepper<'p> {
+    /// Validates the problem and settings and checks `q₀ ∈ Q(t₀)`.
+    ///
+    /// # Errors
+    /// [`SweepError::InvalidInput`] (dimension, NaN, non-positive `h`, `T < t₀`…) or
+    /// [`SweepError::InfeasibleStart`].
+    pub fn new(problem: &'p Problem, settings: StepperSettings) -> Result<Self, SweepError> {
+        if !(settings.h.is_finite() && settings.h > 0.0) {
+            return Err(SweepError::InvalidInput(format!(
+                "the time step h = {} must be positive and finite",
+                settings.h
+            )));
+        }
+        if !(settings.t_end.is_finite() && settings.t_end >= problem.t0()) {
+            return Err(SweepError::InvalidInput(format!(
+                "the final time T = {} must be finite and ≥ t₀ = {}",
+                settings.t_end,
+                problem.t0()
+            )));
+        }
+        if let Prediction::Averaged { points } = settings.prediction {
+            if !(1..=5).contains(&points) {
+                return Err(SweepError::InvalidInput(format!(
+                    "averaged prediction needs 1 to 5 quadrature points, got {points}"
+                )));
+            }
+        }
+        if !(settings.feasibility_tolerance >= 0.0 && settings.min_cutoff >= 0.0) {
+            return Err(SweepError::InvalidInput(
+                "feasibility_tolerance and min_cutoff must be ≥ 0".into(),
+            ));
+        }
+        problem.validate(settings.feasibility_tolerance)?;
+        let span = settings.t_end - problem.t0();
+        let n_steps = ((span / settings.h) - 1e-9).ceil().max(0.0) as usize;
+        let dim = problem.dim();
+        Ok(Self {
+            problem,
+            n_steps,
+            k: 0,
+            t: problem.t0(),
+            q: problem.q0().to_vec(),
+            y: vec![0.0; dim],
+            f: vec![0.0; dim],
+            rows: SparseRows::new(dim),
+            b: Vec::new(),
+            row_origin: Vec::new(),
+            cands: Vec::new(),
+            lin: LinearizedRow::default(),
+            families: problem
+                .families()
+                .iter()
+                .map(|_| FamilyState {
+                    cutoff: settings.min_cutoff,
+                })
+                .collect(),
+            settings,
+        })
+    }
+
+    /// Number of steps the run will make.
+    pub fn n_steps(&self) -> usize {
+        self.n_steps
+    }
+
+    /// Steps done so far.
+    pub fn steps_done(&self) -> usize {
+        self.k
+    }
+
+    /// Current time `t_k`.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// Current configuration `q_k`.
+    pub fn state(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &StepperSettings {
+        &self.settings
+    }
+
+    fn time_of(&self, k: usize) -> f64 {
+        if k >= self.n_steps {
+            self.settings.t_end
+        } else {
+            self.problem.t0() + k as f64 * self.settings.h
+        }
+    }
+
+    /// The last assembled QP (after a step: the one whose solution is the current state).
+    pub fn last_projection_problem(&self) -> Option<ProjectionProblem> {
+        ProjectionProblem::new(self.y.clone(), self.rows.clone(), self.b.clone()).ok()
+    }
+
+    /// The prediction `y = q_k + h f(t_k, q_k)` (or its averaged form) into `self.y`.
+    fn predict(&mut self, t_k: f64, h: f64) -> Result<(), SweepError> {
+        let pert = self.problem.perturbation();
+        match self.settings.prediction {
+            Prediction::Averaged { points } if pert.is_time_dependent() => {
+                let (nodes, weights) = gauss_legendre(points);
+                self.y.copy_from_slice(&self.q);
+                for (s, w) in nodes.iter().zip(weights) {
+                    let ts = t_k + 0.5 * h * (1.0 + s);
+                    pert.eval(ts, &self.q, &mut self.f);
+                    for (yi, fi) in self.y.iter_mut().zip(&self.f) {
+                        *yi += 0.5 * h * w * fi;
+                    }
+                }
+            }
+            _ => {
+                pert.eval(t_k, &self.q, &mut self.f);
+                for ((yi, qi), fi) in self.y.iter_mut().zip(&self.q).zip(&self.f) {
+                    *yi = qi + h * fi;
+                }
+            }
+        }
+        if let Some(i) = self.y.iter().position(|v| !v.is_finite()) {
+            return Err(SweepError::NonFinite {
+                step: self.k,
+                t: t_k,
+                what: format!("the prediction q + h f(t, q) at coordinate {i} (f = {})", self.f[i]),
+            });
+        }
+        Ok(())
+    }
+
+    /// Assembles the rows of `Q̃(t_next, q_k)` for the candidates within each family's cutoff.
+    fn assemble(&mut self, t_next: f64, times: &mut StageTimes) -> Result<(), SweepError> {
+        self.rows.clear();
+        self.b.clear();
+        self.row_origin.clear();
+        let want_dt = self.settings.want_time_derivatives;
+        for (fi, fam) in self.problem.families().iter().enumerate() {
+            let t0 = Instant::now();
+            self.cands.clear();
+            fam.candidates(t_next, &self.q, self.families[fi].cutoff, &mut self.cands);
+            let t1 = Instant::now();
+            times.broad_phase += (t1 - t0).as_secs_f64();
+            for &idx in &self.cands {
+                fam.linearize(idx, t_next, &self.q, want_dt, &mut self.lin);
+                let lin = &self.lin;
+                if !lin.value.is_finite() || lin.gradient.iter().any(|v| !v.is_finite()) {
+                    return Err(SweepError::NonFinite {
+                        step: self.k,
+                        t: t_next,
+                        what: format!(
+                            "constraint {} (value {}, gradient {:?})",
+                            fam.describe(idx),
+                            lin.value,
+                            lin.gradient
+                        ),
+                    });
+                }
+                let norm = lin.gradient_norm();
+                if norm < 1e-12 {
+                    return Err(SweepError::DegenerateConstraint {
+                        step: self.k,
+                        t: t_next,
+                        constraint: fam.describe(idx),
+                        norm,
+                    });
+                }
+                // Row of Q̃: ∇g · x ≥ ∇g · q − g.
+                let rhs: f64 = lin
+                    .columns
+                    .iter()
+                    .zip(&lin.gradient)
+                    .map(|(&c, gv)| gv * self.q[c])
+                    .sum::<f64>()
+                    - lin.value;
+                self.rows
+                    .push_row(lin.columns.iter().copied().zip(lin.gradient.iter().copied()));
+                self.b.push(rhs);
+                self.row_origin.push((fi, idx));
+            }
+            times.assembly += t1.elapsed().as_secs_f64();
+        }
+        Ok(())
+    }
+
+    /// One step: computes `q_{k+1}` from `q_k`.
+    ///
+    /// # Errors
+    /// Non-finite values, degenerate constraints, projection failures, with step and time.
+    pub fn step(&mut self, projector: &mut dyn Projector) -> Result<StepReport, SweepError> {
+        let mut times = StageTimes::default();
+        let t_k = self.t;
+        let t_next = self.time_of(self.k + 1);
+        let h = t_next - t_k;
+
+        let t0 = Instant::now();
+        self.predict(t_k, h)?;
+        times.effects = t0.elapsed().as_secs_f64();
+
+        // Initial cutoffs: twice the drift bound of the prediction itself.
+        for (fi, fam) in self.problem.families().iter().enumerate() {
+            if fam.culls() {
+                let d = fam.linearization_drift_bound(t_next, &self.q, &self.y);
+                self.families[fi].cutoff = self.settings.min_cutoff.max(2.0 * d);
+            }
+        }
+
+        let mut solves = 0usize;
+        let mut iterations = 0u32;
+        let solution: Projection = loop {
+            self.assemble(t_next, &mut times)?;
+            let tp = Instant::now();
+            let qp = ProjectionProblem::new(self.y.clone(), self.rows.clone(), self.b.clone())
+                .map_err(|e| SweepError::Projection {
+                    step: self.k,
+                    t: t_next,
+                    rows: self.b.len(),
+                    source: e,
+                })?;
+            let sol = projector
+                .project(&qp)
+                .map_err(|e| SweepError::Projection {
+                    step: self.k,
+                    t: t_next,
+                    rows: self.b.len(),
+                    source: e,
+                })?;
+            times.projection += tp.elapsed().as_secs_f64();
+            solves += 1;
+            iterations += sol.stats.iterations;
+            if let Some(i) = sol.x.iter().position(|v| !v.is_finite()) {
+                return Err(SweepError::NonFinite {
+                    step: self.k,
+                    t: t_next,
+                    what: format!("the projection's coordinate {i} (backend {})", sol.stats.backend),
+                });
+            }
+
+            // The culling proof (module docs): every omitted row holds at x when δ ≤ cutoff.
+            let tc = Instant::now();
+            let mut proven = true;
+            for (fi, fam) in self.problem.families().iter().enumerate() {
+                if fam.culls() {
+                    let d = fam.linearization_drift_bound(t_next, &self.q, &sol.x);
+                    if d > self.families[fi].cutoff {
+                        self.families[fi].cutoff = 2.0 * d;
+                        proven = false;
+                    }
+                }
+            }
+            times.check += tc.elapsed().as_secs_f64();
+            if proven {
+                break sol;
+            }
+            if solves > self.settings.max_cull_retries {
+                return Err(SweepError::InvalidInput(format!(
+                    "step {}, t = {t_next}: the culling proof still failed after {solves} solves; \
+                     a family's drift bound grows faster than its cutoff",
+                    self.k
+                )));
+            }
+        };
+
+        let tc = Instant::now();
+        let max_displacement = solution
+            .x
+            .iter()
+            .zip(&self.q)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let (max_violation, worst_constraint) =
+            match self.problem.min_constraint(t_next, &solution.x, 0.0) {
+                Some((v, name)) if v < 0.0 => (-v, name),
+                _ => (0.0, String::new()),
+            };
+        times.check += tc.elapsed().as_secs_f64();
+
+        let report = StepReport {
+            step: self.k,
+            t: t_next,
+            h,
+            rows: self.b.len(),
+            active: solution.active_count(self.settings.active_threshold),
+            solves,
+            iterations,
+            times,
+            max_violation,
+            worst_constraint,
+            max_displacement,
+            solve: solution.stats,
+        };
+        self.q = solution.x;
+        self.k += 1;
+        self.t = t_next;
+        Ok(report)
+    }
+
+    /// Steps until `T`, calling the observers after each step; returns what was computed, or
+    /// the error together with everything computed before it.
+    ///
+    /// # Errors
+    /// A [`RunFailure`]: the [`SweepError`] and the partial [`Run`].
+    pub fn run(
+        mut self,
+        projector: &mut dyn Projector,
+        observers: &mut [&mut dyn Observer],
+    ) -> Result<Run, Box<RunFailure>> {
+        let mut run = Run {
+            trajectory: Trajectory {
+                times: vec![self.t],
+                states: vec![self.q.clone()],
+            },
+            stats: RunStats::default(),
+            q_final: self.q.clone(),
+            t_final: self.t,
+        };
+        let fail = |run: Run, error: SweepError, observers: &mut [&mut dyn Observer]| {
+            for o in observers.iter_mut() {
+                let _ = o.on_finish(Some(&error));
+            }
+            Box::new(RunFailure {
+                error,
+                partial: run,
+            })
+        };
+        for o in observers.iter_mut() {
+            if let Err(message) = o.on_start(self.t, &self.q) {
+                let e = SweepError::Observer {
+                    step: 0,
+                    t: self.t,
+                    observer: o.name().to_string(),
+                    message,
+                };
+                return Err(fail(run, e, observers));
+            }
+        }
+        while self.k < self.n_steps {
+            let report = match self.step(projector) {
+                Ok(r) => r,
+                Err(e) => return Err(fail(run, e, observers)),
+            };
+            run.stats.absorb(&report);
+            run.q_final.clone_from(&self.q);
+            run.t_final = self.t;
+            let every = self.settings.record_every;
+            if (every > 0 && self.k % every == 0) || self.k == self.n_steps {
+                run.trajectory.times.push(self.t);
+                run.trajectory.states.push(self.q.clone());
+            }
+            for o in observers.iter_mut() {
+                if let Err(message) = o.on_step(&report, &self.q) {
+                    let e = SweepError::Observer {
+                        step: report.step,
+                        t: report.t,
+                        observer: o.name().to_string(),
+                        message,
+                    };
+                    return Err(fail(run, e, observers));
+                }
+            }
+        }
+        for o in observers.iter_mut() {
+            if let Err(message) = o.on_finish(None) {
+                let e = SweepError::Observer {
+                    step: self.k,
+                    t: self.t,
+                    observer: o.name().to_string(),
+                    message,
+                };
+                return Err(Box::new(RunFailure {
+                    error: e,
+                    partial: run,
+                }));
+            }
+        }
+        Ok(run)
+    }
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1].
+fn gauss_legendre(points: usize) -> (Vec<f64>, Vec<f64>) {
+    match points {
+        1 => (vec![0.0], vec![2.0]),
+        2 => {
+            let a = 1.0 / 3f64.sqrt();
+            (vec![-a, a], vec![1.0, 1.0])
+        }
+        3 => {
+            let a = (3.0f64 / 5.0).sqrt();
+            (vec![-a, 0.0, a], vec![5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0])
+        }
+        4 => {
+            let a = (3.0 / 7.0 - 2.0 / 7.0 * (6.0f64 / 5.0).sqrt()).sqrt();
+            let b = (3.0 / 7.0 + 2.0 / 7.0 * (6.0f64 / 5.0).sqrt()).sqrt();
+            let wa = (18.0 + 30f64.sqrt()) / 36.0;
+            let wb = (18.0 - 30f64.sqrt()) / 36.0;
+            (vec![-b, -a, a, b], vec![wb, wa, wa, wb])
+        }
+        _ => {
+            let a = 1.0 / 3.0 * (5.0 - 2.0 * (10.0f64 / 7.0).sqrt()).sqrt();
+            let b = 1.0 / 3.0 * (5.0 + 2.0 * (10.0f64 / 7.0).sqrt()).sqrt();
+            let wa = (322.0 + 13.0 * 70f64.sqrt()) / 900.0;
+            let wb = (322.0 - 13.0 * 70f64.sqrt()) / 900.0;
+            (
+                vec![-b, -a, 0.0, a, b],
+                vec![wb, wa, 128.0 / 225.0, wa, wb],
+            )
+        }
+    }
+}
+
+/// Which family and member produced each row of the last assembled QP.
+impl Stepper<'_> {
+    /// `(family index, member index)` for every row of the last QP.
+    pub fn row_origins(&self) -> &[(usize, usize)] {
+        &self.row_origin
+    }
+
+    /// The families of the problem.
+    pub fn families(&self) -> &[Box<dyn ConstraintFamily>] {
+        self.problem.families()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::gauss_legendre;
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        for n in 1..=5 {
+            let (x, w) = gauss_legendre(n);
+            for p in 0..(2 * n) {
+                let q: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(p as i32)).sum();
+                let exact = if p % 2 == 1 { 0.0 } else { 2.0 / (p as f64 + 1.0) };
+                assert!((q - exact).abs() < 1e-13, "n = {n}, degree {p}: {q} vs {exact}");
+            }
+        }
+    }
+}
