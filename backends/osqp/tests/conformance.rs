@@ -10,7 +10,8 @@ use sweeping_osqp::{OsqpProjector, OsqpSettings};
 // on closed-form points; it fails at 2e-8 (the near-parallel rows, whose answer is
 // ill-conditioned, and complementarity λ·(Ax − b) on random instances with large λ). Iteration
 // counts, hence answers, vary slightly from run to run (OSQP adapts rho on measured time), so
-// the kit is run at 1e-7, which is also what `OsqpProjector::tolerance()` claims.
+// the kit is run at 1e-7, a 2× margin. `OsqpProjector::tolerance()` claims 1e-6, which also
+// covers the larger multipliers met on the 2000 random instances measured.
 sweeping_api::conformance_tests!(
     OsqpProjector::default(),
     Tolerances {
@@ -321,9 +322,9 @@ fn odd_inputs_do_not_panic() {
         Err(ProjectionError::Backend { .. })
     ));
     // Huge and tiny magnitudes.
-    for scale in [1e-150, 1e150, 1e300] {
+    for scale in [1e-150, 1e-20, 1e20, 1e150, 1e300] {
         let a = SparseRows::from_rows(2, &[vec![(0, scale), (1, 1.0)], vec![(1, -scale)]]);
-        let p = ProjectionProblem::new(vec![-scale, scale], a, vec![scale, -scale]).unwrap();
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![scale, -scale]).unwrap();
         let _ = osqp.project(&p);
     }
     // And the projector still works afterwards.
