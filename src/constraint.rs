@@ -17,8 +17,8 @@
 
 use nalgebra::SVector;
 use num_dual::{
-    first_derivative, gradient, hessian, partial_hessian, Dual2SVec64, Dual64, DualNum,
-    DualSVec64, HyperDualSVec64,
+    first_derivative, gradient, hessian, partial_hessian, Dual2SVec64, Dual64, DualNum, DualSVec64,
+    HyperDualSVec64,
 };
 
 /// One kind of constraint `g(t, z) ≥ 0`, written once over dual numbers on its `K` coordinates.
@@ -54,8 +54,12 @@ pub trait ConstraintKernel<const K: usize>: Send + Sync {
     type Params: Send + Sync;
 
     /// `g(t, z)`, with `z` the `K` coordinates of the support, in support order.
-    fn value<D: DualNum<Primitive = f64> + Copy>(&self, params: &Self::Params, t: D, z: [D; K])
-        -> D;
+    fn value<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        params: &Self::Params,
+        t: D,
+        z: [D; K],
+    ) -> D;
 
     /// Whether `g` depends on `t`. When `false`, `∂ₜg` and `∂ₜ∇g` are not computed (they are
     /// zero). Default `true`.
@@ -403,7 +407,13 @@ impl<C: ConstraintKernel<K>, const K: usize> ConstraintFamily for KernelFamily<C
 
     fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {
         let inst = &self.instances[index];
-        let lin = linearize(&self.kernel, &inst.params, t, self.gather(index, q), want_dt);
+        let lin = linearize(
+            &self.kernel,
+            &inst.params,
+            t,
+            self.gather(index, q),
+            want_dt,
+        );
         out.value = lin.value;
         out.dt = lin.dt;
         out.columns.clear();

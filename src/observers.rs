@@ -63,7 +63,7 @@ impl Observer for TrajectoryCsv {
 
     fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
         self.steps += 1;
-        if self.steps % self.every == 0 {
+        if self.steps.is_multiple_of(self.every) {
             self.last_written = Some(self.steps);
             self.last = None;
             self.write(report.t, q)

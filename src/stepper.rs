@@ -471,7 +471,10 @@ impl<'p> Stepper<'p> {
             return Err(SweepError::NonFinite {
                 step: self.k,
                 t: t_k,
-                what: format!("the prediction q + h f(t, q) at coordinate {i} (f = {})", self.f[i]),
+                what: format!(
+                    "the prediction q + h f(t, q) at coordinate {i} (f = {})",
+                    self.f[i]
+                ),
             });
         }
         Ok(())
@@ -521,8 +524,12 @@ impl<'p> Stepper<'p> {
                     .map(|(&c, gv)| gv * self.q[c])
                     .sum::<f64>()
                     - lin.value;
-                self.rows
-                    .push_row(lin.columns.iter().copied().zip(lin.gradient.iter().copied()));
+                self.rows.push_row(
+                    lin.columns
+                        .iter()
+                        .copied()
+                        .zip(lin.gradient.iter().copied()),
+                );
                 self.b.push(rhs);
                 self.row_origin.push((fi, idx));
             }
@@ -565,14 +572,12 @@ impl<'p> Stepper<'p> {
                     rows: self.b.len(),
                     source: e,
                 })?;
-            let sol = projector
-                .project(&qp)
-                .map_err(|e| SweepError::Projection {
-                    step: self.k,
-                    t: t_next,
-                    rows: self.b.len(),
-                    source: e,
-                })?;
+            let sol = projector.project(&qp).map_err(|e| SweepError::Projection {
+                step: self.k,
+                t: t_next,
+                rows: self.b.len(),
+                source: e,
+            })?;
             times.projection += tp.elapsed().as_secs_f64();
             solves += 1;
             iterations += sol.stats.iterations;
@@ -580,7 +585,10 @@ impl<'p> Stepper<'p> {
                 return Err(SweepError::NonFinite {
                     step: self.k,
                     t: t_next,
-                    what: format!("the projection's coordinate {i} (backend {})", sol.stats.backend),
+                    what: format!(
+                        "the projection's coordinate {i} (backend {})",
+                        sol.stats.backend
+                    ),
                 });
             }
 
@@ -691,7 +699,7 @@ impl<'p> Stepper<'p> {
             run.q_final.clone_from(&self.q);
             run.t_final = self.t;
             let every = self.settings.record_every;
-            if (every > 0 && self.k % every == 0) || self.k == self.n_steps {
+            if (every > 0 && self.k.is_multiple_of(every)) || self.k == self.n_steps {
                 run.trajectory.times.push(self.t);
                 run.trajectory.states.push(self.q.clone());
             }
@@ -749,10 +757,7 @@ fn gauss_legendre(points: usize) -> (Vec<f64>, Vec<f64>) {
             let b = 1.0 / 3.0 * (5.0 + 2.0 * (10.0f64 / 7.0).sqrt()).sqrt();
             let wa = (322.0 + 13.0 * 70f64.sqrt()) / 900.0;
             let wb = (322.0 - 13.0 * 70f64.sqrt()) / 900.0;
-            (
-                vec![-b, -a, 0.0, a, b],
-                vec![wb, wa, 128.0 / 225.0, wa, wb],
-            )
+            (vec![-b, -a, 0.0, a, b], vec![wb, wa, 128.0 / 225.0, wa, wb])
         }
     }
 }
@@ -780,8 +785,15 @@ mod tests {
             let (x, w) = gauss_legendre(n);
             for p in 0..(2 * n) {
                 let q: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(p as i32)).sum();
-                let exact = if p % 2 == 1 { 0.0 } else { 2.0 / (p as f64 + 1.0) };
-                assert!((q - exact).abs() < 1e-13, "n = {n}, degree {p}: {q} vs {exact}");
+                let exact = if p % 2 == 1 {
+                    0.0
+                } else {
+                    2.0 / (p as f64 + 1.0)
+                };
+                assert!(
+                    (q - exact).abs() < 1e-13,
+                    "n = {n}, degree {p}: {q} vs {exact}"
+                );
             }
         }
     }

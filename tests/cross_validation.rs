@@ -21,8 +21,20 @@ fn jammed_crowd() -> (Problem, Arc<Population>) {
     }
     let pop = Population::new(vec![r; side * side]).shared();
     let walls = vec![
-        (Shape::Segment { a: [0.0, -1.0], b: [0.0, 6.0] }, Motion::Static),
-        (Shape::Segment { a: [-1.0, 0.0], b: [6.0, 0.0] }, Motion::Static),
+        (
+            Shape::Segment {
+                a: [0.0, -1.0],
+                b: [0.0, 6.0],
+            },
+            Motion::Static,
+        ),
+        (
+            Shape::Segment {
+                a: [-1.0, 0.0],
+                b: [6.0, 0.0],
+            },
+            Motion::Static,
+        ),
     ];
     let problem = Problem::new(q0, |_t: f64, q: &[f64], f: &mut [f64]| {
         for i in 0..q.len() / 2 {
@@ -38,7 +50,11 @@ fn jammed_crowd() -> (Problem, Arc<Population>) {
 #[test]
 fn clarabel_and_osqp_agree_on_a_jam_with_many_contacts() {
     let (problem, _) = jammed_crowd();
-    let settings = StepperSettings { h: 0.05, t_end: 1.0, ..Default::default() };
+    let settings = StepperSettings {
+        h: 0.05,
+        t_end: 1.0,
+        ..Default::default()
+    };
     let mut both = CrossCheck::new(ClarabelProjector::default(), OsqpProjector::default(), 1e-6);
     let mut max_active = 0;
     let mut obs = sweeping::observers::Callback::new(|r: &StepReport, _q: &[f64]| {
@@ -58,5 +74,9 @@ fn clarabel_and_osqp_agree_on_a_jam_with_many_contacts() {
     );
     assert!(max_active >= 50, "only {max_active} simultaneous contacts");
     assert!(stats.max_gap <= 1e-6, "gap {:.3e}", stats.max_gap);
-    assert!(run.stats.max_violation < 1e-6, "violation {}", run.stats.max_violation);
+    assert!(
+        run.stats.max_violation < 1e-6,
+        "violation {}",
+        run.stats.max_violation
+    );
 }

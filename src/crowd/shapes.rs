@@ -48,10 +48,7 @@ impl Motion {
                     let ((t0, o0), (t1, o1)) = (w[0], w[1]);
                     if tr <= t1 {
                         let s = (t - t0) * (1.0 / (t1 - t0));
-                        return [
-                            s * (o1[0] - o0[0]) + o0[0],
-                            s * (o1[1] - o0[1]) + o0[1],
-                        ];
+                        return [s * (o1[0] - o0[0]) + o0[0], s * (o1[1] - o0[1]) + o0[1]];
                     }
                 }
                 let last = p[p.len() - 1].1;
@@ -253,7 +250,11 @@ impl ConstraintFamily for PersonShapes {
             want_dt && self.moving,
         );
         out.value = lin.value;
-        out.dt = if want_dt { Some(lin.dt.unwrap_or(0.0)) } else { None };
+        out.dt = if want_dt {
+            Some(lin.dt.unwrap_or(0.0))
+        } else {
+            None
+        };
         out.columns.clear();
         out.columns.extend_from_slice(&[2 * i, 2 * i + 1]);
         out.gradient.clear();
@@ -262,7 +263,12 @@ impl ConstraintFamily for PersonShapes {
 
     fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData {
         let (i, s) = self.split(index);
-        let so = second_order(&PersonShapeKernel, &self.params(i, s), t, [q[2 * i], q[2 * i + 1]]);
+        let so = second_order(
+            &PersonShapeKernel,
+            &self.params(i, s),
+            t,
+            [q[2 * i], q[2 * i + 1]],
+        );
         SecondOrderData {
             value: so.value,
             columns: vec![2 * i, 2 * i + 1],

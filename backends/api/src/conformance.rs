@@ -16,8 +16,7 @@
 //! user-written backend.
 
 use crate::{
-    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus,
-    SparseRows,
+    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus, SparseRows,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -336,7 +335,12 @@ pub fn check_repeated_pattern(p: &mut dyn Projector, tol: &Tolerances) -> Result
             .collect();
         let problem = ProjectionProblem::new(y, base.a().clone(), b).unwrap();
         let sol = solve(p, &problem)?;
-        expect_kkt(&problem, &sol, tol.kkt, &format!("repeated pattern, solve {k}"))?;
+        expect_kkt(
+            &problem,
+            &sol,
+            tol.kkt,
+            &format!("repeated pattern, solve {k}"),
+        )?;
     }
     Ok(())
 }

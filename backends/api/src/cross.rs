@@ -71,13 +71,15 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
         let b = self.second.project(problem)?;
         self.stats.first_seconds += (t1 - t0).as_secs_f64();
         self.stats.second_seconds += t1.elapsed().as_secs_f64();
-        let (coordinate, gap) = a
-            .x
-            .iter()
-            .zip(&b.x)
-            .map(|(u, v)| (u - v).abs())
-            .enumerate()
-            .fold((0, 0.0), |best, (i, g)| if g > best.1 { (i, g) } else { best });
+        let (coordinate, gap) =
+            a.x.iter()
+                .zip(&b.x)
+                .map(|(u, v)| (u - v).abs())
+                .enumerate()
+                .fold(
+                    (0, 0.0),
+                    |best, (i, g)| if g > best.1 { (i, g) } else { best },
+                );
         self.stats.compared += 1;
         self.stats.sum_gap += gap;
         self.stats.max_gap = self.stats.max_gap.max(gap);

@@ -55,11 +55,7 @@ impl ProjectionProblem {
     pub fn new(y: Vec<f64>, a: SparseRows, b: Vec<f64>) -> Result<Self, ProjectionError> {
         if a.n_cols() != y.len() {
             return Err(ProjectionError::InvalidInput {
-                reason: format!(
-                    "A has {} columns but y has {} entries",
-                    a.n_cols(),
-                    y.len()
-                ),
+                reason: format!("A has {} columns but y has {} entries", a.n_cols(), y.len()),
             });
         }
         if a.n_rows() != b.len() {
