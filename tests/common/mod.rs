@@ -37,3 +37,9 @@ pub fn fitted_order(hs: &[f64], errs: &[f64]) -> f64 {
 pub fn halvings(h0: f64, levels: usize) -> Vec<f64> {
     (0..levels).map(|i| h0 / f64::powi(2.0, i as i32)).collect()
 }
+
+/// `[1.234e-3, …]`.
+pub fn sci(values: &[f64]) -> String {
+    let v: Vec<String> = values.iter().map(|e| format!("{e:.3e}")).collect();
+    format!("[{}]", v.join(", "))
+}
