@@ -293,7 +293,7 @@ proptest! {
     /// A person against a segment, closest point in the interior of the segment.
     #[test]
     fn segment_interior(
-        a in point(), len in 0.5..3.0f64, phi in 0.0..6.28f64,
+        a in point(), len in 0.5..3.0f64, phi in 0.0..std::f64::consts::TAU,
         s in 0.02..0.98f64, side in prop_oneof![-2.0..-0.2f64, 0.2..2.0f64],
         m in motion(), t in 0.0..4.0f64, r in 0.0..0.5f64,
     ) {
@@ -311,7 +311,7 @@ proptest! {
     /// A person against a segment, closest point at one end.
     #[test]
     fn segment_end(
-        a in point(), len in 0.5..3.0f64, phi in 0.0..6.28f64,
+        a in point(), len in 0.5..3.0f64, phi in 0.0..std::f64::consts::TAU,
         rho in 0.2..2.0f64, beta in -1.3..1.3f64, at_b in any::<bool>(),
         m in motion(), t in 0.0..4.0f64, r in 0.0..0.5f64,
     ) {

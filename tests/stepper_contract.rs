@@ -389,8 +389,7 @@ fn nan_from_f_mid_run_returns_the_steps_before() {
     let failure = Stepper::new(&p, settings(0.1, 1.0))
         .unwrap()
         .run(&mut ReferenceProjector::default(), &mut [&mut rec])
-        .err()
-        .expect("must fail");
+        .expect_err("must fail");
     match &failure.error {
         SweepError::NonFinite { step, t, what } => {
             assert_eq!(*step, 4);
@@ -435,8 +434,7 @@ fn backend_failure_mid_run_returns_the_steps_before() {
     let failure = Stepper::new(&p, settings(0.1, 1.0))
         .unwrap()
         .run(&mut proj, &mut [&mut rec])
-        .err()
-        .expect("must fail");
+        .expect_err("must fail");
     match &failure.error {
         SweepError::Projection {
             step,
@@ -478,8 +476,7 @@ fn observer_failure_stops_the_run_with_its_name() {
             &mut ReferenceProjector::default(),
             &mut [&mut writer, &mut other],
         )
-        .err()
-        .expect("must fail");
+        .expect_err("must fail");
     match &failure.error {
         SweepError::Observer {
             step,
@@ -519,8 +516,7 @@ fn degenerate_and_non_finite_constraints_are_typed_errors() {
     let failure = Stepper::new(&p, settings(0.1, 1.0))
         .unwrap()
         .run(&mut ReferenceProjector::default(), &mut [])
-        .err()
-        .expect("must fail");
+        .expect_err("must fail");
     match &failure.error {
         SweepError::DegenerateConstraint {
             step, constraint, ..
@@ -544,8 +540,7 @@ fn degenerate_and_non_finite_constraints_are_typed_errors() {
     let failure = Stepper::new(&p, settings(0.1, 1.0))
         .unwrap()
         .run(&mut ReferenceProjector::default(), &mut [])
-        .err()
-        .expect("must fail");
+        .expect_err("must fail");
     match &failure.error {
         SweepError::NonFinite { step, what, .. } => {
             assert_eq!(*step, 1);
