@@ -211,7 +211,9 @@ fn real_backends_agree_on_both_cases() {
             .zip(reference.trajectory.states.iter().flatten())
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        assert!(gap <= 1e-6, "{choice}, disk: {gap:.3e} from the reference");
+        // ~1e-8 per step, accumulated at worst over the steps.
+        let tol = (1e-8 * r.stats.steps as f64).max(1e-7);
+        assert!(gap <= tol, "{choice}, disk: {gap:.3e} from the reference");
         let r = run(&pw, 0.07, T_WALL, &mut p);
         let err = max_error(&r, wall_exact);
         assert!(err <= 1e-7, "{choice}, wall: error {err:.3e}");
