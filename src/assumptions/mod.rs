@@ -208,11 +208,7 @@ impl AssumptionReport {
             &self.alpha,
             "smallest |∇gᵢ| near contact: constraints never flatten out below it",
         );
-        w(
-            "β (A1)",
-            &self.beta_grad,
-            "largest |∇gᵢ| near contact",
-        );
+        w("β (A1)", &self.beta_grad, "largest |∇gᵢ| near contact");
         w(
             "β (A2)",
             &self.beta_dt,
@@ -251,11 +247,7 @@ impl AssumptionReport {
                 meaning,
             ));
         };
-        d(
-            "β",
-            self.beta,
-            "the paper's β = max(A1, A2)".into(),
-        );
+        d("β", self.beta, "the paper's β = max(A1, A2)".into());
         d("M", self.m, "the paper's M = max(A3, A4)".into());
         d(
             "c (A0)",
@@ -289,7 +281,8 @@ impl AssumptionReport {
         d(
             "K_L",
             self.k_l,
-            "Lipschitz constant of t ↦ Q(t) (Prop 2.3): not derived, the paper gives no formula".into(),
+            "Lipschitz constant of t ↦ Q(t) (Prop 2.3): not derived, the paper gives no formula"
+                .into(),
         );
         d(
             "h_max",
@@ -599,7 +592,7 @@ pub fn estimate_problem(
             fam.candidates(t, q, cutoff, &mut cands);
             for &idx in &cands {
                 fam.linearize(idx, t, q, false, &mut row);
-                if !(row.value <= cutoff) {
+                if monitor::not_within(row.value, cutoff) {
                     continue;
                 }
                 if row.value < -s.feasibility_tolerance
@@ -627,10 +620,11 @@ pub fn estimate_problem(
                     beta_dt.see(nm.dt, t, k, name);
                     m_hess.see(nm.hess, t, k, name);
                     m_dt_grad.see(nm.dt_grad, t, k, name);
-                    if !(nm.grad > 1e-12) {
+                    let vanishing = monitor::not_within(1e-12, nm.grad);
+                    if vanishing {
                         a1_reported += 1;
                     }
-                    if !(nm.grad > 1e-12) && a1_reported <= 10 {
+                    if vanishing && a1_reported <= 10 {
                         failures.push(format!(
                             "A1: |∇g| = {} vanishes at t = {t} (sample {k}) for {}",
                             fmt_num(nm.grad),
@@ -660,9 +654,7 @@ pub fn estimate_problem(
                 ));
             }
         }
-        if let Some((g, g_group, label)) =
-            gamma_of(problem, &near, s.rho, s, projector, k, t)?
-        {
+        if let Some((g, g_group, label)) = gamma_of(problem, &near, s.rho, s, projector, k, t)? {
             gamma.see(g, t, k, || label.clone());
             gamma_group.see(g_group, t, k, || label.clone());
             if g_group.is_infinite() {
@@ -773,7 +765,11 @@ pub fn estimate_problem(
     };
     let r = match (a, beta, m) {
         (Some(a), Some(b), Some(m)) => {
-            let second = if g.is_infinite() { 0.0 } else { ratio(a, 2.0 * m * g) };
+            let second = if g.is_infinite() {
+                0.0
+            } else {
+                ratio(a, 2.0 * m * g)
+            };
             Some(ratio(4.0 * s.rho, 13.0 * b).min(second))
         }
         _ => None,

@@ -19,6 +19,14 @@ use crate::problem::Problem;
 use crate::stepper::{Observer, StepReport};
 use serde::{Deserialize, Serialize};
 
+/// `true` unless `a ≤ b` (so a NaN is never within a bound).
+pub(crate) fn not_within(a: f64, b: f64) -> bool {
+    !matches!(
+        a.partial_cmp(&b),
+        Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+    )
+}
+
 /// What to do when a declared bound is exceeded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -237,7 +245,7 @@ impl<'p> BoundsMonitor<'p> {
     }
 
     fn exceeds(&self, value: f64, bound: f64) -> bool {
-        !(value <= bound * (1.0 + self.settings.relative_tolerance))
+        not_within(value, bound * (1.0 + self.settings.relative_tolerance))
     }
 
     /// Checks the state `(t, q)`; `step` is reported with violations (the stepper's index:
@@ -246,7 +254,7 @@ impl<'p> BoundsMonitor<'p> {
     ///
     /// # Errors
     /// Under [`Policy::Error`], the first bound exceeded.
-    pub fn check(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), BoundViolation> {
+    pub fn check(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), Box<BoundViolation>> {
         if self.settings.policy == Policy::Off {
             return Ok(());
         }
@@ -258,7 +266,7 @@ impl<'p> BoundsMonitor<'p> {
         self.states_seen += 1;
         let second = b.m.is_some()
             && self.settings.second_order_every > 0
-            && state % self.settings.second_order_every == 0;
+            && state.is_multiple_of(self.settings.second_order_every);
         let mut found: Vec<BoundViolation> = Vec::new();
         self.near.clear();
         let problem = self.problem;
@@ -269,7 +277,7 @@ impl<'p> BoundsMonitor<'p> {
             for ci in 0..self.cands.len() {
                 let idx = self.cands[ci];
                 fam.linearize(idx, t, q, want_dt, &mut self.row);
-                if !(self.row.value <= self.settings.neighbourhood) {
+                if not_within(self.row.value, self.settings.neighbourhood) {
                     continue;
                 }
                 self.checks += 1;
@@ -340,11 +348,14 @@ impl<'p> BoundsMonitor<'p> {
         self.violations += found.len();
         match self.settings.policy {
             Policy::Error => match found.into_iter().next() {
-                Some(v) => Err(v),
+                Some(v) => Err(Box::new(v)),
                 None => Ok(()),
             },
             _ => {
-                let room = self.settings.max_warnings.saturating_sub(self.warnings.len());
+                let room = self
+                    .settings
+                    .max_warnings
+                    .saturating_sub(self.warnings.len());
                 self.warnings.extend(found.into_iter().take(room));
                 Ok(())
             }

@@ -16,7 +16,9 @@ fn from_repr<E: serde::de::Error>(r: NumOrText) -> Result<f64, E> {
         NumOrText::Text(s) => match s.as_str() {
             "inf" | "+inf" | "∞" => Ok(f64::INFINITY),
             "-inf" => Ok(f64::NEG_INFINITY),
-            other => Err(E::custom(format!("expected a number or \"inf\", got \"{other}\""))),
+            other => Err(E::custom(format!(
+                "expected a number or \"inf\", got \"{other}\""
+            ))),
         },
     }
 }
