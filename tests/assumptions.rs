@@ -595,3 +595,64 @@ fn measured_bounds_pass_their_own_run() {
     assert!(monitor.second_order_checks() > 0);
     assert_eq!(monitor.violation_count(), 0);
 }
+
+/// A room of 150 people of radius 0.2 (the paper's set-up), run towards the exit at the
+/// middle of the right wall for 2 s, then the constants measured along the trajectory; prints
+/// the table. Slow with the reference backend: `cargo test --no-default-features --release
+/// --test assumptions -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn paper_room_table() {
+    let n = 150;
+    let pop = Population::new(vec![0.2; n]).shared();
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut q: Vec<f64> = Vec::new();
+    while q.len() < 2 * n {
+        let p = [rng.gen_range(0.3..9.7), rng.gen_range(0.3..9.7)];
+        if q.chunks(2)
+            .all(|c| (c[0] - p[0]).hypot(c[1] - p[1]) >= 0.45)
+        {
+            q.extend_from_slice(&p);
+        }
+    }
+    let walls = vec![
+        wall([0.0, 0.0], [10.0, 0.0]),
+        wall([0.0, 10.0], [10.0, 10.0]),
+        wall([0.0, 0.0], [0.0, 10.0]),
+        wall([10.0, 0.0], [10.0, 4.5]),
+        wall([10.0, 5.5], [10.0, 10.0]),
+    ];
+    let problem = Problem::new(q, |_t: f64, q: &[f64], f: &mut [f64]| {
+        for (p, v) in q.chunks(2).zip(f.chunks_mut(2)) {
+            let d = [10.5 - p[0], 5.0 - p[1]];
+            let l = d[0].hypot(d[1]).max(1e-9);
+            v[0] = d[0] / l;
+            v[1] = d[1] / l;
+        }
+    })
+    .with_family(DiskPairs::new(pop.clone()))
+    .with_family(PersonShapes::new("walls", pop, walls));
+    let t0 = std::time::Instant::now();
+    let run = Stepper::new(
+        &problem,
+        StepperSettings {
+            h: 0.05,
+            t_end: 2.0,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .run(&mut ReferenceProjector::default(), &mut [])
+    .unwrap();
+    let t_run = t0.elapsed().as_secs_f64();
+    let samples = sweeping::assumptions::samples_from_trajectory(&run.trajectory);
+    let t1 = std::time::Instant::now();
+    let report = estimate(&problem, &samples);
+    let t_est = t1.elapsed().as_secs_f64();
+    println!(
+        "run: {t_run:.2} s; estimate over {} samples: {t_est:.3} s",
+        samples.len()
+    );
+    println!("{}", report.table());
+    assert_abs_diff_eq!(report.alpha.as_ref().unwrap().value, 1.0, epsilon = 1e-9);
+}
