@@ -71,7 +71,8 @@ pub struct EstimateSettings {
     /// Constraints with `gᵢ ≤ neighbourhood` at a sample contribute to `α`, `β`, `M` (they
     /// stand for the neighbourhoods `Uᵢ(t)` of activity). Default `0.5`.
     pub neighbourhood: f64,
-    /// A constraint counts as active (A5') when `gᵢ ≤ active_tolerance`. Default `1e-6`
+    /// A constraint counts as active (A5') when `gᵢ ≤ active_tolerance` (at most `ρ`).
+    /// Default `1e-6`
     /// (computed contacts sit at the solver's tolerance, not exactly at 0).
     pub active_tolerance: f64,
     /// A group of normals whose hull lies within this distance of the origin is taken as
@@ -537,6 +538,12 @@ pub fn estimate_problem(
         return Err(SweepError::InvalidInput(format!(
             "ρ = {} must be positive (A5 needs ρ > 0)",
             s.rho
+        )));
+    }
+    if s.active_tolerance > s.rho {
+        return Err(SweepError::InvalidInput(format!(
+            "active_tolerance = {} must not exceed ρ = {} (the active set lies inside I_ρ)",
+            s.active_tolerance, s.rho
         )));
     }
     for (k, (t, q)) in samples.iter().enumerate() {
