@@ -295,6 +295,14 @@ pub trait ConstraintFamily: Send + Sync {
     /// The largest coordinate index any member reads, plus one (checked against the
     /// problem's dimension before a run).
     fn min_dimension(&self) -> usize;
+
+    /// The margin `c` of assumption A0, where the family can derive it: the distance from
+    /// every `Qᵢ(t) = {gᵢ ≥ 0}` to the set where `gᵢ` stops being twice differentiable (any
+    /// smaller `c > 0` satisfies A0 with `Uᵢ(t)` the points within `c` of `Qᵢ(t)`; the
+    /// A3/A4 bound `M` grows as `c` approaches it). Default `None`: not derivable.
+    fn a0_margin(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// One instance of a kernel: its support and parameters.

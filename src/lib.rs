@@ -11,9 +11,12 @@
 //! * [`stepper`] — the scheme, step reports, observers, culling with proof.
 //! * [`backends`] — the projection backends enabled by cargo features (`clarabel`, `osqp`) and
 //!   a by-name constructor.
+//! * [`assumptions`] — the constants of assumptions A0–A5 measured, the paper's derived
+//!   constants (η, Θ, r), and run-time bound checks.
 //! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles.
 #![deny(missing_docs)]
 
+pub mod assumptions;
 pub mod backends;
 pub mod constraint;
 pub mod crowd;

@@ -298,6 +298,14 @@ pub trait Observer {
         let _ = error;
         Ok(())
     }
+    /// The typed error behind the `Err` that [`on_start`](Self::on_start) or
+    /// [`on_step`](Self::on_step) just returned, if the observer has one; the run then stops
+    /// with it instead of [`SweepError::Observer`]. The run-time assumption monitor
+    /// ([`crate::assumptions::BoundsMonitor`]) reports [`SweepError::AssumptionViolated`] this
+    /// way. Default `None`.
+    fn take_error(&mut self) -> Option<SweepError> {
+        None
+    }
 }
 
 impl Observer for () {}
@@ -681,12 +689,12 @@ impl<'p> Stepper<'p> {
         };
         for o in observers.iter_mut() {
             if let Err(message) = o.on_start(self.t, &self.q) {
-                let e = SweepError::Observer {
+                let e = o.take_error().unwrap_or_else(|| SweepError::Observer {
                     step: 0,
                     t: self.t,
                     observer: o.name().to_string(),
                     message,
-                };
+                });
                 return Err(fail(run, e, observers));
             }
         }
@@ -705,12 +713,12 @@ impl<'p> Stepper<'p> {
             }
             for o in observers.iter_mut() {
                 if let Err(message) = o.on_step(&report, &self.q) {
-                    let e = SweepError::Observer {
+                    let e = o.take_error().unwrap_or_else(|| SweepError::Observer {
                         step: report.step,
                         t: report.t,
                         observer: o.name().to_string(),
                         message,
-                    };
+                    });
                     return Err(fail(run, e, observers));
                 }
             }

@@ -113,6 +113,22 @@ impl ConstraintFamily for DiskPairs {
         false
     }
 
+    /// `D_ij` is smooth except where `qᵢ = qⱼ`; `|∇D_ij| = √2` in `R⁴`, so that set lies
+    /// `(rᵢ + rⱼ)/√2` from `{D_ij ≥ 0}`: the margin is the smallest such value.
+    fn a0_margin(&self) -> Option<f64> {
+        // The two smallest radii.
+        let (mut a, mut b) = (f64::INFINITY, f64::INFINITY);
+        for &r in self.population.radii() {
+            if r < a {
+                b = a;
+                a = r;
+            } else if r < b {
+                b = r;
+            }
+        }
+        (b.is_finite()).then(|| (a + b) / std::f64::consts::SQRT_2)
+    }
+
     fn describe(&self, index: usize) -> String {
         let (i, j) = self.pair(index);
         format!("no overlap of people {i} and {j}")

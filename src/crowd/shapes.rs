@@ -204,6 +204,25 @@ impl ConstraintFamily for PersonShapes {
         false
     }
 
+    /// `dist(z, S) − r` is smooth off the shape itself (`|∇g| = 1`, on the person's two
+    /// coordinates): the margin is the smallest `rᵢ` (plus the obstacle's radius for disks).
+    fn a0_margin(&self) -> Option<f64> {
+        let r_min = self
+            .population
+            .radii()
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        self.shapes
+            .iter()
+            .map(|(s, _)| match s {
+                Shape::Segment { .. } => r_min,
+                Shape::Disk { radius, .. } => r_min + radius,
+            })
+            .reduce(f64::min)
+            .filter(|v| v.is_finite())
+    }
+
     fn describe(&self, index: usize) -> String {
         let (i, s) = self.split(index);
         let what = match &self.shapes[s].0 {

@@ -1,0 +1,808 @@
+//! The constants of assumptions A0–A5 of Bernicot & Venel, measured for any problem, the
+//! constants the paper derives from them, and run-time checks of declared bounds.
+//!
+//! # What is measured
+//! [`estimate_problem`] evaluates, at sampled states `(t, q)` (a computed trajectory, or any
+//! list of configurations), every constraint within [`EstimateSettings::neighbourhood`] of
+//! activity (`gᵢ(t, q) ≤ neighbourhood`, found through the families' candidates):
+//!
+//! | constant | assumption | quantity | norm |
+//! |---|---|---|---|
+//! | `α`, `β` | A1 | `|∇_q gᵢ|`, smallest and largest | Euclidean |
+//! | `β` | A2 | `|∂ₜ gᵢ|`, largest | absolute value |
+//! | `M` | A3 | `|∂ₜ ∇_q gᵢ|`, largest | Euclidean |
+//! | `M` | A4 | `|D²_q gᵢ|`, largest | spectral (largest `|eigenvalue|`) |
+//! | `γ` | A5 at `ρ` | `1/dist(0, conv{∇gᵢ/|∇gᵢ|, gᵢ ≤ ρ})`, largest | — |
+//! | `γ'` | A5' | the same over the active set (`gᵢ ≤ active_tolerance`) | — |
+//! | `c` | A0 | from the families ([`ConstraintFamily::a0_margin`]) | — |
+//!
+//! The paper uses one `β` for A1 and A2 and one `M` for A3 and A4; the report keeps each part
+//! and their maximum. The assumptions quantify over the open sets `Uᵢ(t) ⊃ Qᵢ(t)` (A1, A3, A4)
+//! and over all of `R^d` (A2): sampling near activity gives lower estimates of the suprema
+//! (and an upper estimate of `α`), exact when the quantity is constant (pairs of disks:
+//! `|∇D| = √2`; straight walls: `D² = 0`) and otherwise as good as the samples. Set
+//! [`EstimateSettings::probe_depth`] to also sample each constraint a little outside `Qᵢ(t)`,
+//! inside `Uᵢ(t)`.
+//!
+//! `γ` is computed on the coordinate groups of the near-active set (constraints sharing no
+//! coordinate are orthogonal, and `γ² = Σ γₖ²` over groups, see [`coordinate_groups`]); each
+//! group's `γₖ` is one small projection ([`hull_distance`]) by the backend given. The paper's
+//! `γ` is the global one, which grows like the square root of the number of separate contacts;
+//! the largest group's `γₖ` is reported beside it as `gamma_group`.
+//!
+//! # What is derived (paper, Propositions 2.2–2.3 and Theorem 4.1)
+//! * `η = α/(Mγ')`: `Q(t)` is `η`-prox-regular (Prop 2.2, which needs A1, A4, A5');
+//! * `Θ = 2γβ/α` and `r = min(4ρ/(13β), α/(2Mγ))`: the metric qualification of Theorem 4.1;
+//! * `K_L` (Prop 2.3) and the step bound `h < c/K_L`: **not derived**. The paper only asserts
+//!   that some `K_L` exists (referring to Venel's earlier work for the proof) and gives no
+//!   formula; we report `None` rather than a guess. A first-order argument (push along a
+//!   direction `w` with `⟨nᵢ, w⟩ ≥ 1/γ`) suggests `γβ/α` for small `|t − s|`, but it needs a
+//!   second-order remainder and the `Uᵢ` sets we have not bounded, so it is not reported.
+//!
+//! # Run-time checks
+//! [`BoundsMonitor`] is an [`crate::stepper::Observer`] that, after each step, re-linearizes
+//! the near-active constraints at the new state and compares `|∇g|`, `|∂ₜg|` (and, on a
+//! schedule, `|D²g|`, `|∂ₜ∇g|`) with declared [`Bounds`], under a [`Policy`] (off, warn,
+//! error). Under `error` the run stops with [`SweepError::AssumptionViolated`] naming the
+//! constraint (the people, for crowds), the time, the bound and the value, and the
+//! [`crate::stepper::RunFailure`] keeps what was computed.
+
+mod hull;
+mod monitor;
+mod serde_ext;
+
+pub use hull::{coordinate_groups, hull_distance, SparseVector};
+pub use monitor::{BoundViolation, Bounds, BoundsMonitor, MonitorSettings, Policy};
+
+use crate::constraint::{ConstraintFamily, LinearizedRow, SecondOrderData};
+use crate::error::SweepError;
+use crate::problem::Problem;
+use crate::stepper::Trajectory;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use sweeping_api::Projector;
+
+/// Settings of [`estimate_problem`]; plain values with documented defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EstimateSettings {
+    /// `ρ` of A5: constraints with `gᵢ ≤ ρ` form `I_ρ(t, q)`. Default `0.05`.
+    pub rho: f64,
+    /// Constraints with `gᵢ ≤ neighbourhood` at a sample contribute to `α`, `β`, `M` (they
+    /// stand for the neighbourhoods `Uᵢ(t)` of activity). Default `0.5`.
+    pub neighbourhood: f64,
+    /// A constraint counts as active (A5') when `gᵢ ≤ active_tolerance` (at most `ρ`).
+    /// Default `1e-6`
+    /// (computed contacts sit at the solver's tolerance, not exactly at 0).
+    pub active_tolerance: f64,
+    /// A group of normals whose hull lies within this distance of the origin is taken as
+    /// positively dependent (`γ = ∞`). The distance is read off a projection, accurate to the
+    /// backend's tolerance, so this must exceed it. Default `1e-6` (`γ > 10⁶` counts as
+    /// infinite).
+    pub dependence_tolerance: f64,
+    /// A sample with some `gᵢ < −feasibility_tolerance` is reported as outside `Q(t)` (A5 is
+    /// stated on `Q(t)`). Default `1e-6`.
+    pub feasibility_tolerance: f64,
+    /// When positive, each contributing constraint is also evaluated at the sample moved by
+    /// `probe_depth` against its unit normal (outside `Qᵢ(t)`, inside `Uᵢ(t)` when
+    /// `probe_depth < c`), so that A1, A3 and A4 are sampled on `Uᵢ(t) ∖ Qᵢ(t)` too.
+    /// Default `0.0` (off).
+    pub probe_depth: f64,
+}
+
+impl Default for EstimateSettings {
+    fn default() -> Self {
+        Self {
+            rho: 0.05,
+            neighbourhood: 0.5,
+            active_tolerance: 1e-6,
+            dependence_tolerance: 1e-6,
+            feasibility_tolerance: 1e-6,
+            probe_depth: 0.0,
+        }
+    }
+}
+
+/// Where an extreme was seen: the sample, its time, the constraint(s), and the value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Witness {
+    /// The value (may be `+∞` for `γ`; written `"inf"` in JSON).
+    #[serde(with = "serde_ext::ext_f64")]
+    pub value: f64,
+    /// Time of the sample.
+    pub t: f64,
+    /// Index of the sample in the list given.
+    pub sample: usize,
+    /// The constraint (for `γ`: the constraints of the group).
+    pub constraint: String,
+}
+
+/// The measured constants, the derived ones, and the failed assumptions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AssumptionReport {
+    /// Samples evaluated.
+    pub samples: usize,
+    /// Constraint evaluations that contributed (sample × near-active constraint).
+    pub evaluations: usize,
+    /// `ρ` used for A5.
+    pub rho: f64,
+    /// The neighbourhood of activity sampled.
+    pub neighbourhood: f64,
+    /// A1: smallest `|∇gᵢ|`.
+    pub alpha: Option<Witness>,
+    /// A1: largest `|∇gᵢ|`.
+    pub beta_grad: Option<Witness>,
+    /// A2: largest `|∂ₜgᵢ|` (0 for static constraints).
+    pub beta_dt: Option<Witness>,
+    /// A4: largest spectral norm of `D²_q gᵢ`.
+    pub m_hess: Option<Witness>,
+    /// A3: largest Euclidean norm of `∂ₜ∇_q gᵢ`.
+    pub m_dt_grad: Option<Witness>,
+    /// A5 at `ρ`: largest `γ` over the samples (`None`: no constraint within `ρ` anywhere, A5
+    /// holds with `γ = 1`).
+    pub gamma: Option<Witness>,
+    /// A5': largest `γ` over the active sets.
+    pub gamma_prime: Option<Witness>,
+    /// Largest `γₖ` of one coordinate group at `ρ` (the local `γ`; the global one combines
+    /// the groups as `γ² = Σγₖ²`).
+    pub gamma_group: Option<Witness>,
+    /// The paper's `β = max(β of A1, β of A2)`.
+    #[serde(with = "serde_ext::ext_opt")]
+    pub beta: Option<f64>,
+    /// The paper's `M = max(M of A3, M of A4)`.
+    #[serde(with = "serde_ext::ext_opt")]
+    pub m: Option<f64>,
+    /// A0's margin `c` (a supremum: any smaller positive `c` works), when every family
+    /// derives it.
+    #[serde(with = "serde_ext::ext_opt")]
+    pub c: Option<f64>,
+    /// `η = α/(Mγ')` (Prop 2.2); `∞` when `M = 0`.
+    #[serde(with = "serde_ext::ext_opt")]
+    pub eta: Option<f64>,
+    /// `Θ = 2γβ/α` (Theorem 4.1).
+    #[serde(with = "serde_ext::ext_opt")]
+    pub theta: Option<f64>,
+    /// `r = min(4ρ/(13β), α/(2Mγ))` (Theorem 4.1).
+    #[serde(with = "serde_ext::ext_opt")]
+    pub r: Option<f64>,
+    /// `K_L` of Prop 2.3: not derived (module docs), always `None` for now.
+    #[serde(with = "serde_ext::ext_opt")]
+    pub k_l: Option<f64>,
+    /// `c/K_L`, the step bound for well-posedness: needs `K_L`, so `None`.
+    #[serde(with = "serde_ext::ext_opt")]
+    pub h_max: Option<f64>,
+    /// Failed assumptions, one sentence each.
+    pub failures: Vec<String>,
+    /// Remarks (constants not derivable, families without an A0 margin…).
+    pub notes: Vec<String>,
+}
+
+fn fmt_num(v: f64) -> String {
+    if v.is_infinite() {
+        if v > 0.0 { "∞" } else { "−∞" }.to_string()
+    } else if v == 0.0 {
+        "0".to_string()
+    } else if (1e-3..1e4).contains(&v.abs()) {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+impl AssumptionReport {
+    /// The constants as a readable table, one line each with what it means for the user,
+    /// then the failed assumptions and the notes.
+    pub fn table(&self) -> String {
+        let mut rows: Vec<(String, String, String, String)> = Vec::new();
+        let mut w = |name: &str, wit: &Option<Witness>, meaning: &str| {
+            let (v, at) = match wit {
+                Some(x) => (
+                    fmt_num(x.value),
+                    format!("t = {}, {}", fmt_num(x.t), shorten(&x.constraint, 60)),
+                ),
+                None => ("—".to_string(), "no constraint sampled".to_string()),
+            };
+            rows.push((name.to_string(), v, at, meaning.to_string()));
+        };
+        w(
+            "α (A1)",
+            &self.alpha,
+            "smallest |∇gᵢ| near contact: constraints never flatten out below it",
+        );
+        w("β (A1)", &self.beta_grad, "largest |∇gᵢ| near contact");
+        w(
+            "β (A2)",
+            &self.beta_dt,
+            "largest |∂ₜgᵢ|: how fast a constraint moves (0 when nothing moves)",
+        );
+        w(
+            "M (A4)",
+            &self.m_hess,
+            "largest |D²gᵢ| (spectral): curvature of the constraints; 0 for straight walls",
+        );
+        w(
+            "M (A3)",
+            &self.m_dt_grad,
+            "largest |∂ₜ∇gᵢ| (Euclidean): how fast the normals turn in time",
+        );
+        w(
+            "γ (A5, ρ)",
+            &self.gamma,
+            "how close the near-active normals come to cancelling (1: not at all, ∞: they do)",
+        );
+        w(
+            "γ' (A5')",
+            &self.gamma_prime,
+            "the same over the active constraints only; ∞ means someone is wedged (MFCQ fails)",
+        );
+        w(
+            "γ (group)",
+            &self.gamma_group,
+            "the worst single cluster of contacts (γ² sums over separate clusters)",
+        );
+        let mut d = |name: &str, v: Option<f64>, meaning: String| {
+            rows.push((
+                name.to_string(),
+                v.map(fmt_num).unwrap_or_else(|| "—".into()),
+                String::new(),
+                meaning,
+            ));
+        };
+        d("β", self.beta, "the paper's β = max(A1, A2)".into());
+        d("M", self.m, "the paper's M = max(A3, A4)".into());
+        d(
+            "c (A0)",
+            self.c,
+            "constraints stay smooth this far outside the feasible set".into(),
+        );
+        d(
+            "η",
+            self.eta,
+            match self.eta {
+                Some(e) if e.is_infinite() => {
+                    "η = α/(Mγ'): Q(t) is convex here (M = 0): the projection onto it is always unique".into()
+                }
+                Some(e) => format!(
+                    "η = α/(Mγ'): Q(t) is η-prox-regular: the projection onto it is unique within distance {}",
+                    fmt_num(e)
+                ),
+                None => "η = α/(Mγ'): not available".into(),
+            },
+        );
+        d(
+            "Θ",
+            self.theta,
+            "Θ = 2γβ/α: distance to Q̃ ≤ Θ × Σ distances to each Q̃ᵢ (Theorem 4.1)".into(),
+        );
+        d(
+            "r",
+            self.r,
+            "r = min(4ρ/(13β), α/(2Mγ)): Theorem 4.1 holds within r/4 of the current state".into(),
+        );
+        d(
+            "K_L",
+            self.k_l,
+            "Lipschitz constant of t ↦ Q(t) (Prop 2.3): not derived, the paper gives no formula"
+                .into(),
+        );
+        d(
+            "h_max",
+            self.h_max,
+            "well-posedness needs h < c/K_L: unavailable without K_L".into(),
+        );
+        let wn = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
+        let wv = rows.iter().map(|r| r.1.chars().count()).max().unwrap_or(0);
+        let wa = rows.iter().map(|r| r.2.chars().count()).max().unwrap_or(0);
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "assumptions A0–A5 over {} sample(s), {} evaluation(s); ρ = {}, neighbourhood = {}",
+            self.samples,
+            self.evaluations,
+            fmt_num(self.rho),
+            fmt_num(self.neighbourhood)
+        );
+        for (n, v, a, m) in &rows {
+            let _ = writeln!(
+                out,
+                "  {n}{}  {v}{}  {a}{}  {m}",
+                " ".repeat(wn - n.chars().count()),
+                " ".repeat(wv - v.chars().count()),
+                " ".repeat(wa - a.chars().count()),
+            );
+        }
+        if self.failures.is_empty() {
+            let _ = writeln!(out, "no assumption failed on these samples");
+        } else {
+            let _ = writeln!(out, "FAILED:");
+            for f in &self.failures {
+                let _ = writeln!(out, "  - {f}");
+            }
+        }
+        for n in &self.notes {
+            let _ = writeln!(out, "note: {n}");
+        }
+        out
+    }
+}
+
+fn shorten(s: &str, max: usize) -> String {
+    if s.chars().count() <= max {
+        s.to_string()
+    } else {
+        let mut t: String = s.chars().take(max.saturating_sub(1)).collect();
+        t.push('…');
+        t
+    }
+}
+
+/// The states of a recorded trajectory as samples for [`estimate_problem`].
+pub fn samples_from_trajectory(trajectory: &Trajectory) -> Vec<(f64, Vec<f64>)> {
+    trajectory
+        .times
+        .iter()
+        .copied()
+        .zip(trajectory.states.iter().cloned())
+        .collect()
+}
+
+/// The spectral norm (largest `|eigenvalue|`) of the symmetric `n × n` matrix stored
+/// row-major in `h` (symmetrized first, so rounding asymmetry does not matter).
+pub fn symmetric_spectral_norm(h: &[f64], n: usize) -> f64 {
+    if n == 0 {
+        return 0.0;
+    }
+    let m = nalgebra::DMatrix::from_fn(n, n, |i, j| 0.5 * (h[i * n + j] + h[j * n + i]));
+    nalgebra::SymmetricEigen::new(m)
+        .eigenvalues
+        .iter()
+        .map(|v| v.abs())
+        .fold(0.0, f64::max)
+}
+
+/// Norms of one evaluation: `|∇g|`, `|∂ₜg|`, `|D²g|` (spectral), `|∂ₜ∇g|`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Norms {
+    pub grad: f64,
+    pub dt: f64,
+    pub hess: f64,
+    pub dt_grad: f64,
+}
+
+pub(crate) fn second_order_norms(fam: &dyn ConstraintFamily, so: &SecondOrderData) -> Norms {
+    let n = so.columns.len();
+    Norms {
+        grad: so.gradient.iter().map(|v| v * v).sum::<f64>().sqrt(),
+        dt: so.dt.abs(),
+        hess: if fam.is_affine() {
+            0.0
+        } else {
+            symmetric_spectral_norm(&so.hessian, n)
+        },
+        dt_grad: if fam.is_time_dependent() {
+            so.dt_gradient.iter().map(|v| v * v).sum::<f64>().sqrt()
+        } else {
+            0.0
+        },
+    }
+}
+
+struct Tracker {
+    best: Option<Witness>,
+    want_max: bool,
+}
+
+impl Tracker {
+    fn new(want_max: bool) -> Self {
+        Self {
+            best: None,
+            want_max,
+        }
+    }
+    fn see(&mut self, value: f64, t: f64, sample: usize, constraint: impl FnOnce() -> String) {
+        let better = match &self.best {
+            None => true,
+            Some(b) => {
+                if self.want_max {
+                    value > b.value
+                } else {
+                    value < b.value
+                }
+            }
+        };
+        if better {
+            self.best = Some(Witness {
+                value,
+                t,
+                sample,
+                constraint: constraint(),
+            });
+        }
+    }
+}
+
+/// One near-active constraint at a sample.
+struct Near {
+    family: usize,
+    index: usize,
+    value: f64,
+    normal: SparseVector,
+}
+
+/// `γ` over `near` (filtered by `gᵢ ≤ level`): the global value (`γ² = Σ γₖ²`, at least 1)
+/// and the worst group with its members.
+fn gamma_of(
+    problem: &Problem,
+    near: &[Near],
+    level: f64,
+    settings: &EstimateSettings,
+    projector: &mut dyn Projector,
+    sample: usize,
+    t: f64,
+) -> Result<Option<(f64, f64, String)>, SweepError> {
+    let chosen: Vec<&Near> = near.iter().filter(|n| n.value <= level).collect();
+    if chosen.is_empty() {
+        return Ok(None);
+    }
+    let vectors: Vec<SparseVector> = chosen.iter().map(|n| n.normal.clone()).collect();
+    let mut sum_sq = 0.0;
+    let mut worst: (f64, Vec<usize>) = (0.0, Vec::new());
+    for group in coordinate_groups(&vectors) {
+        let gv: Vec<SparseVector> = group.iter().map(|&i| vectors[i].clone()).collect();
+        let d = hull_distance(&gv, projector).map_err(|e| SweepError::Projection {
+            step: sample,
+            t,
+            rows: gv.len(),
+            source: e,
+        })?;
+        let g = if d <= settings.dependence_tolerance {
+            f64::INFINITY
+        } else {
+            (1.0 / d).max(1.0)
+        };
+        sum_sq += g * g;
+        if g > worst.0 || worst.1.is_empty() {
+            worst = (g, group);
+        }
+    }
+    let names: Vec<String> = worst
+        .1
+        .iter()
+        .take(8)
+        .map(|&i| problem.families()[chosen[i].family].describe(chosen[i].index))
+        .collect();
+    let mut label = names.join("; ");
+    if worst.1.len() > 8 {
+        let _ = write!(label, "; … and {} more", worst.1.len() - 8);
+    }
+    Ok(Some((sum_sq.sqrt().max(1.0), worst.0, label)))
+}
+
+/// Measures the constants of A0–A5 on the given samples `(t, q)` and derives the paper's.
+///
+/// Every constraint with `gᵢ(t, q) ≤ max(neighbourhood, ρ)` (found through the families'
+/// candidates, so far-apart pairs are never enumerated) is evaluated; see the module docs for
+/// what each constant bounds and how `γ` is computed (one small projection per group of
+/// near-active constraints, by `projector`).
+///
+/// # Errors
+/// [`SweepError::InvalidInput`] for no samples, a sample of the wrong dimension or with
+/// non-finite entries, or settings out of range; [`SweepError::Projection`] when the backend
+/// fails on a `γ` problem (its `step` is then the sample's index).
+///
+/// ```
+/// use std::sync::Arc;
+/// use sweeping::assumptions::{estimate_problem, EstimateSettings};
+/// use sweeping::crowd::{DiskPairs, Population};
+/// use sweeping::problem::{NoPerturbation, Problem};
+/// use sweeping_api::conformance::ReferenceProjector;
+///
+/// // Two people of radius 0.5 in contact.
+/// let pop = Population::new(vec![0.5, 0.5]).shared();
+/// let q = vec![0.0, 0.0, 1.0, 0.0];
+/// let problem = Problem::new(q.clone(), NoPerturbation).with_family(DiskPairs::new(pop));
+/// let report = estimate_problem(&problem, &[(0.0, q)], &EstimateSettings::default(),
+///                               &mut ReferenceProjector::default()).unwrap();
+/// assert!((report.alpha.unwrap().value - 2f64.sqrt()).abs() < 1e-12); // |∇D| = √2
+/// assert!((report.m_hess.unwrap().value - 2.0).abs() < 1e-9);        // 2/|q₁ − q₂|
+/// assert!(report.failures.is_empty());
+/// ```
+pub fn estimate_problem(
+    problem: &Problem,
+    samples: &[(f64, Vec<f64>)],
+    settings: &EstimateSettings,
+    projector: &mut dyn Projector,
+) -> Result<AssumptionReport, SweepError> {
+    let s = settings;
+    if samples.is_empty() {
+        return Err(SweepError::InvalidInput(
+            "no samples to estimate the assumptions on".into(),
+        ));
+    }
+    let nonneg = [
+        ("rho", s.rho),
+        ("neighbourhood", s.neighbourhood),
+        ("active_tolerance", s.active_tolerance),
+        ("dependence_tolerance", s.dependence_tolerance),
+        ("feasibility_tolerance", s.feasibility_tolerance),
+        ("probe_depth", s.probe_depth),
+    ];
+    for (name, v) in nonneg {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(SweepError::InvalidInput(format!(
+                "estimate setting {name} = {v} must be finite and ≥ 0"
+            )));
+        }
+    }
+    if s.rho <= 0.0 {
+        return Err(SweepError::InvalidInput(format!(
+            "ρ = {} must be positive (A5 needs ρ > 0)",
+            s.rho
+        )));
+    }
+    if s.active_tolerance > s.rho {
+        return Err(SweepError::InvalidInput(format!(
+            "active_tolerance = {} must not exceed ρ = {} (the active set lies inside I_ρ)",
+            s.active_tolerance, s.rho
+        )));
+    }
+    for (k, (t, q)) in samples.iter().enumerate() {
+        if q.len() != problem.dim() {
+            return Err(SweepError::InvalidInput(format!(
+                "sample {k} has dimension {} but the problem has {}",
+                q.len(),
+                problem.dim()
+            )));
+        }
+        if !t.is_finite() || q.iter().any(|v| !v.is_finite()) {
+            return Err(SweepError::InvalidInput(format!(
+                "sample {k} (t = {t}) has a non-finite entry"
+            )));
+        }
+    }
+    for fam in problem.families() {
+        if fam.min_dimension() > problem.dim() {
+            return Err(SweepError::InvalidInput(format!(
+                "constraint family `{}` reads coordinate {} but q has dimension {}",
+                fam.name(),
+                fam.min_dimension() - 1,
+                problem.dim()
+            )));
+        }
+    }
+
+    let mut alpha = Tracker::new(false);
+    let mut beta_grad = Tracker::new(true);
+    let mut beta_dt = Tracker::new(true);
+    let mut m_hess = Tracker::new(true);
+    let mut m_dt_grad = Tracker::new(true);
+    let mut gamma = Tracker::new(true);
+    let mut gamma_prime = Tracker::new(true);
+    let mut gamma_group = Tracker::new(true);
+    let mut failures: Vec<String> = Vec::new();
+    let mut notes: Vec<String> = Vec::new();
+    let mut evaluations = 0usize;
+    let cutoff = s.neighbourhood.max(s.rho);
+    let mut cands = Vec::new();
+    let mut row = LinearizedRow::default();
+    let mut probe_q: Vec<f64> = Vec::new();
+    let mut infeasible_reported = 0usize;
+    let mut a1_reported = 0usize;
+    let mut dependent_reported = (0usize, 0usize);
+
+    for (k, (t, q)) in samples.iter().enumerate() {
+        let t = *t;
+        let mut near: Vec<Near> = Vec::new();
+        let mut worst_violation: Option<(f64, String)> = None;
+        for (fi, fam) in problem.families().iter().enumerate() {
+            cands.clear();
+            fam.candidates(t, q, cutoff, &mut cands);
+            for &idx in &cands {
+                fam.linearize(idx, t, q, false, &mut row);
+                if monitor::not_within(row.value, cutoff) {
+                    continue;
+                }
+                if row.value < -s.feasibility_tolerance
+                    && worst_violation.as_ref().is_none_or(|w| row.value < w.0)
+                {
+                    worst_violation = Some((row.value, fam.describe(idx)));
+                }
+                let so = fam.second_order(idx, t, q);
+                let norms = second_order_norms(fam.as_ref(), &so);
+                let mut evals = vec![(norms, so.value)];
+                if s.probe_depth > 0.0 && norms.grad > 0.0 {
+                    probe_q.clear();
+                    probe_q.extend_from_slice(q);
+                    for (c, g) in so.columns.iter().zip(&so.gradient) {
+                        probe_q[*c] -= s.probe_depth * g / norms.grad;
+                    }
+                    let sp = fam.second_order(idx, t, &probe_q);
+                    evals.push((second_order_norms(fam.as_ref(), &sp), sp.value));
+                }
+                for (nm, _) in &evals {
+                    evaluations += 1;
+                    let name = || fam.describe(idx);
+                    alpha.see(nm.grad, t, k, name);
+                    beta_grad.see(nm.grad, t, k, name);
+                    beta_dt.see(nm.dt, t, k, name);
+                    m_hess.see(nm.hess, t, k, name);
+                    m_dt_grad.see(nm.dt_grad, t, k, name);
+                    let vanishing = monitor::not_within(1e-12, nm.grad);
+                    if vanishing {
+                        a1_reported += 1;
+                    }
+                    if vanishing && a1_reported <= 10 {
+                        failures.push(format!(
+                            "A1: |∇g| = {} vanishes at t = {t} (sample {k}) for {}",
+                            fmt_num(nm.grad),
+                            fam.describe(idx)
+                        ));
+                    }
+                }
+                if so.value <= s.rho && norms.grad > 1e-12 {
+                    near.push(Near {
+                        family: fi,
+                        index: idx,
+                        value: so.value,
+                        normal: SparseVector {
+                            columns: so.columns.clone(),
+                            values: so.gradient.iter().map(|g| g / norms.grad).collect(),
+                        },
+                    });
+                }
+            }
+        }
+        if let Some((v, name)) = worst_violation {
+            infeasible_reported += 1;
+            if infeasible_reported <= 10 {
+                failures.push(format!(
+                    "sample {k} (t = {t}) is not in Q(t): {name} = {} (A5 is stated on Q(t))",
+                    fmt_num(v)
+                ));
+            }
+        }
+        if let Some((g, g_group, label)) = gamma_of(problem, &near, s.rho, s, projector, k, t)? {
+            gamma.see(g, t, k, || label.clone());
+            gamma_group.see(g_group, t, k, || label.clone());
+            if g_group.is_infinite() {
+                dependent_reported.0 += 1;
+            }
+        }
+        if let Some((g, _, label)) =
+            gamma_of(problem, &near, s.active_tolerance, s, projector, k, t)?
+        {
+            gamma_prime.see(g, t, k, || label.clone());
+            if g.is_infinite() {
+                dependent_reported.1 += 1;
+                if dependent_reported.1 <= 10 {
+                    failures.push(format!(
+                        "A5': active gradients positively dependent at t = {t} (sample {k}): {label} \
+                         (γ' = ∞: MFCQ fails, Q(t) is not prox-regular there and the motion may jam)"
+                    ));
+                }
+            }
+        }
+    }
+    if dependent_reported.1 > 10 {
+        failures.push(format!(
+            "A5': … positively dependent active gradients at {} samples in all",
+            dependent_reported.1
+        ));
+    }
+    if a1_reported > 10 {
+        failures.push(format!("A1: … {a1_reported} vanishing gradients in all"));
+    }
+    if infeasible_reported > 10 {
+        failures.push(format!(
+            "… {infeasible_reported} samples outside Q(t) in all"
+        ));
+    }
+    if let Some(g) = &gamma.best {
+        if g.value.is_infinite() && dependent_reported.1 == 0 {
+            failures.push(format!(
+                "A5 at ρ = {}: near-active gradients positively dependent at t = {} (sample {}): {} \
+                 (γ = ∞: Θ and r of Theorem 4.1 are not available; a smaller ρ may help)",
+                fmt_num(s.rho),
+                g.t,
+                g.sample,
+                g.constraint
+            ));
+        }
+    }
+
+    // A0: every family must derive its margin.
+    let mut c: Option<f64> = Some(f64::INFINITY);
+    for fam in problem.families() {
+        match fam.a0_margin() {
+            Some(m) => c = c.map(|v| v.min(m)),
+            None => {
+                c = None;
+                notes.push(format!(
+                    "A0: family `{}` does not state where its constraints stop being smooth; c not derived",
+                    fam.name()
+                ));
+            }
+        }
+    }
+    let c = c.filter(|v| v.is_finite());
+    notes.push(
+        "K_L (Prop 2.3) is not derived: the paper asserts it exists without a formula, so the \
+         step bound h < c/K_L is not available"
+            .into(),
+    );
+    if s.probe_depth == 0.0 {
+        notes.push(
+            "A1, A3, A4 were sampled on Q(t) near activity only (probe_depth = 0), A2 near \
+             activity only: the suprema over Uᵢ(t) and R^d may be larger"
+                .into(),
+        );
+    }
+
+    let a = alpha.best.as_ref().map(|w| w.value);
+    let beta = match (&beta_grad.best, &beta_dt.best) {
+        (Some(x), Some(y)) => Some(x.value.max(y.value)),
+        (Some(x), None) | (None, Some(x)) => Some(x.value),
+        (None, None) => None,
+    };
+    let m = match (&m_hess.best, &m_dt_grad.best) {
+        (Some(x), Some(y)) => Some(x.value.max(y.value)),
+        (Some(x), None) | (None, Some(x)) => Some(x.value),
+        (None, None) => None,
+    };
+    let g = gamma.best.as_ref().map_or(1.0, |w| w.value);
+    let gp = gamma_prime.best.as_ref().map_or(1.0, |w| w.value);
+    let ratio = |num: f64, den: f64| -> f64 {
+        if den == 0.0 {
+            f64::INFINITY
+        } else {
+            num / den
+        }
+    };
+    let eta = match (a, m) {
+        (Some(a), Some(m)) => Some(if gp.is_infinite() {
+            0.0
+        } else {
+            ratio(a, m * gp)
+        }),
+        _ => None,
+    };
+    let theta = match (a, beta) {
+        (Some(a), Some(b)) if a > 0.0 => Some(2.0 * g * b / a),
+        _ => None,
+    };
+    let r = match (a, beta, m) {
+        (Some(a), Some(b), Some(m)) => {
+            let second = if g.is_infinite() {
+                0.0
+            } else {
+                ratio(a, 2.0 * m * g)
+            };
+            Some(ratio(4.0 * s.rho, 13.0 * b).min(second))
+        }
+        _ => None,
+    };
+    Ok(AssumptionReport {
+        samples: samples.len(),
+        evaluations,
+        rho: s.rho,
+        neighbourhood: s.neighbourhood,
+        alpha: alpha.best,
+        beta_grad: beta_grad.best,
+        beta_dt: beta_dt.best,
+        m_hess: m_hess.best,
+        m_dt_grad: m_dt_grad.best,
+        gamma: gamma.best,
+        gamma_prime: gamma_prime.best,
+        gamma_group: gamma_group.best,
+        beta,
+        m,
+        c,
+        eta,
+        theta,
+        r,
+        k_l: None,
+        h_max: None,
+        failures,
+        notes,
+    })
+}
