@@ -142,14 +142,10 @@ impl ConstraintFamily for DiskPairs {
         let pop = &self.population;
         let n = self.n();
         if !self.cull || !cutoff.is_finite() {
-            for i in 0..n {
-                if !pop.is_present(q, i) {
-                    continue;
-                }
-                for j in (i + 1)..n {
-                    if pop.is_present(q, j) {
-                        out.push(i * n + j);
-                    }
+            let present: Vec<usize> = (0..n).filter(|&i| pop.is_present(q, i)).collect();
+            for (a, &i) in present.iter().enumerate() {
+                for &j in &present[a + 1..] {
+                    out.push(i * n + j);
                 }
             }
             return;
