@@ -11,7 +11,9 @@
 //! * [`stepper`] — the scheme, step reports, observers, culling with proof.
 //! * [`backends`] — the projection backends enabled by cargo features (`clarabel`, `osqp`) and
 //!   a by-name constructor.
-//! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles.
+//! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles; desired velocities.
+//! * [`scene`] — crowd scenes as TOML files, built with only the effects they call for.
+//! * [`output`] — trajectory CSV, run summary, SVG snapshots, HTML animation.
 #![deny(missing_docs)]
 
 pub mod backends;
@@ -19,7 +21,9 @@ pub mod constraint;
 pub mod crowd;
 pub mod error;
 pub mod observers;
+pub mod output;
 pub mod problem;
+pub mod scene;
 pub mod stepper;
 
 pub use error::SweepError;
