@@ -797,11 +797,14 @@ impl Scene {
             }
             let moving = obstacles.iter().filter(|(o, _, _)| !o.motion.is_static()).count();
             problem.push_family(Box::new(PersonShapes::new("obstacles", population.clone(), shapes)));
-            effects.push(format!(
-                "obstacles: {} ({} moving: Q depends on t)",
-                obstacles.len(),
-                moving
-            ));
+            effects.push(if moving > 0 {
+                format!(
+                    "obstacles: {} ({moving} moving: Q depends on t)",
+                    obstacles.len()
+                )
+            } else {
+                format!("obstacles: {} (static)", obstacles.len())
+            });
         }
         if !exits.is_empty() {
             effects.push(format!(
@@ -889,7 +892,7 @@ impl BuiltScene {
         let _ = writeln!(s, "scene `{}`", self.name);
         let _ = writeln!(
             s,
-            "  people: {} (radii {}–{})",
+            "  people: {} (radii {:.3}–{:.3})",
             self.population.len(),
             self.population.radii().iter().copied().fold(f64::INFINITY, f64::min),
             self.population.max_radius()
@@ -918,7 +921,7 @@ impl BuiltScene {
             s,
             "    - time derivatives of the constraints: {}",
             if self.is_time_dependent() {
-                "needed (something moves)"
+                "only for the moving obstacles"
             } else {
                 "none (static scene)"
             }
