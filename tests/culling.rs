@@ -32,8 +32,12 @@ fn compare(text: &str, steps: usize) -> (f64, usize, usize) {
     let mut pb = ReferenceProjector::default();
     let (mut gap, mut rows_a, mut rows_b) = (0.0f64, 0, 0);
     for k in 0..steps.min(a.n_steps()) {
-        let ra = a.step(&mut pa).unwrap_or_else(|e| panic!("culled, step {k}: {e}\n{text}"));
-        let rb = b.step(&mut pb).unwrap_or_else(|e| panic!("all pairs, step {k}: {e}\n{text}"));
+        let ra = a
+            .step(&mut pa)
+            .unwrap_or_else(|e| panic!("culled, step {k}: {e}\n{text}"));
+        let rb = b
+            .step(&mut pb)
+            .unwrap_or_else(|e| panic!("all pairs, step {k}: {e}\n{text}"));
         rows_a += ra.rows;
         rows_b += rb.rows;
         let g = a
@@ -42,7 +46,10 @@ fn compare(text: &str, steps: usize) -> (f64, usize, usize) {
             .zip(b.state())
             .map(|(x, y)| (x - y).abs())
             .fold(0.0, f64::max);
-        assert!(g <= GAP, "step {k}: culled and all-pairs differ by {g:.3e}\n{text}");
+        assert!(
+            g <= GAP,
+            "step {k}: culled and all-pairs differ by {g:.3e}\n{text}"
+        );
         gap = gap.max(g);
     }
     (gap, rows_a, rows_b)

@@ -61,7 +61,10 @@ fn distance_around_a_thin_wall_matches_the_hand_computed_geodesic() {
     );
     // The direction at (2, 5) points up or down towards an end of the wall, not at the exit.
     let v = field.direction([2.0, 4.0]);
-    assert!(v[1] < -0.3, "below the middle, people go round the bottom end: {v:?}");
+    assert!(
+        v[1] < -0.3,
+        "below the middle, people go round the bottom end: {v:?}"
+    );
 }
 
 #[test]
@@ -95,7 +98,9 @@ fn directions_are_continuous() {
     let mut worst = 0.0f64;
     let mut state = 12345u64;
     let mut rand = || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
     for _ in 0..200 {
@@ -104,7 +109,10 @@ fn directions_are_continuous() {
         let dir = [angle.cos(), angle.sin()];
         let mut prev = field.direction(p0);
         for s in 1..2000 {
-            let p = [p0[0] + dir[0] * delta * s as f64, p0[1] + dir[1] * delta * s as f64];
+            let p = [
+                p0[0] + dir[0] * delta * s as f64,
+                p0[1] + dir[1] * delta * s as f64,
+            ];
             let v = field.direction(p);
             let jump = ((v[0] - prev[0]).powi(2) + (v[1] - prev[1]).powi(2)).sqrt();
             worst = worst.max(jump);

@@ -76,7 +76,11 @@ fn wrong_type() {
 #[test]
 fn bad_radius_of_a_crowd() {
     let text = format!("{ROOM}[[crowds]]\ncount = 3\nradius = \"big\"\n");
-    assert_message(&error_of(&text), 5, &["a radius (a number) or a range [min, max]"]);
+    assert_message(
+        &error_of(&text),
+        5,
+        &["a radius (a number) or a range [min, max]"],
+    );
 }
 
 #[test]
@@ -122,7 +126,11 @@ fn person_inside_an_obstacle() {
     let text = format!(
         "{ROOM}[[obstacles]]\ndisk = {{ center = [2.0, 2.0], radius = 0.5 }}\n\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n\n[[people]]\nposition = [2.1, 2.0]\nradius = 0.2\n"
     );
-    assert_message(&error_of(&text), 10, &["[[people]] #2", "inside obstacle #1"]);
+    assert_message(
+        &error_of(&text),
+        10,
+        &["[[people]] #2", "inside obstacle #1"],
+    );
 }
 
 #[test]
@@ -130,7 +138,11 @@ fn person_inside_a_polygon_obstacle() {
     let text = format!(
         "{ROOM}[[obstacles]]\npolygon = [[1.0, 1.0], [3.0, 1.0], [3.0, 3.0], [1.0, 3.0]]\n[[people]]\nposition = [2.0, 2.0]\nradius = 0.2\n"
     );
-    assert_message(&error_of(&text), 5, &["[[people]] #1", "inside obstacle #1"]);
+    assert_message(
+        &error_of(&text),
+        5,
+        &["[[people]] #1", "inside obstacle #1"],
+    );
 }
 
 #[test]
@@ -150,7 +162,11 @@ fn overlapping_exits() {
     let text = format!(
         "{ROOM}[[exits]]\nfrom = [4.0, 1.0]\nto = [4.0, 2.0]\n[[exits]]\nfrom = [4.0, 1.5]\nto = [4.0, 3.0]\n"
     );
-    assert_message(&error_of(&text), 6, &["[[exits]] #2", "overlaps another exit"]);
+    assert_message(
+        &error_of(&text),
+        6,
+        &["[[exits]] #2", "overlaps another exit"],
+    );
 }
 
 #[test]
@@ -162,7 +178,11 @@ fn nan_position() {
 #[test]
 fn nan_radius() {
     let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = nan\n");
-    assert_message(&error_of(&text), 3, &["[[people]] #1", "radius must be positive and finite"]);
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[people]] #1", "radius must be positive and finite"],
+    );
 }
 
 #[test]
@@ -192,7 +212,11 @@ fn negative_crowd_radius_range() {
 #[test]
 fn negative_step() {
     let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[run]\nh = -0.01\n");
-    assert_message(&error_of(&text), 6, &["[run] h", "positive and finite, got -0.01"]);
+    assert_message(
+        &error_of(&text),
+        6,
+        &["[run] h", "positive and finite, got -0.01"],
+    );
 }
 
 #[test]
@@ -203,7 +227,8 @@ fn nan_step() {
 
 #[test]
 fn zero_horizon() {
-    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[run]\nt_end = 0.0\n");
+    let text =
+        format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[run]\nt_end = 0.0\n");
     assert_message(&error_of(&text), 6, &["[run] t_end", "positive"]);
 }
 
@@ -230,14 +255,21 @@ fn crowd_that_does_not_fit() {
 
 #[test]
 fn crowd_region_inverted() {
-    let text = format!("{ROOM}[[crowds]]\ncount = 2\nradius = 0.2\nregion = [3.0, 0.0, 1.0, 4.0]\n");
+    let text =
+        format!("{ROOM}[[crowds]]\ncount = 2\nradius = 0.2\nregion = [3.0, 0.0, 1.0, 4.0]\n");
     assert_message(&error_of(&text), 3, &["[[crowds]] #1", "x1 > x0"]);
 }
 
 #[test]
 fn exit_target_without_exits() {
-    let text = format!("{ROOM}[desired]\nkind = \"exit\"\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n");
-    assert_message(&error_of(&text), 3, &["[desired]", "needs at least one [[exits]]"]);
+    let text = format!(
+        "{ROOM}[desired]\nkind = \"exit\"\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n"
+    );
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[desired]", "needs at least one [[exits]]"],
+    );
 }
 
 #[test]
@@ -245,12 +277,18 @@ fn point_target_without_point() {
     let text = format!(
         "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {{ kind = \"point\" }}\n"
     );
-    assert_message(&error_of(&text), 3, &["[[people]] #1 desired", "needs `point"]);
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[people]] #1 desired", "needs `point"],
+    );
 }
 
 #[test]
 fn constant_velocity_without_velocity() {
-    let text = format!("{ROOM}[desired]\nkind = \"constant\"\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n");
+    let text = format!(
+        "{ROOM}[desired]\nkind = \"constant\"\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n"
+    );
     assert_message(&error_of(&text), 3, &["[desired]", "needs `velocity"]);
 }
 
@@ -285,13 +323,21 @@ fn obstacle_path_going_back_in_time() {
     let text = format!(
         "{ROOM}[[obstacles]]\nsegment = {{ from = [1.0, 1.0], to = [2.0, 1.0] }}\npath = [[0.0, 0.0, 0.0], [2.0, 1.0, 0.0], [1.0, 0.0, 0.0]]\n"
     );
-    assert_message(&error_of(&text), 3, &["[[obstacles]] #1", "times must increase"]);
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[obstacles]] #1", "times must increase"],
+    );
 }
 
 #[test]
 fn obstacle_with_negative_radius() {
     let text = format!("{ROOM}[[obstacles]]\ndisk = {{ center = [2.0, 2.0], radius = -0.5 }}\n");
-    assert_message(&error_of(&text), 3, &["[[obstacles]] #1", "radius must be positive"]);
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[obstacles]] #1", "radius must be positive"],
+    );
 }
 
 #[test]
@@ -304,15 +350,25 @@ fn nobody() {
 
 #[test]
 fn bad_output_setting() {
-    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[output]\nsnapshot_every = -1.0\n");
-    assert_message(&error_of(&text), 6, &["[output] snapshot_every", "positive"]);
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[output]\nsnapshot_every = -1.0\n"
+    );
+    assert_message(
+        &error_of(&text),
+        6,
+        &["[output] snapshot_every", "positive"],
+    );
 }
 
 #[test]
 fn missing_file_names_the_file() {
     let e = Scene::from_file("/nonexistent/dir/scene.toml").unwrap_err();
     assert!(matches!(e, SceneError::Io { .. }));
-    assert!(e.to_string().starts_with("/nonexistent/dir/scene.toml: cannot read"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("/nonexistent/dir/scene.toml: cannot read"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -320,12 +376,19 @@ fn errors_from_a_file_name_the_file() {
     let dir = std::env::temp_dir().join(format!("sweeping-scene-errors-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("broken.toml");
-    std::fs::write(&path, format!("{ROOM}\n[[people]]\nposition = [9.0, 1.0]\nradius = 0.2\n")).unwrap();
+    std::fs::write(
+        &path,
+        format!("{ROOM}\n[[people]]\nposition = [9.0, 1.0]\nradius = 0.2\n"),
+    )
+    .unwrap();
     let e = Scene::from_file(&path)
         .and_then(|s| s.build(&Overrides::default()))
         .map(|_| ())
         .unwrap_err();
     let m = e.to_string();
-    assert!(m.starts_with(&format!("{}:4: [[people]] #1", path.display())), "{m}");
+    assert!(
+        m.starts_with(&format!("{}:4: [[people]] #1", path.display())),
+        "{m}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

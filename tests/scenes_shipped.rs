@@ -27,7 +27,13 @@ fn the_five_scenes_are_shipped() {
         .iter()
         .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
         .collect();
-    for want in ["paper-evacuation", "pillar", "corridor", "crossing", "moving-wall"] {
+    for want in [
+        "paper-evacuation",
+        "pillar",
+        "corridor",
+        "crossing",
+        "moving-wall",
+    ] {
         assert!(names.iter().any(|n| n == want), "missing {want}: {names:?}");
     }
 }
@@ -58,7 +64,12 @@ fn every_scene_builds_and_runs_a_few_steps_cleanly() {
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let s = summary.summary();
         assert_eq!(run.stats.steps, 5, "{}", path.display());
-        assert!(s.max_overlap <= TOL, "{}: overlap {}", path.display(), s.max_overlap);
+        assert!(
+            s.max_overlap <= TOL,
+            "{}: overlap {}",
+            path.display(),
+            s.max_overlap
+        );
         assert!(
             s.max_wall_penetration <= TOL,
             "{}: penetration {}",
@@ -76,8 +87,15 @@ fn the_paper_scene_is_the_papers() {
     .unwrap();
     let built = scene.build(&Overrides::default()).unwrap();
     assert_eq!(built.population.len(), 150);
-    assert!(built.population.radii().iter().all(|r| (r - 0.2).abs() < 1e-15));
-    assert!(built.distance_field.is_some(), "the desired velocity is geodesic");
+    assert!(built
+        .population
+        .radii()
+        .iter()
+        .all(|r| (r - 0.2).abs() < 1e-15));
+    assert!(
+        built.distance_field.is_some(),
+        "the desired velocity is geodesic"
+    );
     assert_eq!(built.geometry.exits.len(), 1);
     // A different seed gives a different placement, still valid.
     let other = scene
@@ -105,7 +123,11 @@ fn full_runs() {
             .build(&Overrides::default())
             .unwrap();
         let Ok(mut projector) = make_projector(built.backend) else {
-            eprintln!("{}: backend {} not compiled in, skipped", path.display(), built.backend);
+            eprintln!(
+                "{}: backend {} not compiled in, skipped",
+                path.display(),
+                built.backend
+            );
             continue;
         };
         let mut summary = SummaryCollector::new(
@@ -121,9 +143,24 @@ fn full_runs() {
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let s = summary.summary();
         if built.stop_when_empty {
-            assert!(s.evacuation_time.is_some(), "{}: {} remain", path.display(), s.people_remaining);
+            assert!(
+                s.evacuation_time.is_some(),
+                "{}: {} remain",
+                path.display(),
+                s.people_remaining
+            );
         }
-        assert!(s.max_overlap <= TOL, "{}: overlap {}", path.display(), s.max_overlap);
-        assert!(s.max_wall_penetration <= TOL, "{}: {}", path.display(), s.max_wall_penetration);
+        assert!(
+            s.max_overlap <= TOL,
+            "{}: overlap {}",
+            path.display(),
+            s.max_overlap
+        );
+        assert!(
+            s.max_wall_penetration <= TOL,
+            "{}: {}",
+            path.display(),
+            s.max_wall_penetration
+        );
     }
 }

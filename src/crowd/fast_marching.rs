@@ -199,17 +199,15 @@ impl DistanceField {
             for i in 0..grid.nx {
                 let p = grid.node(i, j);
                 let blocked = !point_in_polygon(&domain.room, p)
-                    || domain.disks.iter().any(|(c, r)| {
-                        (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) < r * r
-                    })
+                    || domain
+                        .disks
+                        .iter()
+                        .any(|(c, r)| (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) < r * r)
                     || domain
                         .segments
                         .iter()
                         .any(|(a, b)| segment_distance(p, *a, *b) < 0.75 * cell)
-                    || domain
-                        .polygons
-                        .iter()
-                        .any(|poly| point_in_polygon(poly, p));
+                    || domain.polygons.iter().any(|poly| point_in_polygon(poly, p));
                 free[grid.index(i, j)] = !blocked;
             }
         }

@@ -302,7 +302,6 @@ impl Observer for AnimationWriter {
         if let Some((t, q)) = self.last.take() {
             self.record(t, &q);
         }
-        std::fs::write(&self.path, self.html())
-            .map_err(|e| format!("{}: {e}", self.path.display()))
+        std::fs::write(&self.path, self.html()).map_err(|e| format!("{}: {e}", self.path.display()))
     }
 }

@@ -308,7 +308,13 @@ impl Observer for SummaryCollector<'_> {
 
     fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
         let s = &mut self.summary;
-        let per = |v: f64| if s.steps > 0 { 1e3 * v / s.steps as f64 } else { 0.0 };
+        let per = |v: f64| {
+            if s.steps > 0 {
+                1e3 * v / s.steps as f64
+            } else {
+                0.0
+            }
+        };
         let st = s.seconds_per_stage;
         s.ms_per_step = MsPerStep {
             effects: per(st.effects),

@@ -26,7 +26,11 @@ pub(crate) const OBSTACLE: &str = "#9a9a9a";
 /// (the SVG's `y` is `−y`).
 pub(crate) fn static_layer(g: &SceneGeometry, unit: f64) -> String {
     let mut s = String::new();
-    let pts: Vec<String> = g.room.iter().map(|p| format!("{:.4},{:.4}", p[0], -p[1])).collect();
+    let pts: Vec<String> = g
+        .room
+        .iter()
+        .map(|p| format!("{:.4},{:.4}", p[0], -p[1]))
+        .collect();
     let _ = writeln!(
         s,
         r#"<polygon points="{}" fill="{ROOM_FILL}" stroke="none"/>"#,
@@ -36,14 +40,24 @@ pub(crate) fn static_layer(g: &SceneGeometry, unit: f64) -> String {
         let _ = writeln!(
             s,
             r#"<line x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{WALL}" stroke-width="{:.4}" stroke-linecap="square"/>"#,
-            a[0], -a[1], b[0], -b[1], 1.6 * unit
+            a[0],
+            -a[1],
+            b[0],
+            -b[1],
+            1.6 * unit
         );
     }
     for e in &g.exits {
         let _ = writeln!(
             s,
             r#"<line x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{EXIT}" stroke-width="{:.4}" stroke-dasharray="{:.4} {:.4}"/>"#,
-            e.a[0], -e.a[1], e.b[0], -e.b[1], 1.6 * unit, 2.0 * unit, 1.2 * unit
+            e.a[0],
+            -e.a[1],
+            e.b[0],
+            -e.b[1],
+            1.6 * unit,
+            2.0 * unit,
+            1.2 * unit
         );
     }
     s

@@ -49,15 +49,15 @@ pub use error::{line_column, SceneError};
 pub use spec::SceneSpec;
 
 use crate::backends::BackendChoice;
+use crate::constraint::ConstraintKernel;
 use crate::crowd::fast_marching::{DistanceField, MarchingDomain};
 use crate::crowd::velocity::{
     ConstantVelocity, DesiredVelocity, ExitSegment, TowardsExits, TowardsPoint, VelocityField,
 };
 use crate::crowd::{
-    segment_distance, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population, Room,
-    Shape, ShapeParams,
+    segment_distance, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population, Room, Shape,
+    ShapeParams,
 };
-use crate::constraint::ConstraintKernel;
 use crate::problem::Problem;
 use crate::stepper::StepperSettings;
 use rand::{Rng, SeedableRng};
@@ -204,7 +204,12 @@ impl Ctx<'_> {
         line_column(self.text, s.span().start).0
     }
 
-    fn err(&self, line: Option<usize>, item: impl Into<String>, message: impl Into<String>) -> SceneError {
+    fn err(
+        &self,
+        line: Option<usize>,
+        item: impl Into<String>,
+        message: impl Into<String>,
+    ) -> SceneError {
         SceneError::Invalid {
             file: self.file.to_string(),
             line,
@@ -292,24 +297,46 @@ impl Scene {
         // ---- run settings
         let run_line = spec.run.as_ref().map(|r| cx.line_of(r));
         let run = spec.run.as_ref().map(|r| r.get_ref().clone());
-        let h = overrides.h.or(run.as_ref().and_then(|r| r.h)).unwrap_or(0.01);
+        let h = overrides
+            .h
+            .or(run.as_ref().and_then(|r| r.h))
+            .unwrap_or(0.01);
         let t_end = overrides
             .t_end
             .or(run.as_ref().and_then(|r| r.t_end))
             .unwrap_or(10.0);
         if !(h.is_finite() && h > 0.0) {
-            let item = if overrides.h.is_some() { "--h" } else { "[run] h" };
-            return Err(cx.err(run_line, item, format!("the time step must be positive and finite, got {h}")));
+            let item = if overrides.h.is_some() {
+                "--h"
+            } else {
+                "[run] h"
+            };
+            return Err(cx.err(
+                run_line,
+                item,
+                format!("the time step must be positive and finite, got {h}"),
+            ));
         }
         if !(t_end.is_finite() && t_end > 0.0) {
-            let item = if overrides.t_end.is_some() { "--t-end" } else { "[run] t_end" };
-            return Err(cx.err(run_line, item, format!("the horizon must be positive and finite, got {t_end}")));
+            let item = if overrides.t_end.is_some() {
+                "--t-end"
+            } else {
+                "[run] t_end"
+            };
+            return Err(cx.err(
+                run_line,
+                item,
+                format!("the horizon must be positive and finite, got {t_end}"),
+            ));
         }
         let backend = overrides
             .backend
             .or(run.as_ref().and_then(|r| r.backend))
             .unwrap_or_default();
-        let stop_when_empty = run.as_ref().and_then(|r| r.stop_when_empty).unwrap_or(false);
+        let stop_when_empty = run
+            .as_ref()
+            .and_then(|r| r.stop_when_empty)
+            .unwrap_or(false);
 
         // ---- room
         let room_line = Some(cx.line_of(&spec.room));
@@ -317,34 +344,62 @@ impl Scene {
         let room_vertices: Vec<[f64; 2]> = match (&room_spec.rectangle, &room_spec.polygon) {
             (Some(r), None) => {
                 if !finite(r) {
-                    return Err(cx.err(room_line, "[room]", "the rectangle has a non-finite coordinate"));
+                    return Err(cx.err(
+                        room_line,
+                        "[room]",
+                        "the rectangle has a non-finite coordinate",
+                    ));
                 }
                 if !(r[2] > r[0] && r[3] > r[1]) {
-                    return Err(cx.err(room_line, "[room]", format!("the rectangle [x0, y0, x1, y1] = {r:?} needs x1 > x0 and y1 > y0")));
+                    return Err(cx.err(
+                        room_line,
+                        "[room]",
+                        format!("the rectangle [x0, y0, x1, y1] = {r:?} needs x1 > x0 and y1 > y0"),
+                    ));
                 }
                 Room::rectangle(r[0], r[1], r[2], r[3]).vertices
             }
             (None, Some(p)) => {
                 if p.len() < 3 {
-                    return Err(cx.err(room_line, "[room]", format!("a polygon needs at least 3 vertices, got {}", p.len())));
+                    return Err(cx.err(
+                        room_line,
+                        "[room]",
+                        format!("a polygon needs at least 3 vertices, got {}", p.len()),
+                    ));
                 }
                 if !p.iter().all(finite) {
-                    return Err(cx.err(room_line, "[room]", "the polygon has a non-finite coordinate"));
+                    return Err(cx.err(
+                        room_line,
+                        "[room]",
+                        "the polygon has a non-finite coordinate",
+                    ));
                 }
                 let area = polygon_area(p);
                 if area.abs() < 1e-12 {
                     return Err(cx.err(room_line, "[room]", "the polygon has zero area"));
                 }
                 if let Some(k) = (0..p.len()).find(|&k| p[k] == p[(k + 1) % p.len()]) {
-                    return Err(cx.err(room_line, "[room]", format!("vertices {} and {} coincide", k + 1, (k + 1) % p.len() + 1)));
+                    return Err(cx.err(
+                        room_line,
+                        "[room]",
+                        format!("vertices {} and {} coincide", k + 1, (k + 1) % p.len() + 1),
+                    ));
                 }
                 p.clone()
             }
             (Some(_), Some(_)) => {
-                return Err(cx.err(room_line, "[room]", "give either `rectangle` or `polygon`, not both"))
+                return Err(cx.err(
+                    room_line,
+                    "[room]",
+                    "give either `rectangle` or `polygon`, not both",
+                ))
             }
             (None, None) => {
-                return Err(cx.err(room_line, "[room]", "give `rectangle = [x0, y0, x1, y1]` or `polygon = [[x, y], …]`"))
+                return Err(cx.err(
+                    room_line,
+                    "[room]",
+                    "give `rectangle = [x0, y0, x1, y1]` or `polygon = [[x, y], …]`",
+                ))
             }
         };
         let room = Room {
@@ -392,7 +447,10 @@ impl Scene {
             let l = l2.sqrt();
             let mut normal = [ab[1] / l, -ab[0] / l];
             let mid = [(ex.from[0] + ex.to[0]) / 2.0, (ex.from[1] + ex.to[1]) / 2.0];
-            let probe = [mid[0] + normal[0] * 1e-6 * scale, mid[1] + normal[1] * 1e-6 * scale];
+            let probe = [
+                mid[0] + normal[0] * 1e-6 * scale,
+                mid[1] + normal[1] * 1e-6 * scale,
+            ];
             if room.contains(probe) {
                 normal = [-normal[0], -normal[1]];
             }
@@ -432,7 +490,11 @@ impl Scene {
                         return Err(cx.err(line, item, "the disk has a non-finite number"));
                     }
                     if d.radius <= 0.0 {
-                        return Err(cx.err(line, item, format!("the disk's radius must be positive, got {}", d.radius)));
+                        return Err(cx.err(
+                            line,
+                            item,
+                            format!("the disk's radius must be positive, got {}", d.radius),
+                        ));
                     }
                     ObstacleShape::Disk {
                         center: d.center,
@@ -450,18 +512,30 @@ impl Scene {
                 }
                 (None, None, Some(p)) => {
                     if p.len() < 3 || !p.iter().all(finite) {
-                        return Err(cx.err(line, item, "a polygon needs at least 3 finite vertices"));
+                        return Err(cx.err(
+                            line,
+                            item,
+                            "a polygon needs at least 3 finite vertices",
+                        ));
                     }
                     if polygon_area(p).abs() < 1e-12 {
                         return Err(cx.err(line, item, "the polygon has zero area"));
                     }
                     if let Some(v) = (0..p.len()).find(|&v| p[v] == p[(v + 1) % p.len()]) {
-                        return Err(cx.err(line, item, format!("vertices {} and {} coincide", v + 1, (v + 1) % p.len() + 1)));
+                        return Err(cx.err(
+                            line,
+                            item,
+                            format!("vertices {} and {} coincide", v + 1, (v + 1) % p.len() + 1),
+                        ));
                     }
                     ObstacleShape::Polygon(p.clone())
                 }
                 _ => {
-                    return Err(cx.err(line, item, "give exactly one of `disk`, `segment` and `polygon`"))
+                    return Err(cx.err(
+                        line,
+                        item,
+                        "give exactly one of `disk`, `segment` and `polygon`",
+                    ))
                 }
             };
             let motion = match (&os.velocity, &os.path) {
@@ -474,7 +548,11 @@ impl Scene {
                 }
                 (None, Some(p)) => {
                     if p.is_empty() || !p.iter().all(finite) {
-                        return Err(cx.err(line, item, "the path needs at least one finite waypoint [t, dx, dy]"));
+                        return Err(cx.err(
+                            line,
+                            item,
+                            "the path needs at least one finite waypoint [t, dx, dy]",
+                        ));
                     }
                     if p.windows(2).any(|w| w[1][0] <= w[0][0]) {
                         return Err(cx.err(line, item, "the path's times must increase"));
@@ -558,25 +636,41 @@ impl Scene {
             let item = format!("[[people]] #{}", k + 1);
             let ps = p.get_ref();
             if !finite(&ps.position) {
-                return Err(cx.err(Some(line), item, format!("the position {:?} is not finite", ps.position)));
+                return Err(cx.err(
+                    Some(line),
+                    item,
+                    format!("the position {:?} is not finite", ps.position),
+                ));
             }
             if !(ps.radius.is_finite() && ps.radius > 0.0) {
-                return Err(cx.err(Some(line), item, format!("the radius must be positive and finite, got {}", ps.radius)));
+                return Err(cx.err(
+                    Some(line),
+                    item,
+                    format!("the radius must be positive and finite, got {}", ps.radius),
+                ));
             }
             let speed = ps.speed.unwrap_or(1.0);
             if !(speed.is_finite() && speed >= 0.0) {
-                return Err(cx.err(Some(line), item, format!("the speed must be ≥ 0 and finite, got {speed}")));
+                return Err(cx.err(
+                    Some(line),
+                    item,
+                    format!("the speed must be ≥ 0 and finite, got {speed}"),
+                ));
             }
             if let Some(d) = &ps.desired {
                 check_desired(&cx, Some(line), &item, d, !exits.is_empty())?;
             }
             wall_clear(ps.position, ps.radius).map_err(|m| cx.err(Some(line), item.clone(), m))?;
-            obstacle_clear(ps.position, ps.radius).map_err(|m| cx.err(Some(line), item.clone(), m))?;
+            obstacle_clear(ps.position, ps.radius)
+                .map_err(|m| cx.err(Some(line), item.clone(), m))?;
             positions.push(ps.position);
             radii.push(ps.radius);
             speeds.push(speed);
             desired.push(ps.desired.clone());
-            origins.push(Origin { item: item.clone(), line });
+            origins.push(Origin {
+                item: item.clone(),
+                line,
+            });
             group_of.push(groups.len());
             groups.push(item);
         }
@@ -614,7 +708,11 @@ impl Scene {
             }
             let speed = cs.speed.unwrap_or(1.0);
             if !(speed.is_finite() && speed >= 0.0) {
-                return Err(cx.err(Some(line), item, format!("the speed must be ≥ 0 and finite, got {speed}")));
+                return Err(cx.err(
+                    Some(line),
+                    item,
+                    format!("the speed must be ≥ 0 and finite, got {speed}"),
+                ));
             }
             if let Some(d) = &cs.desired {
                 check_desired(&cx, Some(line), &item, d, !exits.is_empty())?;
@@ -641,7 +739,11 @@ impl Scene {
                 if attempts > max_attempts {
                     return Err(cx.err(Some(line), item, format!("could place only {placed} of {} people without overlap in the region {region:?} after {max_attempts} attempts; enlarge the region or lower the count", cs.count)));
                 }
-                let r = if rmax > rmin { rng.gen_range(rmin..=rmax) } else { rmin };
+                let r = if rmax > rmin {
+                    rng.gen_range(rmin..=rmax)
+                } else {
+                    rmin
+                };
                 let p = [
                     rng.gen_range(region[0]..=region[2]),
                     rng.gen_range(region[1]..=region[3]),
@@ -650,7 +752,8 @@ impl Scene {
                     continue;
                 }
                 let clash = hash.near(p).any(|j| {
-                    let d = ((p[0] - positions[j][0]).powi(2) + (p[1] - positions[j][1]).powi(2)).sqrt();
+                    let d = ((p[0] - positions[j][0]).powi(2) + (p[1] - positions[j][1]).powi(2))
+                        .sqrt();
                     d < r + radii[j] + 1e-9
                 });
                 if clash {
@@ -671,14 +774,20 @@ impl Scene {
             groups.push(format!("{item} ({} people)", cs.count));
         }
         if positions.is_empty() {
-            return Err(cx.err(None, "[[people]] / [[crowds]]", "the scene has nobody in it"));
+            return Err(cx.err(
+                None,
+                "[[people]] / [[crowds]]",
+                "the scene has nobody in it",
+            ));
         }
 
         // ---- desired velocities: one term per distinct desire.
         let mut terms: Vec<(DesiredSpec, Vec<usize>)> = Vec::new();
         let mut still = 0usize;
         for (i, d) in desired.iter().enumerate() {
-            let d = d.clone().or_else(|| default_desired.as_ref().map(|x| x.0.clone()));
+            let d = d
+                .clone()
+                .or_else(|| default_desired.as_ref().map(|x| x.0.clone()));
             match d {
                 None => still += 1,
                 Some(d) => {
@@ -706,7 +815,11 @@ impl Scene {
         let needs_field = terms.iter().any(|(d, _)| d.kind == DesiredKind::Exit);
         let distance_field = if needs_field {
             if !(cell.is_finite() && cell > 0.0) {
-                return Err(cx.err(geodesic_line, "[geodesic] cell", format!("the cell size must be positive and finite, got {cell}")));
+                return Err(cx.err(
+                    geodesic_line,
+                    "[geodesic] cell",
+                    format!("the cell size must be positive and finite, got {cell}"),
+                ));
             }
             let domain = MarchingDomain {
                 room: room_vertices.clone(),
@@ -752,9 +865,7 @@ impl Scene {
                 DesiredKind::Point => Box::new(TowardsPoint {
                     point: d.point.unwrap_or_default(),
                 }),
-                DesiredKind::Constant => {
-                    Box::new(ConstantVelocity(d.velocity.unwrap_or_default()))
-                }
+                DesiredKind::Constant => Box::new(ConstantVelocity(d.velocity.unwrap_or_default())),
             };
             effects.push(format!(
                 "desired velocity: {} for {} people",
@@ -764,7 +875,9 @@ impl Scene {
             velocity = velocity.with_term(field, people);
         }
         if still > 0 {
-            effects.push(format!("{still} people without a desired velocity (they stand still)"));
+            effects.push(format!(
+                "{still} people without a desired velocity (they stand still)"
+            ));
         }
 
         // ---- constraint families
@@ -774,10 +887,14 @@ impl Scene {
         if n >= 2 {
             if overrides.all_pairs {
                 problem.push_family(Box::new(DiskPairs::all_pairs(population.clone())));
-                effects.push(format!("pairs of people: {n} people, every pair assembled (no culling)"));
+                effects.push(format!(
+                    "pairs of people: {n} people, every pair assembled (no culling)"
+                ));
             } else {
                 problem.push_family(Box::new(DiskPairs::new(population.clone())));
-                effects.push(format!("pairs of people: {n} people, near pairs found by a uniform grid"));
+                effects.push(format!(
+                    "pairs of people: {n} people, near pairs found by a uniform grid"
+                ));
             }
         }
         if !walls.is_empty() {
@@ -785,7 +902,11 @@ impl Scene {
                 .iter()
                 .map(|(a, b)| (Shape::Segment { a: *a, b: *b }, Motion::Static))
                 .collect();
-            problem.push_family(Box::new(PersonShapes::new("walls", population.clone(), shapes)));
+            problem.push_family(Box::new(PersonShapes::new(
+                "walls",
+                population.clone(),
+                shapes,
+            )));
             effects.push(format!("walls: {} exact segments (static)", walls.len()));
         }
         if !obstacles.is_empty() {
@@ -795,8 +916,15 @@ impl Scene {
                     shapes.push((s, o.motion.clone()));
                 }
             }
-            let moving = obstacles.iter().filter(|(o, _, _)| !o.motion.is_static()).count();
-            problem.push_family(Box::new(PersonShapes::new("obstacles", population.clone(), shapes)));
+            let moving = obstacles
+                .iter()
+                .filter(|(o, _, _)| !o.motion.is_static())
+                .count();
+            problem.push_family(Box::new(PersonShapes::new(
+                "obstacles",
+                population.clone(),
+                shapes,
+            )));
             effects.push(if moving > 0 {
                 format!(
                     "obstacles: {} ({moving} moving: Q depends on t)",
@@ -831,9 +959,16 @@ impl Scene {
             .as_ref()
             .and_then(|o| o.animation_frames)
             .unwrap_or(400);
-        for (name, v) in [("trajectory_every", trajectory_every), ("snapshot_every", snapshot_every)] {
+        for (name, v) in [
+            ("trajectory_every", trajectory_every),
+            ("snapshot_every", snapshot_every),
+        ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(cx.err(out_line, format!("[output] {name}"), format!("must be positive and finite, got {v}")));
+                return Err(cx.err(
+                    out_line,
+                    format!("[output] {name}"),
+                    format!("must be positive and finite, got {v}"),
+                ));
             }
         }
         if animation_frames < 2 {
@@ -894,7 +1029,11 @@ impl BuiltScene {
             s,
             "  people: {} (radii {:.3}–{:.3})",
             self.population.len(),
-            self.population.radii().iter().copied().fold(f64::INFINITY, f64::min),
+            self.population
+                .radii()
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min),
             self.population.max_radius()
         );
         for g in &self.groups {
@@ -956,14 +1095,16 @@ fn check_desired(
                 return Err(cx.err(line, item, "kind = \"exit\" needs at least one [[exits]]"));
             }
             if d.point.is_some() || d.velocity.is_some() {
-                return Err(cx.err(line, item, "kind = \"exit\" takes neither `point` nor `velocity`"));
+                return Err(cx.err(
+                    line,
+                    item,
+                    "kind = \"exit\" takes neither `point` nor `velocity`",
+                ));
             }
         }
         DesiredKind::Point => match d.point {
             None => return Err(cx.err(line, item, "kind = \"point\" needs `point = [x, y]`")),
-            Some(p) if !finite(&p) => {
-                return Err(cx.err(line, item, "the point is not finite"))
-            }
+            Some(p) if !finite(&p) => return Err(cx.err(line, item, "the point is not finite")),
             Some(_) if d.velocity.is_some() => {
                 return Err(cx.err(line, item, "kind = \"point\" does not take `velocity`"))
             }
@@ -971,11 +1112,13 @@ fn check_desired(
         },
         DesiredKind::Constant => match d.velocity {
             None => {
-                return Err(cx.err(line, item, "kind = \"constant\" needs `velocity = [vx, vy]`"))
+                return Err(cx.err(
+                    line,
+                    item,
+                    "kind = \"constant\" needs `velocity = [vx, vy]`",
+                ))
             }
-            Some(v) if !finite(&v) => {
-                return Err(cx.err(line, item, "the velocity is not finite"))
-            }
+            Some(v) if !finite(&v) => return Err(cx.err(line, item, "the velocity is not finite")),
             Some(_) if d.point.is_some() => {
                 return Err(cx.err(line, item, "kind = \"constant\" does not take `point`"))
             }
@@ -997,7 +1140,12 @@ fn polygon_area(p: &[[f64; 2]]) -> f64 {
 
 fn bbox(p: &[[f64; 2]]) -> (f64, f64, f64, f64) {
     p.iter().fold(
-        (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
+        (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ),
         |(a, b, c, d), v| (a.min(v[0]), b.min(v[1]), c.max(v[0]), d.max(v[1])),
     )
 }
@@ -1016,7 +1164,10 @@ impl SpatialHash {
         }
     }
     fn key(&self, p: [f64; 2]) -> (i64, i64) {
-        ((p[0] / self.cell).floor() as i64, (p[1] / self.cell).floor() as i64)
+        (
+            (p[0] / self.cell).floor() as i64,
+            (p[1] / self.cell).floor() as i64,
+        )
     }
     fn insert(&mut self, p: [f64; 2], i: usize) {
         let k = self.key(p);
@@ -1054,12 +1205,16 @@ impl BuiltScene {
             q_final: self.problem.q0().to_vec(),
             t_final: self.problem.t0(),
         };
-        let fail = |run: Run, error: SweepError, observers: &mut [&mut dyn crate::stepper::Observer]| {
-            for o in observers.iter_mut() {
-                let _ = o.on_finish(Some(&error));
-            }
-            Box::new(RunFailure { error, partial: run })
-        };
+        let fail =
+            |run: Run, error: SweepError, observers: &mut [&mut dyn crate::stepper::Observer]| {
+                for o in observers.iter_mut() {
+                    let _ = o.on_finish(Some(&error));
+                }
+                Box::new(RunFailure {
+                    error,
+                    partial: run,
+                })
+            };
         let mut stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(e) => return Err(fail(start, e, observers)),
@@ -1109,7 +1264,10 @@ impl BuiltScene {
                     observer: o.name().to_string(),
                     message,
                 };
-                return Err(Box::new(RunFailure { error: e, partial: run }));
+                return Err(Box::new(RunFailure {
+                    error: e,
+                    partial: run,
+                }));
             }
         }
         Ok(run)

@@ -7,8 +7,7 @@ use std::path::PathBuf;
 use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::error::SweepError;
 use sweeping::output::{
-    steps_between, AnimationWriter, RunSummary, SnapshotWriter, SummaryCollector,
-    TrajectoryWriter,
+    steps_between, AnimationWriter, RunSummary, SnapshotWriter, SummaryCollector, TrajectoryWriter,
 };
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::{Observer, StepReport};
@@ -178,7 +177,10 @@ fn print_summary(s: &RunSummary, out: &std::path::Path) {
     );
     match s.evacuation_time {
         Some(t) => println!("  evacuation time: {t:.2} s"),
-        None => println!("  evacuation time: — (not everybody left by t = {:.2} s)", s.t_final),
+        None => println!(
+            "  evacuation time: — (not everybody left by t = {:.2} s)",
+            s.t_final
+        ),
     }
     let m = &s.ms_per_step;
     println!("  steps: {} (h = {}, t = {:.2} s)", s.steps, s.h, s.t_final);
@@ -193,7 +195,11 @@ fn print_summary(s: &RunSummary, out: &std::path::Path) {
     println!(
         "  max overlap: {:.3e}{}",
         s.max_overlap,
-        if s.max_overlap > 0.0 { format!(" ({})", s.max_overlap_at) } else { String::new() }
+        if s.max_overlap > 0.0 {
+            format!(" ({})", s.max_overlap_at)
+        } else {
+            String::new()
+        }
     );
     println!(
         "  max wall penetration: {:.3e}{}",
