@@ -91,7 +91,7 @@ impl Observer for TrajectoryWriter {
 
     fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
         let k = report.step + 1;
-        if k % self.every == 0 {
+        if k.is_multiple_of(self.every) {
             self.write_state(report.t, q)?;
             self.last_written_step = k;
             self.last = None;

@@ -55,9 +55,9 @@ pub(crate) fn static_layer(g: &SceneGeometry, unit: f64) -> String {
             -e.a[1],
             e.b[0],
             -e.b[1],
-            1.6 * unit,
-            2.0 * unit,
-            1.2 * unit
+            3.0 * unit,
+            3.0 * unit,
+            1.5 * unit
         );
     }
     s

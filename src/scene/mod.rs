@@ -582,10 +582,10 @@ impl Scene {
         };
 
         // ---- people
-        let default_desired = match &spec.desired {
-            Some(d) => Some((d.get_ref().clone(), cx.line_of(d))),
-            None => None,
-        };
+        let default_desired = spec
+            .desired
+            .as_ref()
+            .map(|d| (d.get_ref().clone(), cx.line_of(d)));
         if let Some((d, line)) = &default_desired {
             check_desired(&cx, Some(*line), "[desired]", d, !exits.is_empty())?;
         }
@@ -718,7 +718,7 @@ impl Scene {
                 check_desired(&cx, Some(line), &item, d, !exits.is_empty())?;
             }
             let region = cs.region.unwrap_or([bx0, by0, bx1, by1]);
-            if !finite(&region) || !(region[2] > region[0] && region[3] > region[1]) {
+            if !(finite(&region) && region[2] > region[0] && region[3] > region[1]) {
                 return Err(cx.err(Some(line), item, format!("the region [x0, y0, x1, y1] = {region:?} needs finite numbers, x1 > x0 and y1 > y0")));
             }
             let seed = match overrides.seed {
@@ -976,10 +976,28 @@ impl Scene {
         }
 
         let margin = 2.0 * population.max_radius() + 0.05 * scale;
+        // A moving obstacle pushes people who may not want to move: the prediction's drift
+        // (the stepper's first guess of the cutoff) is then too small and every step would be
+        // solved twice. Twice the distance the fastest obstacle covers in a step is a better
+        // floor (the culling proof still decides).
+        let obstacle_speed = obstacles
+            .iter()
+            .map(|(o, _, _)| match &o.motion {
+                Motion::Static => 0.0,
+                Motion::Velocity(v) => v[0].hypot(v[1]),
+                Motion::Path(p) => p
+                    .windows(2)
+                    .map(|w| {
+                        (w[1].1[0] - w[0].1[0]).hypot(w[1].1[1] - w[0].1[1]) / (w[1].0 - w[0].0)
+                    })
+                    .fold(0.0, f64::max),
+            })
+            .fold(0.0, f64::max);
         let settings = StepperSettings {
             h,
             t_end,
             record_every: 0,
+            min_cutoff: 2.0 * h * obstacle_speed,
             ..Default::default()
         };
         Ok(BuiltScene {

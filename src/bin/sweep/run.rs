@@ -47,7 +47,7 @@ impl Observer for Progress {
     }
     fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
         self.bar.set_position((r.step + 1) as u64);
-        if r.step % 10 == 0 {
+        if r.step.is_multiple_of(10) {
             self.bar.set_message(format!(
                 "t = {:.2} s, in the room {}/{}",
                 r.t,
