@@ -1,5 +1,5 @@
 //! What a crowd run leaves behind: a trajectory CSV, a JSON summary, SVG snapshots and a
-//! self-contained HTML animation. Each is an [`Observer`](crate::stepper::Observer), so a run
+//! self-contained HTML animation. Each is an [`Observer`], so a run
 //! writes them as it goes and a failed run still leaves what it computed.
 //!
 //! * [`TrajectoryWriter`] — `t,id,x,y,present`, buffered, flushed at the end even on failure;

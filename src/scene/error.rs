@@ -37,7 +37,7 @@ pub enum SceneError {
         file: String,
         /// Line of the item (1-based), when it has one.
         line: Option<usize>,
-        /// The item, e.g. "[[people]] #3".
+        /// The item, e.g. `[[people]] #3`.
         item: String,
         /// What is wrong.
         message: String,

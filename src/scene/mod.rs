@@ -169,7 +169,7 @@ pub struct BuiltScene {
     pub speeds: Vec<f64>,
     /// Group of each person (index into [`BuiltScene::groups`]), for colours and reports.
     pub group_of: Vec<usize>,
-    /// Names of the groups ("[[people]] #1", "[[crowds]] #2 (150 people)").
+    /// Names of the groups (`[[people]] #1`, `[[crowds]] #2 (150 people)`).
     pub groups: Vec<String>,
     /// Step, horizon and the rest.
     pub settings: StepperSettings,
