@@ -8,13 +8,12 @@
 #[non_exhaustive]
 pub enum SceneError {
     /// The file could not be read.
-    #[error("{file}: cannot read the scene file: {source}")]
+    #[error("{file}: cannot read the scene file: {reason}")]
     Io {
         /// The file.
         file: String,
-        /// The system's error.
-        #[source]
-        source: std::io::Error,
+        /// The system's error (in the message, so not also a `source`).
+        reason: std::io::Error,
     },
     /// The file is not valid TOML, or does not match the schema (missing field, unknown key,
     /// wrong type).

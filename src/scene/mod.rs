@@ -235,9 +235,9 @@ impl Scene {
     pub fn from_file(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        let text = std::fs::read_to_string(path).map_err(|reason| SceneError::Io {
             file: file.clone(),
-            source,
+            reason,
         })?;
         let mut scene = Self::from_toml_str(&text, &file)?;
         if scene.spec.name.is_none() {
