@@ -13,7 +13,9 @@
 //!   a by-name constructor.
 //! * [`assumptions`] — the constants of assumptions A0–A5 measured, the paper's derived
 //!   constants (η, Θ, r), and run-time bound checks.
-//! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles.
+//! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles; desired velocities.
+//! * [`scene`] — crowd scenes as TOML files, built with only the effects they call for.
+//! * [`output`] — trajectory CSV, run summary, SVG snapshots, HTML animation.
 #![deny(missing_docs)]
 
 pub mod assumptions;
@@ -22,7 +24,9 @@ pub mod constraint;
 pub mod crowd;
 pub mod error;
 pub mod observers;
+pub mod output;
 pub mod problem;
+pub mod scene;
 pub mod stepper;
 
 pub use error::SweepError;

@@ -10,10 +10,12 @@
 //! People who have left through an exit (their centre outside the room by more than their
 //! radius, see [`Population`]) drop out of every constraint and keep walking straight on.
 
+pub mod fast_marching;
 mod pairs;
 mod population;
 mod shapes;
+pub mod velocity;
 
 pub use pairs::{DiskPairKernel, DiskPairs};
-pub use population::{Population, Room};
+pub use population::{segment_distance, Population, Room};
 pub use shapes::{Motion, PersonShapeKernel, PersonShapes, Shape, ShapeParams};

@@ -1,13 +1,220 @@
-//! `sweep run` (being built).
+//! `sweep run`: run a scene and write its trajectory, summary, snapshots and animation.
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use sweeping::backends::{make_projector, BackendChoice};
+use sweeping::error::SweepError;
+use sweeping::output::{
+    steps_between, AnimationWriter, RunSummary, SnapshotWriter, SummaryCollector, TrajectoryWriter,
+};
+use sweeping::scene::{Overrides, Scene};
+use sweeping::stepper::{Observer, StepReport};
 
 /// Arguments of `sweep run`.
 #[derive(clap::Args)]
 pub struct RunArgs {
     /// The scene file.
-    pub scene: std::path::PathBuf,
+    pub scene: PathBuf,
+    /// Output directory (default `out/<scene name>/`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Projection backend: clarabel, osqp, cross or reference (default: the scene's).
+    #[arg(long)]
+    pub backend: Option<BackendChoice>,
+    /// Time step (default: the scene's).
+    #[arg(long)]
+    pub h: Option<f64>,
+    /// Horizon in seconds (default: the scene's).
+    #[arg(long = "t-end")]
+    pub t_end: Option<f64>,
+    /// Seed of the random placements (default: the scene's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+/// A progress bar on stderr, hidden when stderr is not a terminal.
+struct Progress {
+    bar: ProgressBar,
+    people: usize,
+    population: std::sync::Arc<sweeping::crowd::Population>,
+}
+
+impl Observer for Progress {
+    fn name(&self) -> &str {
+        "progress bar"
+    }
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+        self.bar.set_position((r.step + 1) as u64);
+        if r.step.is_multiple_of(10) {
+            self.bar.set_message(format!(
+                "t = {:.2} s, in the room {}/{}",
+                r.t,
+                self.population.present_count(q),
+                self.people
+            ));
+        }
+        Ok(())
+    }
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+        self.bar.finish_and_clear();
+        Ok(())
+    }
 }
 
 /// Entry point of `sweep run`.
-pub fn main(_args: RunArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`sweep run` is not built yet")
+pub fn main(args: RunArgs) -> Result<()> {
+    let scene = Scene::from_file(&args.scene)?;
+    let overrides = Overrides {
+        h: args.h,
+        t_end: args.t_end,
+        seed: args.seed,
+        backend: args.backend,
+        all_pairs: false,
+    };
+    let built = scene.build(&overrides)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&built.name));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let h = built.settings.h;
+    let t_end = built.settings.t_end;
+    let backend_name = built.backend.to_string();
+
+    let mut summary = SummaryCollector::new(
+        &built.name,
+        &built.problem,
+        built.population.clone(),
+        &backend_name,
+        h,
+        t_end,
+    );
+    let summary_path = out.join("summary.json");
+    let mut projector = match make_projector(built.backend) {
+        Ok(p) => p,
+        Err(e) => {
+            summary.mark_failed(&e);
+            let _ = summary.write_json(&summary_path);
+            anyhow::bail!("{e}");
+        }
+    };
+    let mut trajectory = TrajectoryWriter::new(
+        out.join("trajectory.csv"),
+        built.population.clone(),
+        steps_between(built.output.trajectory_every, h),
+    );
+    let mut snapshots = SnapshotWriter::new(
+        out.join("snapshots"),
+        built.geometry.clone(),
+        built.population.clone(),
+        built.group_of.clone(),
+        &built.name,
+        built.output.snapshot_every,
+    );
+    let mut animation = AnimationWriter::new(
+        out.join("animation.html"),
+        built.geometry.clone(),
+        built.population.clone(),
+        built.group_of.clone(),
+        &built.name,
+        t_end,
+        h,
+        built.output.animation_frames,
+    );
+    let n_steps = ((t_end / h) - 1e-9).ceil().max(0.0) as u64;
+    let bar = if std::io::stderr().is_terminal() {
+        ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr())
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} steps [{elapsed} < {eta}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut progress = Progress {
+        bar,
+        people: built.population.len(),
+        population: built.population.clone(),
+    };
+    eprintln!(
+        "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name} → {}",
+        built.name,
+        built.population.len(),
+        out.display()
+    );
+    let result = built.run(
+        projector.as_mut(),
+        &mut [
+            &mut trajectory,
+            &mut summary,
+            &mut snapshots,
+            &mut animation,
+            &mut progress,
+        ],
+    );
+    summary
+        .write_json(&summary_path)
+        .with_context(|| format!("writing {}", summary_path.display()))?;
+    print_summary(summary.summary(), &out);
+    match result {
+        Ok(_) => Ok(()),
+        Err(failure) => Err(anyhow::anyhow!(
+            "{failure}; what was computed is in {}",
+            out.display()
+        )),
+    }
+}
+
+fn print_summary(s: &RunSummary, out: &std::path::Path) {
+    println!("scene `{}` ({}, backend {})", s.scene, s.status, s.backend);
+    println!(
+        "  people: {}, left: {}, remaining: {}",
+        s.people,
+        s.people - s.people_remaining,
+        s.people_remaining
+    );
+    match s.evacuation_time {
+        Some(t) => println!("  evacuation time: {t:.2} s"),
+        None => println!(
+            "  evacuation time: — (not everybody left by t = {:.2} s)",
+            s.t_final
+        ),
+    }
+    let m = &s.ms_per_step;
+    println!("  steps: {} (h = {}, t = {:.2} s)", s.steps, s.h, s.t_final);
+    println!(
+        "  ms per step: {:.3} total = effects {:.3} + broad phase {:.3} + assembly {:.3} + projection {:.3} + check {:.3}",
+        m.total, m.effects, m.broad_phase, m.assembly, m.projection, m.check
+    );
+    println!(
+        "  solver iterations: {} over {} solves (max rows {}, max active {})",
+        s.solver_iterations, s.solves, s.max_rows, s.max_active
+    );
+    println!(
+        "  max overlap: {:.3e}{}",
+        s.max_overlap,
+        if s.max_overlap > 0.0 {
+            format!(" ({})", s.max_overlap_at)
+        } else {
+            String::new()
+        }
+    );
+    println!(
+        "  max wall penetration: {:.3e}{}",
+        s.max_wall_penetration,
+        if s.max_wall_penetration > 0.0 {
+            format!(" ({})", s.max_wall_penetration_at)
+        } else {
+            String::new()
+        }
+    );
+    if let Some(e) = &s.error {
+        println!("  error: {e}");
+    }
+    println!(
+        "  outputs: {}/{{trajectory.csv, summary.json, snapshots/, animation.html}}",
+        out.display()
+    );
 }

@@ -1,0 +1,180 @@
+//! Desired velocities: the perturbation `f(q) = (U₁(q₁), …, U_N(q_N))` of the crowd model.
+//!
+//! A scene composes only the terms it declares: each [`VelocityField`] drives a list of
+//! people, and [`DesiredVelocity`] evaluates each term on its people only. No geodesic field
+//! is computed unless some people head for the exits.
+//!
+//! People whose centre is outside the room (they are going through a door, or have left) keep
+//! walking straight on: their velocity is their speed times the outward normal of the nearest
+//! exit. The dimension of `q` never changes (the convergence study compares configurations).
+
+use super::fast_marching::DistanceField;
+use super::population::segment_distance;
+use super::Population;
+use crate::problem::Perturbation;
+use std::sync::Arc;
+
+/// A desired velocity as a function of position, for a person of desired speed `speed`.
+///
+/// ```
+/// use sweeping::crowd::velocity::{TowardsPoint, VelocityField};
+/// let field = TowardsPoint { point: [3.0, 4.0] };
+/// let v = field.velocity([0.0, 0.0], 2.0);
+/// assert!((v[0] - 1.2).abs() < 1e-12 && (v[1] - 1.6).abs() < 1e-12);
+/// ```
+pub trait VelocityField: Send + Sync {
+    /// The velocity at `p`.
+    fn velocity(&self, p: [f64; 2], speed: f64) -> [f64; 2];
+    /// A short description for reports ("towards the nearest exit (geodesic)").
+    fn describe(&self) -> String;
+}
+
+/// The same velocity everywhere (the person's speed is not used).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConstantVelocity(pub [f64; 2]);
+
+impl VelocityField for ConstantVelocity {
+    fn velocity(&self, _p: [f64; 2], _speed: f64) -> [f64; 2] {
+        self.0
+    }
+    fn describe(&self) -> String {
+        format!("constant velocity ({}, {})", self.0[0], self.0[1])
+    }
+}
+
+/// Straight towards a point at the person's speed, slowing down linearly within
+/// [`TowardsPoint::ARRIVAL`] of it (so the field is continuous and vanishes at the point).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TowardsPoint {
+    /// The target.
+    pub point: [f64; 2],
+}
+
+impl TowardsPoint {
+    /// Radius of the slow-down zone around the target: `0.1`.
+    pub const ARRIVAL: f64 = 0.1;
+}
+
+impl VelocityField for TowardsPoint {
+    fn velocity(&self, p: [f64; 2], speed: f64) -> [f64; 2] {
+        let d = [self.point[0] - p[0], self.point[1] - p[1]];
+        let n = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        let scale = speed / n.max(Self::ARRIVAL);
+        [d[0] * scale, d[1] * scale]
+    }
+    fn describe(&self) -> String {
+        format!("towards the point ({}, {})", self.point[0], self.point[1])
+    }
+}
+
+/// Towards the nearest exit around the obstacles: speed times the descent direction of the
+/// geodesic distance (see [`DistanceField::direction`]).
+#[derive(Debug, Clone)]
+pub struct TowardsExits {
+    /// The distance field.
+    pub field: Arc<DistanceField>,
+}
+
+impl VelocityField for TowardsExits {
+    fn velocity(&self, p: [f64; 2], speed: f64) -> [f64; 2] {
+        let d = self.field.direction(p);
+        [d[0] * speed, d[1] * speed]
+    }
+    fn describe(&self) -> String {
+        format!(
+            "towards the nearest exit (geodesic, fast marching on a {}×{} grid of cell {})",
+            self.field.grid().nx,
+            self.field.grid().ny,
+            self.field.grid().cell
+        )
+    }
+}
+
+/// An exit segment and its outward unit normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExitSegment {
+    /// One end.
+    pub a: [f64; 2],
+    /// The other end.
+    pub b: [f64; 2],
+    /// Unit normal pointing out of the room.
+    pub outward: [f64; 2],
+}
+
+/// The crowd's desired velocity, composed of the terms a scene declares.
+///
+/// ```
+/// use std::sync::Arc;
+/// use sweeping::crowd::{Population, Room};
+/// use sweeping::crowd::velocity::{ConstantVelocity, DesiredVelocity};
+/// use sweeping::problem::Perturbation;
+/// let pop = Population::new(vec![0.2, 0.2]).with_room(Room::rectangle(0.0, 0.0, 5.0, 5.0)).shared();
+/// let f = DesiredVelocity::new(pop, vec![1.0, 1.0], Vec::new())
+///     .with_term(Box::new(ConstantVelocity([0.5, 0.0])), vec![1]);
+/// let mut v = [9.0; 4];
+/// f.eval(0.0, &[1.0, 1.0, 2.0, 2.0], &mut v);
+/// assert_eq!(v, [0.0, 0.0, 0.5, 0.0]); // person 0 has no term: it stands still
+/// ```
+pub struct DesiredVelocity {
+    population: Arc<Population>,
+    speeds: Vec<f64>,
+    terms: Vec<(Box<dyn VelocityField>, Vec<usize>)>,
+    exits: Vec<ExitSegment>,
+}
+
+impl DesiredVelocity {
+    /// No term yet: everybody stands still. `speeds[i]` is person `i`'s desired speed, also
+    /// used once the person is outside the room.
+    pub fn new(population: Arc<Population>, speeds: Vec<f64>, exits: Vec<ExitSegment>) -> Self {
+        Self {
+            population,
+            speeds,
+            terms: Vec::new(),
+            exits,
+        }
+    }
+
+    /// Adds a term driving `people`.
+    pub fn with_term(mut self, field: Box<dyn VelocityField>, people: Vec<usize>) -> Self {
+        self.terms.push((field, people));
+        self
+    }
+
+    /// The terms and who they drive.
+    pub fn terms(&self) -> &[(Box<dyn VelocityField>, Vec<usize>)] {
+        &self.terms
+    }
+
+    /// The outward normal of the exit nearest to `p`, if there is an exit.
+    pub fn nearest_exit_normal(&self, p: [f64; 2]) -> Option<[f64; 2]> {
+        self.exits
+            .iter()
+            .map(|e| (segment_distance(p, e.a, e.b), e.outward))
+            .min_by(|x, y| x.0.total_cmp(&y.0))
+            .map(|(_, n)| n)
+    }
+}
+
+impl Perturbation for DesiredVelocity {
+    fn eval(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|v| *v = 0.0);
+        let room = self.population.room();
+        for (field, people) in &self.terms {
+            for &i in people {
+                let p = Population::position(q, i);
+                let speed = self.speeds[i];
+                let outside = room.is_some_and(|r| !r.contains(p));
+                let v = match (outside, self.nearest_exit_normal(p)) {
+                    (true, Some(n)) => [n[0] * speed, n[1] * speed],
+                    _ => field.velocity(p, speed),
+                };
+                out[2 * i] = v[0];
+                out[2 * i + 1] = v[1];
+            }
+        }
+    }
+
+    fn is_time_dependent(&self) -> bool {
+        false
+    }
+}

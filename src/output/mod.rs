@@ -1,0 +1,348 @@
+//! What a crowd run leaves behind: a trajectory CSV, a JSON summary, SVG snapshots and a
+//! self-contained HTML animation. Each is an [`Observer`], so a run
+//! writes them as it goes and a failed run still leaves what it computed.
+//!
+//! * [`TrajectoryWriter`] — `t,id,x,y,present`, buffered, flushed at the end even on failure;
+//! * [`SummaryCollector`] — evacuation time, people out over time, steps, time per stage,
+//!   solver iterations, largest overlap and wall penetration, status; [`RunSummary`] is the
+//!   JSON;
+//! * [`SnapshotWriter`] — SVG pictures every `snapshot_every` seconds and at the end;
+//! * [`AnimationWriter`] — one HTML page with inline SVG and a few lines of JavaScript
+//!   (play/pause, time slider, speed).
+
+mod html;
+mod svg;
+
+pub use html::AnimationWriter;
+pub use svg::{render_svg, SnapshotWriter};
+
+use crate::constraint::LinearizedRow;
+use crate::crowd::Population;
+use crate::error::SweepError;
+use crate::problem::Problem;
+use crate::stepper::{Observer, StageTimes, StepReport};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Writes `t,id,x,y,present` rows every `every` steps (and the first and last states) to a
+/// CSV file. `present` is 1 while the person is in the room, 0 once they have left.
+pub struct TrajectoryWriter {
+    path: PathBuf,
+    out: Option<std::io::BufWriter<std::fs::File>>,
+    population: Arc<Population>,
+    every: usize,
+    last: Option<(f64, Vec<f64>)>,
+    last_written_step: usize,
+}
+
+impl TrajectoryWriter {
+    /// A writer to `path` (created or truncated at the start of the run), keeping every
+    /// `every`-th step (`every ≥ 1`).
+    pub fn new(path: impl Into<PathBuf>, population: Arc<Population>, every: usize) -> Self {
+        Self {
+            path: path.into(),
+            out: None,
+            population,
+            every: every.max(1),
+            last: None,
+            last_written_step: 0,
+        }
+    }
+
+    /// Where it writes.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn write_state(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+        let pop = self.population.clone();
+        let Some(out) = self.out.as_mut() else {
+            return Ok(());
+        };
+        for i in 0..pop.len() {
+            writeln!(
+                out,
+                "{t},{i},{},{},{}",
+                q[2 * i],
+                q[2 * i + 1],
+                u8::from(pop.is_present(q, i))
+            )
+            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        }
+        Ok(())
+    }
+}
+
+impl Observer for TrajectoryWriter {
+    fn name(&self) -> &str {
+        "trajectory writer"
+    }
+
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+        let file = std::fs::File::create(&self.path)
+            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        let mut out = std::io::BufWriter::new(file);
+        writeln!(out, "t,id,x,y,present").map_err(|e| format!("{}: {e}", self.path.display()))?;
+        self.out = Some(out);
+        self.write_state(t, q)
+    }
+
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+        let k = report.step + 1;
+        if k.is_multiple_of(self.every) {
+            self.write_state(report.t, q)?;
+            self.last_written_step = k;
+            self.last = None;
+        } else {
+            self.last = Some((report.t, q.to_vec()));
+        }
+        Ok(())
+    }
+
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+        if let Some((t, q)) = self.last.take() {
+            self.write_state(t, &q)?;
+        }
+        if let Some(out) = self.out.as_mut() {
+            out.flush()
+                .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        }
+        Ok(())
+    }
+}
+
+/// Wall-clock milliseconds per step, by stage (averages over the steps done).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct MsPerStep {
+    /// The prediction `y = q + h f`.
+    pub effects: f64,
+    /// Candidate selection.
+    pub broad_phase: f64,
+    /// Linearization and assembly.
+    pub assembly: f64,
+    /// The QP.
+    pub projection: f64,
+    /// Culling proof and constraint check.
+    pub check: f64,
+    /// All stages.
+    pub total: f64,
+}
+
+/// The JSON summary of a run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    /// Scene name.
+    pub scene: String,
+    /// `"completed"` (reached `T`), `"everybody left"` (stopped early) or `"failed"`.
+    pub status: String,
+    /// The error, when the run failed.
+    pub error: Option<String>,
+    /// Backend.
+    pub backend: String,
+    /// People.
+    pub people: usize,
+    /// Time step.
+    pub h: f64,
+    /// Horizon asked for.
+    pub t_end: f64,
+    /// Last time reached.
+    pub t_final: f64,
+    /// Steps done.
+    pub steps: usize,
+    /// The first time at which nobody was left in the room (`None` if some remain).
+    pub evacuation_time: Option<f64>,
+    /// `(t, number of people out)` at `t = 0` and each time the number changed.
+    pub people_out: Vec<(f64, usize)>,
+    /// People still in the room at the end.
+    pub people_remaining: usize,
+    /// Seconds per stage, summed over the run.
+    pub seconds_per_stage: StageTimes,
+    /// Milliseconds per step, by stage.
+    pub ms_per_step: MsPerStep,
+    /// Solver iterations, summed.
+    pub solver_iterations: u64,
+    /// QP solves (more than steps when a culling proof needed a re-solve).
+    pub solves: u64,
+    /// Most rows in one QP.
+    pub max_rows: usize,
+    /// Most active rows in one QP.
+    pub max_active: usize,
+    /// Largest overlap of two people after any step: `max(0, −min D_ij)`.
+    pub max_overlap: f64,
+    /// Where and when it happened.
+    pub max_overlap_at: String,
+    /// Largest penetration of a person into a wall or obstacle after any step.
+    pub max_wall_penetration: f64,
+    /// Where and when it happened.
+    pub max_wall_penetration_at: String,
+}
+
+/// Collects a [`RunSummary`] as the run goes.
+pub struct SummaryCollector<'a> {
+    problem: &'a Problem,
+    population: Arc<Population>,
+    summary: RunSummary,
+    cands: Vec<usize>,
+    row: LinearizedRow,
+    last_out: usize,
+}
+
+impl<'a> SummaryCollector<'a> {
+    /// A collector for a run of `problem` (whose people are `population`).
+    pub fn new(
+        scene: &str,
+        problem: &'a Problem,
+        population: Arc<Population>,
+        backend: &str,
+        h: f64,
+        t_end: f64,
+    ) -> Self {
+        Self {
+            problem,
+            summary: RunSummary {
+                scene: scene.to_string(),
+                status: "running".into(),
+                backend: backend.to_string(),
+                people: population.len(),
+                h,
+                t_end,
+                ..Default::default()
+            },
+            population,
+            cands: Vec::new(),
+            row: LinearizedRow::default(),
+            last_out: 0,
+        }
+    }
+
+    /// The summary so far.
+    pub fn summary(&self) -> &RunSummary {
+        &self.summary
+    }
+
+    /// Marks the summary as failed with `message` (for errors the stepper never saw, such as
+    /// a backend that could not be built).
+    pub fn mark_failed(&mut self, message: &str) {
+        self.summary.status = "failed".into();
+        self.summary.error = Some(message.to_string());
+    }
+
+    /// Writes the summary as pretty JSON.
+    ///
+    /// # Errors
+    /// The file could not be written.
+    pub fn write_json(&self, path: &Path) -> std::io::Result<()> {
+        let text = serde_json::to_string_pretty(&self.summary).map_err(std::io::Error::other)?;
+        std::fs::write(path, text + "\n")
+    }
+
+    /// The most negative value of the constraints of each kind at `(t, q)`: pairs of people,
+    /// and walls or obstacles.
+    fn violations(&mut self, t: f64, q: &[f64]) -> [(f64, String); 2] {
+        let mut worst = [(0.0, String::new()), (0.0, String::new())];
+        for fam in self.problem.families() {
+            let slot = usize::from(fam.name() != "pairs of people");
+            self.cands.clear();
+            fam.candidates(t, q, 0.0, &mut self.cands);
+            for &i in &self.cands {
+                fam.linearize(i, t, q, false, &mut self.row);
+                if -self.row.value > worst[slot].0 {
+                    worst[slot] = (-self.row.value, fam.describe(i));
+                }
+            }
+        }
+        worst
+    }
+
+    fn record(&mut self, t: f64, q: &[f64]) {
+        let present = self.population.present_count(q);
+        let out = self.population.len() - present;
+        if out != self.last_out || self.summary.people_out.is_empty() {
+            self.summary.people_out.push((t, out));
+            self.last_out = out;
+        }
+        self.summary.people_remaining = present;
+        if present == 0 && self.summary.evacuation_time.is_none() {
+            self.summary.evacuation_time = Some(t);
+        }
+        let [(ov, ow), (pv, pw)] = self.violations(t, q);
+        if ov > self.summary.max_overlap {
+            self.summary.max_overlap = ov;
+            self.summary.max_overlap_at = format!("{ow} at t = {t}");
+        }
+        if pv > self.summary.max_wall_penetration {
+            self.summary.max_wall_penetration = pv;
+            self.summary.max_wall_penetration_at = format!("{pw} at t = {t}");
+        }
+        self.summary.t_final = t;
+    }
+}
+
+impl Observer for SummaryCollector<'_> {
+    fn name(&self) -> &str {
+        "summary"
+    }
+
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+        self.record(t, q);
+        Ok(())
+    }
+
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+        let s = &mut self.summary;
+        s.steps += 1;
+        s.seconds_per_stage.effects += r.times.effects;
+        s.seconds_per_stage.broad_phase += r.times.broad_phase;
+        s.seconds_per_stage.assembly += r.times.assembly;
+        s.seconds_per_stage.projection += r.times.projection;
+        s.seconds_per_stage.check += r.times.check;
+        s.solver_iterations += u64::from(r.iterations);
+        s.solves += r.solves as u64;
+        s.max_rows = s.max_rows.max(r.rows);
+        s.max_active = s.max_active.max(r.active);
+        self.record(r.t, q);
+        Ok(())
+    }
+
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+        let s = &mut self.summary;
+        let per = |v: f64| {
+            if s.steps > 0 {
+                1e3 * v / s.steps as f64
+            } else {
+                0.0
+            }
+        };
+        let st = s.seconds_per_stage;
+        s.ms_per_step = MsPerStep {
+            effects: per(st.effects),
+            broad_phase: per(st.broad_phase),
+            assembly: per(st.assembly),
+            projection: per(st.projection),
+            check: per(st.check),
+            total: per(st.total()),
+        };
+        match error {
+            Some(e) => {
+                s.status = "failed".into();
+                s.error = Some(e.to_string());
+            }
+            None => {
+                let reached_end = s.t_final >= s.t_end - 1e-9 * s.t_end.abs().max(1.0);
+                s.status = if reached_end || s.people_remaining > 0 {
+                    "completed".into()
+                } else {
+                    "everybody left".into()
+                };
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `every` steps between writes so that writes are `interval` seconds apart (at least 1).
+pub fn steps_between(interval: f64, h: f64) -> usize {
+    ((interval / h).round() as usize).max(1)
+}

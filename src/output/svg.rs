@@ -1,0 +1,268 @@
+//! SVG pictures of a crowd at one time.
+
+use crate::crowd::Population;
+use crate::error::SweepError;
+use crate::scene::{ObstacleShape, SceneGeometry};
+use crate::stepper::{Observer, StepReport};
+use std::fmt::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Fill colours of the groups of people, in order.
+pub(crate) const PALETTE: [&str; 8] = [
+    "#3b75af", "#e07b39", "#519e3e", "#c53a32", "#8d69b8", "#84584e", "#d57dbe", "#7f7f7f",
+];
+/// Outline colours matching [`PALETTE`].
+pub(crate) const PALETTE_DARK: [&str; 8] = [
+    "#1f4e7a", "#9c4f1c", "#2f6a22", "#86211b", "#5b3f82", "#573830", "#9c4a87", "#4d4d4d",
+];
+
+pub(crate) const ROOM_FILL: &str = "#f5f2eb";
+pub(crate) const WALL: &str = "#2b2b2b";
+pub(crate) const EXIT: &str = "#19a35b";
+pub(crate) const OBSTACLE: &str = "#9a9a9a";
+
+/// The static part of a picture (room floor, walls, exits), in metres with `y` pointing up
+/// (the SVG's `y` is `−y`).
+pub(crate) fn static_layer(g: &SceneGeometry, unit: f64) -> String {
+    let mut s = String::new();
+    let pts: Vec<String> = g
+        .room
+        .iter()
+        .map(|p| format!("{:.4},{:.4}", p[0], -p[1]))
+        .collect();
+    let _ = writeln!(
+        s,
+        r#"<polygon points="{}" fill="{ROOM_FILL}" stroke="none"/>"#,
+        pts.join(" ")
+    );
+    for (a, b) in &g.walls {
+        let _ = writeln!(
+            s,
+            r#"<line x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{WALL}" stroke-width="{:.4}" stroke-linecap="square"/>"#,
+            a[0],
+            -a[1],
+            b[0],
+            -b[1],
+            1.6 * unit
+        );
+    }
+    for e in &g.exits {
+        let _ = writeln!(
+            s,
+            r#"<line x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{EXIT}" stroke-width="{:.4}" stroke-dasharray="{:.4} {:.4}"/>"#,
+            e.a[0],
+            -e.a[1],
+            e.b[0],
+            -e.b[1],
+            3.0 * unit,
+            3.0 * unit,
+            1.5 * unit
+        );
+    }
+    s
+}
+
+/// One obstacle displaced by `offset`, as an SVG element.
+pub(crate) fn obstacle_element(shape: &ObstacleShape, offset: [f64; 2], unit: f64) -> String {
+    match shape {
+        ObstacleShape::Disk { center, radius } => format!(
+            r#"<circle cx="{:.4}" cy="{:.4}" r="{:.4}" fill="{OBSTACLE}" stroke="{WALL}" stroke-width="{:.4}"/>"#,
+            center[0] + offset[0],
+            -(center[1] + offset[1]),
+            radius,
+            0.5 * unit
+        ),
+        ObstacleShape::Segment { a, b } => format!(
+            r#"<line x1="{:.4}" y1="{:.4}" x2="{:.4}" y2="{:.4}" stroke="{WALL}" stroke-width="{:.4}" stroke-linecap="round"/>"#,
+            a[0] + offset[0],
+            -(a[1] + offset[1]),
+            b[0] + offset[0],
+            -(b[1] + offset[1]),
+            1.6 * unit
+        ),
+        ObstacleShape::Polygon(p) => {
+            let pts: Vec<String> = p
+                .iter()
+                .map(|v| format!("{:.4},{:.4}", v[0] + offset[0], -(v[1] + offset[1])))
+                .collect();
+            format!(
+                r#"<polygon points="{}" fill="{OBSTACLE}" stroke="{WALL}" stroke-width="{:.4}"/>"#,
+                pts.join(" "),
+                0.5 * unit
+            )
+        }
+    }
+}
+
+/// `(unit, width, height)`: a line-width unit in metres and the picture's size in metres.
+pub(crate) fn frame(g: &SceneGeometry) -> (f64, f64, f64) {
+    let w = g.bounds[2] - g.bounds[0];
+    let h = g.bounds[3] - g.bounds[1];
+    (w.max(h) / 400.0, w, h)
+}
+
+/// An SVG picture of the crowd at time `t`: the room, its walls (dark) and exits (green,
+/// dashed), the obstacles where they are at `t`, and every person still in the room as a disk
+/// coloured by group.
+pub fn render_svg(
+    g: &SceneGeometry,
+    population: &Population,
+    group_of: &[usize],
+    q: &[f64],
+    t: f64,
+    title: &str,
+) -> String {
+    let (unit, w, h) = frame(g);
+    let header = 0.07 * w.max(h);
+    let px_w = 800.0;
+    let px_h = px_w * (h + header) / w;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{px_w:.0}" height="{px_h:.0}" viewBox="{:.4} {:.4} {:.4} {:.4}">"#,
+        g.bounds[0],
+        -g.bounds[3] - header,
+        w,
+        h + header
+    );
+    let _ = writeln!(
+        s,
+        r#"<rect x="{:.4}" y="{:.4}" width="{:.4}" height="{:.4}" fill="white"/>"#,
+        g.bounds[0],
+        -g.bounds[3] - header,
+        w,
+        h + header
+    );
+    s.push_str(&static_layer(g, unit));
+    for o in &g.obstacles {
+        s.push_str(&obstacle_element(&o.shape, o.offset(t), unit));
+        s.push('\n');
+    }
+    let present = population.present_count(q);
+    for i in 0..population.len() {
+        if !population.is_present(q, i) {
+            continue;
+        }
+        let c = group_of.get(i).copied().unwrap_or(0) % PALETTE.len();
+        let _ = writeln!(
+            s,
+            r#"<circle cx="{:.4}" cy="{:.4}" r="{:.4}" fill="{}" stroke="{}" stroke-width="{:.4}"/>"#,
+            q[2 * i],
+            -q[2 * i + 1],
+            population.radius(i),
+            PALETTE[c],
+            PALETTE_DARK[c],
+            0.4 * unit
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.4}" y="{:.4}" font-family="Helvetica, Arial, sans-serif" font-size="{:.4}" fill="{WALL}">{} — t = {:.2} s — in the room: {} / {}</text>"#,
+        g.bounds[0] + 0.02 * w,
+        -g.bounds[3] - 0.3 * header,
+        0.45 * header,
+        xml_escape(title),
+        t,
+        present,
+        population.len()
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+pub(crate) fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// Writes an SVG snapshot at `t₀`, every `every` seconds, and at the end of the run, into a
+/// directory (files `t0000.00.svg`, … and `final.svg`).
+pub struct SnapshotWriter {
+    dir: PathBuf,
+    geometry: SceneGeometry,
+    population: Arc<Population>,
+    group_of: Vec<usize>,
+    title: String,
+    every: f64,
+    next: f64,
+    last: Option<(f64, Vec<f64>)>,
+    written: Vec<PathBuf>,
+}
+
+impl SnapshotWriter {
+    /// Snapshots of a scene every `every` seconds into `dir` (created if needed).
+    pub fn new(
+        dir: impl Into<PathBuf>,
+        geometry: SceneGeometry,
+        population: Arc<Population>,
+        group_of: Vec<usize>,
+        title: &str,
+        every: f64,
+    ) -> Self {
+        Self {
+            dir: dir.into(),
+            geometry,
+            population,
+            group_of,
+            title: title.to_string(),
+            every,
+            next: 0.0,
+            last: None,
+            written: Vec::new(),
+        }
+    }
+
+    /// The files written so far.
+    pub fn written(&self) -> &[PathBuf] {
+        &self.written
+    }
+
+    fn write(&mut self, name: &str, t: f64, q: &[f64]) -> Result<(), String> {
+        let svg = render_svg(
+            &self.geometry,
+            &self.population,
+            &self.group_of,
+            q,
+            t,
+            &self.title,
+        );
+        let path = self.dir.join(name);
+        std::fs::write(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
+        self.written.push(path);
+        Ok(())
+    }
+}
+
+impl Observer for SnapshotWriter {
+    fn name(&self) -> &str {
+        "snapshot writer"
+    }
+
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+        std::fs::create_dir_all(&self.dir).map_err(|e| format!("{}: {e}", self.dir.display()))?;
+        self.write(&format!("t{t:07.2}.svg"), t, q)?;
+        self.next = t + self.every;
+        Ok(())
+    }
+
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+        if r.t >= self.next - 1e-9 * self.next.abs().max(1.0) {
+            self.write(&format!("t{:07.2}.svg", r.t), r.t, q)?;
+            while self.next <= r.t + 1e-9 * r.t.abs().max(1.0) {
+                self.next += self.every;
+            }
+        }
+        self.last = Some((r.t, q.to_vec()));
+        Ok(())
+    }
+
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+        if let Some((t, q)) = self.last.take() {
+            self.write("final.svg", t, &q)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,200 @@
+//! The scene file's schema: plain serde structs, unknown keys refused.
+//!
+//! Every table that may be wrong on its own is wrapped in [`toml::Spanned`], so that errors
+//! found after parsing (an exit off the walls, two people overlapping) name its line.
+
+use crate::backends::BackendChoice;
+use serde::Deserialize;
+use toml::Spanned;
+
+/// A whole scene file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// Name of the scene (default: the file's stem); outputs go to `out/<name>/`.
+    pub name: Option<String>,
+    /// Free text.
+    pub description: Option<String>,
+    /// The room.
+    pub room: Spanned<RoomSpec>,
+    /// Exits: segments on the room's walls.
+    #[serde(default)]
+    pub exits: Vec<Spanned<ExitSpec>>,
+    /// Obstacles inside the room, fixed or moving.
+    #[serde(default)]
+    pub obstacles: Vec<Spanned<ObstacleSpec>>,
+    /// People listed one by one.
+    #[serde(default)]
+    pub people: Vec<Spanned<PersonSpec>>,
+    /// Groups of people placed at random.
+    #[serde(default)]
+    pub crowds: Vec<Spanned<CrowdSpec>>,
+    /// The desired velocity of everybody without their own.
+    pub desired: Option<Spanned<DesiredSpec>>,
+    /// Settings of the geodesic field.
+    pub geodesic: Option<Spanned<GeodesicSpec>>,
+    /// Time step, horizon, backend.
+    pub run: Option<Spanned<RunSpec>>,
+    /// What `sweep run` writes.
+    pub output: Option<Spanned<OutputSpec>>,
+}
+
+/// `[room]`: exactly one of `rectangle` and `polygon`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoomSpec {
+    /// `[x0, y0, x1, y1]`.
+    pub rectangle: Option<[f64; 4]>,
+    /// Vertices in order, the last joined to the first.
+    pub polygon: Option<Vec<[f64; 2]>>,
+}
+
+/// `[[exits]]`: a segment lying on one wall of the room.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExitSpec {
+    /// One end.
+    pub from: [f64; 2],
+    /// The other end.
+    pub to: [f64; 2],
+}
+
+/// A disk.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiskSpec {
+    /// Centre.
+    pub center: [f64; 2],
+    /// Radius (> 0).
+    pub radius: f64,
+}
+
+/// A segment.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentSpec {
+    /// One end.
+    pub from: [f64; 2],
+    /// The other end.
+    pub to: [f64; 2],
+}
+
+/// `[[obstacles]]`: exactly one of `disk`, `segment`, `polygon`; at most one of `velocity`
+/// and `path`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleSpec {
+    /// A disk obstacle (a pillar).
+    pub disk: Option<DiskSpec>,
+    /// A thin wall.
+    pub segment: Option<SegmentSpec>,
+    /// A polygon (its edges are the constraints).
+    pub polygon: Option<Vec<[f64; 2]>>,
+    /// Moves at this constant velocity from `t = 0`.
+    pub velocity: Option<[f64; 2]>,
+    /// Moves through these waypoints `[t, dx, dy]` (displacement from the declared position,
+    /// times increasing), linearly in between, still before the first and after the last.
+    pub path: Option<Vec<[f64; 3]>>,
+}
+
+/// `[[people]]`: one person.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PersonSpec {
+    /// Centre at `t = 0`.
+    pub position: [f64; 2],
+    /// Radius (> 0).
+    pub radius: f64,
+    /// Desired speed (≥ 0). Default 1.
+    pub speed: Option<f64>,
+    /// Own desired velocity (default: the scene's `[desired]`).
+    pub desired: Option<DesiredSpec>,
+}
+
+/// A radius, or a range `[min, max]` drawn uniformly.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(untagged, expecting = "a radius (a number) or a range [min, max]")]
+pub enum RadiusSpec {
+    /// Everybody the same.
+    Fixed(f64),
+    /// Uniform in `[min, max]`.
+    Range([f64; 2]),
+}
+
+/// `[[crowds]]`: `count` people placed at random without overlap.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrowdSpec {
+    /// How many.
+    pub count: usize,
+    /// `[x0, y0, x1, y1]`: where the centres are drawn (default: the room's bounding box).
+    pub region: Option<[f64; 4]>,
+    /// Radius or radius range.
+    pub radius: RadiusSpec,
+    /// Desired speed (≥ 0). Default 1.
+    pub speed: Option<f64>,
+    /// Seed of the placement. Default 0.
+    pub seed: Option<u64>,
+    /// Own desired velocity (default: the scene's `[desired]`).
+    pub desired: Option<DesiredSpec>,
+}
+
+/// Which desired velocity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DesiredKind {
+    /// Towards the nearest exit, around obstacles (geodesic distance).
+    Exit,
+    /// Straight towards `point`.
+    Point,
+    /// The constant vector `velocity` (the speed is its length).
+    Constant,
+}
+
+/// A desired velocity: `kind = "exit"`, `kind = "point"` with `point`, or
+/// `kind = "constant"` with `velocity`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesiredSpec {
+    /// Which one.
+    pub kind: DesiredKind,
+    /// The target of `kind = "point"`.
+    pub point: Option<[f64; 2]>,
+    /// The vector of `kind = "constant"`.
+    pub velocity: Option<[f64; 2]>,
+}
+
+/// `[geodesic]`: the fast-marching grid (used only when someone heads for the exits).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GeodesicSpec {
+    /// Grid spacing. Default `0.05`.
+    pub cell: Option<f64>,
+}
+
+/// `[run]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSpec {
+    /// Time step. Default `0.01`.
+    pub h: Option<f64>,
+    /// Horizon. Default `10`.
+    pub t_end: Option<f64>,
+    /// Stop as soon as everybody has left. Default `false`.
+    pub stop_when_empty: Option<bool>,
+    /// Projection backend. Default `clarabel`.
+    pub backend: Option<BackendChoice>,
+}
+
+/// `[output]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Write the trajectory every this many seconds (at least every step). Default `0.1`.
+    pub trajectory_every: Option<f64>,
+    /// Write an SVG snapshot every this many seconds (plus the first and last). Default: a
+    /// quarter of the horizon.
+    pub snapshot_every: Option<f64>,
+    /// Most frames in the HTML animation. Default `400`.
+    pub animation_frames: Option<usize>,
+}

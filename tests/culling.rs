@@ -1,0 +1,139 @@
+//! Culling far-apart pairs changes nothing: on random scenes, including jammed ones where
+//! people are pushed faster than they want to go (a moving wall, a strong velocity field),
+//! the culled run equals the all-pairs run (`DiskPairs::all_pairs`) step by step, to solver
+//! tolerance.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use sweeping::api::conformance::ReferenceProjector;
+use sweeping::scene::{BuiltScene, Overrides, Scene};
+use sweeping::stepper::Stepper;
+
+/// Largest ∞-norm gap allowed between the two runs after any step.
+const GAP: f64 = 1e-6;
+
+fn build(text: &str, all_pairs: bool) -> BuiltScene {
+    Scene::from_toml_str(text, "random scene")
+        .unwrap()
+        .build(&Overrides {
+            all_pairs,
+            ..Default::default()
+        })
+        .unwrap()
+}
+
+/// Steps both versions in lockstep; returns (largest gap, rows culled, rows all-pairs).
+fn compare(text: &str, steps: usize) -> (f64, usize, usize) {
+    let culled = build(text, false);
+    let full = build(text, true);
+    let mut a = Stepper::new(&culled.problem, culled.settings.clone()).unwrap();
+    let mut b = Stepper::new(&full.problem, full.settings.clone()).unwrap();
+    let mut pa = ReferenceProjector::default();
+    let mut pb = ReferenceProjector::default();
+    let (mut gap, mut rows_a, mut rows_b) = (0.0f64, 0, 0);
+    for k in 0..steps.min(a.n_steps()) {
+        let ra = a
+            .step(&mut pa)
+            .unwrap_or_else(|e| panic!("culled, step {k}: {e}\n{text}"));
+        let rb = b
+            .step(&mut pb)
+            .unwrap_or_else(|e| panic!("all pairs, step {k}: {e}\n{text}"));
+        rows_a += ra.rows;
+        rows_b += rb.rows;
+        let g = a
+            .state()
+            .iter()
+            .zip(b.state())
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            g <= GAP,
+            "step {k}: culled and all-pairs differ by {g:.3e}\n{text}"
+        );
+        gap = gap.max(g);
+    }
+    (gap, rows_a, rows_b)
+}
+
+/// A random scene: `n` people in a `w × 3` room, with one of several ways of pushing them.
+fn random_scene(seed: u64) -> String {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = rng.gen_range(8..=16);
+    let w = rng.gen_range(3.0..5.0);
+    let kind = seed % 4;
+    let mut s = format!("[room]\nrectangle = [0.0, 0.0, {w}, 3.0]\n");
+    let (region_x0, desired, extra) = match kind {
+        // A wall sweeping the room at 1.5 m/s while people want 0.3 m/s the other way.
+        0 => (
+            0.7,
+            "{ kind = \"constant\", velocity = [-0.3, 0.0] }".to_string(),
+            format!(
+                "[[obstacles]]\nsegment = {{ from = [0.4, 0.1], to = [0.4, 2.9] }}\npath = [[0.0, 0.0, 0.0], [{t}, {d}, 0.0]]\n",
+                t = (w - 2.0) / 1.5,
+                d = w - 2.0
+            ),
+        ),
+        // A strong uniform field into a corner: 3 m/s.
+        1 => (
+            0.0,
+            "{ kind = \"constant\", velocity = [3.0, -1.0] }".to_string(),
+            String::new(),
+        ),
+        // Everybody towards the centre: a jam.
+        2 => (
+            0.0,
+            format!("{{ kind = \"point\", point = [{}, 1.5] }}", w / 2.0),
+            String::new(),
+        ),
+        // Towards an exit around a pillar (geodesic field).
+        _ => (
+            0.0,
+            "{ kind = \"exit\" }".to_string(),
+            format!(
+                "[[exits]]\nfrom = [{w}, 1.0]\nto = [{w}, 1.8]\n[[obstacles]]\ndisk = {{ center = [{}, 1.4], radius = 0.3 }}\n[geodesic]\ncell = 0.1\n",
+                w - 0.8
+            ),
+        ),
+    };
+    s.push_str(&extra);
+    s.push_str(&format!(
+        "[[crowds]]\ncount = {n}\nregion = [{region_x0}, 0.0, {w}, 3.0]\nradius = [0.15, 0.25]\nspeed = 1.5\nseed = {seed}\ndesired = {desired}\n"
+    ));
+    s.push_str("[run]\nh = 0.05\nt_end = 2.0\n");
+    s
+}
+
+#[test]
+fn culled_equals_all_pairs_on_random_scenes() {
+    let mut culled_something = false;
+    for seed in 0..8 {
+        let text = random_scene(seed);
+        let (gap, rows_culled, rows_all) = compare(&text, 40);
+        assert!(gap <= GAP);
+        assert!(rows_culled <= rows_all, "seed {seed}: culling added rows");
+        culled_something |= rows_culled < rows_all;
+    }
+    assert!(culled_something, "no scene had a far-apart pair to cull");
+}
+
+#[test]
+fn moving_wall_pushes_people_faster_than_they_walk() {
+    // Jammed: the wall moves at 2 m/s, people want 0.2 m/s towards it.
+    let text = "[room]\nrectangle = [0.0, 0.0, 4.0, 2.0]\n\
+        [[obstacles]]\nsegment = { from = [0.3, 0.05], to = [0.3, 1.95] }\nvelocity = [2.0, 0.0]\n\
+        [[crowds]]\ncount = 12\nregion = [0.6, 0.0, 4.0, 2.0]\nradius = 0.2\nseed = 9\n\
+        desired = { kind = \"constant\", velocity = [-0.2, 0.0] }\n\
+        [run]\nh = 0.02\nt_end = 0.7\n";
+    let built = build(text, false);
+    let mut stepper = Stepper::new(&built.problem, built.settings.clone()).unwrap();
+    let mut p = ReferenceProjector::default();
+    let mut fastest = 0.0f64;
+    while stepper.steps_done() < stepper.n_steps() {
+        let r = stepper.step(&mut p).unwrap();
+        fastest = fastest.max(r.max_displacement / r.h);
+    }
+    // Somebody moved faster than their desired speed (0.2): the scene is jammed.
+    assert!(fastest > 1.0, "fastest coordinate speed {fastest}");
+    let (gap, _, _) = compare(text, 35);
+    assert!(gap <= GAP);
+}

@@ -1,0 +1,125 @@
+//! The geodesic field: distances against exact ones, continuity of the directions, and the
+//! rule for people outside the room.
+
+use sweeping::crowd::fast_marching::{DistanceField, MarchingDomain};
+use sweeping::crowd::segment_distance;
+
+fn square_with_exit() -> MarchingDomain {
+    MarchingDomain {
+        room: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
+        exits: vec![([10.0, 4.5], [10.0, 5.5])],
+        ..Default::default()
+    }
+}
+
+/// Largest |d − exact| over the free nodes.
+fn max_error(field: &DistanceField, exact: impl Fn([f64; 2]) -> f64) -> f64 {
+    let g = field.grid().clone();
+    let mut worst = 0.0f64;
+    for j in 0..g.ny {
+        for i in 0..g.nx {
+            if field.is_free(i, j) {
+                let e = (field.node_value(i, j) - exact(g.node(i, j))).abs();
+                worst = worst.max(e);
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn empty_room_distance_is_euclidean_within_grid_error() {
+    let domain = square_with_exit();
+    let exact = |p: [f64; 2]| segment_distance(p, [10.0, 4.5], [10.0, 5.5]);
+    let coarse = max_error(&DistanceField::compute(&domain, 0.2).unwrap(), exact);
+    let fine = max_error(&DistanceField::compute(&domain, 0.05).unwrap(), exact);
+    // First-order fast marching: the error is a few cells at most, and shrinks with the cell.
+    assert!(fine < 0.15, "error {fine} at cell 0.05");
+    assert!(coarse < 0.6, "error {coarse} at cell 0.2");
+    assert!(fine < 0.5 * coarse, "no convergence: {coarse} → {fine}");
+    // Between nodes the interpolated distance is within the same error plus a cell's worth.
+    let field = DistanceField::compute(&domain, 0.05).unwrap();
+    for p in [[1.234, 8.765], [5.01, 5.02], [9.5, 0.3], [3.3, 3.3]] {
+        let d = field.distance(p);
+        assert!((d - exact(p)).abs() < 0.2, "at {p:?}: {d} vs {}", exact(p));
+    }
+}
+
+#[test]
+fn distance_around_a_thin_wall_matches_the_hand_computed_geodesic() {
+    // A thin wall x = 5, 2 ≤ y ≤ 8 between the point (2, 5) and the exit (10, 4.9–5.1):
+    // the shortest way goes round an end of the wall: |(2,5)–(5,8)| + |(5,8)–(10,5.1)|.
+    let mut domain = square_with_exit();
+    domain.exits = vec![([10.0, 4.9], [10.0, 5.1])];
+    domain.segments = vec![([5.0, 2.0], [5.0, 8.0])];
+    let geodesic = 18f64.sqrt() + (25.0f64 + 2.9 * 2.9).sqrt();
+    let field = DistanceField::compute(&domain, 0.05).unwrap();
+    let d = field.distance([2.0, 5.0]);
+    assert!(
+        (d - geodesic).abs() < 0.25,
+        "fast marching {d}, geodesic {geodesic}, Euclidean 8"
+    );
+    // The direction at (2, 5) points up or down towards an end of the wall, not at the exit.
+    let v = field.direction([2.0, 4.0]);
+    assert!(
+        v[1] < -0.3,
+        "below the middle, people go round the bottom end: {v:?}"
+    );
+}
+
+#[test]
+fn distance_around_a_pillar() {
+    // Behind a pillar of radius 1 at (7, 5), the point (4, 5) sees the exit point (10, 5)
+    // hidden; the geodesic wraps the pillar: two tangents and an arc.
+    let mut domain = square_with_exit();
+    domain.exits = vec![([10.0, 4.99], [10.0, 5.01])];
+    domain.disks = vec![([7.0, 5.0], 1.0)];
+    let (a, r) = (3.0f64, 1.0f64); // distance from each end to the centre, radius
+    let tangent = (a * a - r * r).sqrt();
+    let arc = r * (std::f64::consts::PI - 2.0 * (r / a).acos());
+    let geodesic = 2.0 * tangent + arc;
+    let field = DistanceField::compute(&domain, 0.05).unwrap();
+    let d = field.distance([4.0, 5.0]);
+    assert!(
+        (d - geodesic).abs() < 0.25,
+        "fast marching {d}, geodesic {geodesic}, Euclidean 6"
+    );
+}
+
+#[test]
+fn directions_are_continuous() {
+    // Pillar room: the field has ridges (behind the pillar, where two routes meet) and
+    // walls; along many random lines, the direction changes by at most K·δ over a step δ.
+    let mut domain = square_with_exit();
+    domain.disks = vec![([8.0, 5.0], 0.7)];
+    let cell = 0.1;
+    let field = DistanceField::compute(&domain, cell).unwrap();
+    let delta = 1e-4;
+    let mut worst = 0.0f64;
+    let mut state = 12345u64;
+    let mut rand = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..200 {
+        let p0 = [0.2 + 9.6 * rand(), 0.2 + 9.6 * rand()];
+        let angle = std::f64::consts::TAU * rand();
+        let dir = [angle.cos(), angle.sin()];
+        let mut prev = field.direction(p0);
+        for s in 1..2000 {
+            let p = [
+                p0[0] + dir[0] * delta * s as f64,
+                p0[1] + dir[1] * delta * s as f64,
+            ];
+            let v = field.direction(p);
+            let jump = ((v[0] - prev[0]).powi(2) + (v[1] - prev[1]).powi(2)).sqrt();
+            worst = worst.max(jump);
+            prev = v;
+        }
+    }
+    // Lipschitz bound ~ (2/τ)·(2√2/cell)·δ ≈ 1.1e-2 for τ = 0.5, cell 0.1; a discontinuity
+    // would show a jump of order 1.
+    assert!(worst < 0.02, "largest jump {worst} over δ = {delta}");
+}

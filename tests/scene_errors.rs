@@ -1,0 +1,394 @@
+//! Every kind of bad scene gives a clear error naming the file, the line and the item — and
+//! never a panic.
+
+use sweeping::scene::{Overrides, Scene, SceneError};
+
+const ROOM: &str = "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n";
+
+/// Parses and builds `text` as `bad.toml`; returns the error.
+fn error_of(text: &str) -> SceneError {
+    error_with(text, &Overrides::default())
+}
+
+fn error_with(text: &str, overrides: &Overrides) -> SceneError {
+    match Scene::from_toml_str(text, "bad.toml").and_then(|s| s.build(overrides)) {
+        Ok(_) => panic!("the scene was accepted:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+/// Asserts the message names `bad.toml` at `line` and contains every fragment.
+fn assert_message(e: &SceneError, line: usize, fragments: &[&str]) {
+    let m = e.to_string();
+    assert!(
+        m.starts_with(&format!("bad.toml:{line}")),
+        "expected bad.toml:{line} in `{m}`"
+    );
+    assert_eq!(e.line(), Some(line), "{m}");
+    for f in fragments {
+        assert!(m.contains(f), "expected `{f}` in `{m}`");
+    }
+}
+
+#[test]
+fn malformed_toml() {
+    let e = error_of("[room\nrectangle = [0.0, 0.0, 4.0, 4.0]\n");
+    assert!(matches!(e, SceneError::Parse { .. }));
+    assert_message(&e, 1, &["bad.toml:1:"]);
+}
+
+#[test]
+fn missing_room() {
+    let e = error_of("name = \"x\"\n");
+    assert_message(&e, 1, &["missing field `room`"]);
+}
+
+#[test]
+fn missing_field_in_a_person() {
+    let text = format!("{ROOM}\n[[people]]\nposition = [1.0, 1.0]\n");
+    assert_message(&error_of(&text), 4, &["missing field `radius`"]);
+}
+
+#[test]
+fn unknown_top_level_key() {
+    let text = format!("{ROOM}colour = \"red\"\n");
+    assert_message(&error_of(&text), 3, &["unknown field `colour`"]);
+}
+
+#[test]
+fn unknown_key_in_a_table() {
+    let text = format!("{ROOM}\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\nmass = 80.0\n");
+    assert_message(&error_of(&text), 7, &["unknown field `mass`"]);
+}
+
+#[test]
+fn unknown_key_in_run() {
+    let text = format!("{ROOM}[run]\nhh = 0.1\n");
+    assert_message(&error_of(&text), 4, &["unknown field `hh`"]);
+}
+
+#[test]
+fn wrong_type() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = \"big\"\n");
+    assert_message(&error_of(&text), 5, &["invalid type"]);
+}
+
+#[test]
+fn bad_radius_of_a_crowd() {
+    let text = format!("{ROOM}[[crowds]]\ncount = 3\nradius = \"big\"\n");
+    assert_message(
+        &error_of(&text),
+        5,
+        &["a radius (a number) or a range [min, max]"],
+    );
+}
+
+#[test]
+fn unknown_desired_kind() {
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {{ kind = \"home\" }}\n"
+    );
+    assert_message(&error_of(&text), 6, &["unknown variant `home`"]);
+}
+
+#[test]
+fn unknown_backend() {
+    let text = format!("{ROOM}[run]\nbackend = \"gurobi\"\n");
+    assert_message(&error_of(&text), 4, &["unknown variant `gurobi`"]);
+}
+
+#[test]
+fn overlapping_people() {
+    let text = format!(
+        "{ROOM}\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n\n[[people]]\nposition = [1.3, 1.0]\nradius = 0.2\n"
+    );
+    assert_message(
+        &error_of(&text),
+        8,
+        &["[[people]] #1 and [[people]] #2", "overlap at t = 0"],
+    );
+}
+
+#[test]
+fn person_outside_the_room() {
+    let text = format!("{ROOM}\n[[people]]\nposition = [5.0, 1.0]\nradius = 0.2\n");
+    assert_message(&error_of(&text), 4, &["[[people]] #1", "outside the room"]);
+}
+
+#[test]
+fn person_through_a_wall() {
+    let text = format!("{ROOM}\n[[people]]\nposition = [0.1, 1.0]\nradius = 0.2\n");
+    assert_message(&error_of(&text), 4, &["[[people]] #1", "crosses the wall"]);
+}
+
+#[test]
+fn person_inside_an_obstacle() {
+    let text = format!(
+        "{ROOM}[[obstacles]]\ndisk = {{ center = [2.0, 2.0], radius = 0.5 }}\n\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n\n[[people]]\nposition = [2.1, 2.0]\nradius = 0.2\n"
+    );
+    assert_message(
+        &error_of(&text),
+        10,
+        &["[[people]] #2", "inside obstacle #1"],
+    );
+}
+
+#[test]
+fn person_inside_a_polygon_obstacle() {
+    let text = format!(
+        "{ROOM}[[obstacles]]\npolygon = [[1.0, 1.0], [3.0, 1.0], [3.0, 3.0], [1.0, 3.0]]\n[[people]]\nposition = [2.0, 2.0]\nradius = 0.2\n"
+    );
+    assert_message(
+        &error_of(&text),
+        5,
+        &["[[people]] #1", "inside obstacle #1"],
+    );
+}
+
+#[test]
+fn exit_not_on_a_wall() {
+    let text = format!("{ROOM}\n[[exits]]\nfrom = [2.0, 1.0]\nto = [2.0, 2.0]\n");
+    assert_message(&error_of(&text), 4, &["[[exits]] #1", "not on a wall"]);
+}
+
+#[test]
+fn exit_across_a_corner() {
+    let text = format!("{ROOM}\n[[exits]]\nfrom = [4.0, 3.0]\nto = [3.0, 4.0]\n");
+    assert_message(&error_of(&text), 4, &["[[exits]] #1", "not on a wall"]);
+}
+
+#[test]
+fn overlapping_exits() {
+    let text = format!(
+        "{ROOM}[[exits]]\nfrom = [4.0, 1.0]\nto = [4.0, 2.0]\n[[exits]]\nfrom = [4.0, 1.5]\nto = [4.0, 3.0]\n"
+    );
+    assert_message(
+        &error_of(&text),
+        6,
+        &["[[exits]] #2", "overlaps another exit"],
+    );
+}
+
+#[test]
+fn nan_position() {
+    let text = format!("{ROOM}[[people]]\nposition = [nan, 1.0]\nradius = 0.2\n");
+    assert_message(&error_of(&text), 3, &["[[people]] #1", "not finite"]);
+}
+
+#[test]
+fn nan_radius() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = nan\n");
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[people]] #1", "radius must be positive and finite"],
+    );
+}
+
+#[test]
+fn infinite_room() {
+    let e = error_of("[room]\nrectangle = [0.0, 0.0, inf, 4.0]\n");
+    assert_message(&e, 1, &["[room]", "non-finite"]);
+}
+
+#[test]
+fn negative_radius() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = -0.2\n");
+    assert_message(&error_of(&text), 3, &["[[people]] #1", "got -0.2"]);
+}
+
+#[test]
+fn negative_speed() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\nspeed = -1.0\n");
+    assert_message(&error_of(&text), 3, &["[[people]] #1", "speed must be ≥ 0"]);
+}
+
+#[test]
+fn negative_crowd_radius_range() {
+    let text = format!("{ROOM}[[crowds]]\ncount = 3\nradius = [0.3, 0.1]\n");
+    assert_message(&error_of(&text), 3, &["[[crowds]] #1", "0 < min ≤ max"]);
+}
+
+#[test]
+fn negative_step() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[run]\nh = -0.01\n");
+    assert_message(
+        &error_of(&text),
+        6,
+        &["[run] h", "positive and finite, got -0.01"],
+    );
+}
+
+#[test]
+fn nan_step() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[run]\nh = nan\n");
+    assert_message(&error_of(&text), 6, &["[run] h", "positive and finite"]);
+}
+
+#[test]
+fn zero_horizon() {
+    let text =
+        format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[run]\nt_end = 0.0\n");
+    assert_message(&error_of(&text), 6, &["[run] t_end", "positive"]);
+}
+
+#[test]
+fn negative_step_from_the_command_line() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n");
+    let e = error_with(
+        &text,
+        &Overrides {
+            h: Some(-1.0),
+            ..Default::default()
+        },
+    );
+    let m = e.to_string();
+    assert!(m.starts_with("bad.toml: --h:"), "{m}");
+    assert!(m.contains("got -1"), "{m}");
+}
+
+#[test]
+fn crowd_that_does_not_fit() {
+    let text = format!("{ROOM}[[crowds]]\ncount = 200\nradius = 0.2\n");
+    assert_message(&error_of(&text), 3, &["[[crowds]] #1", "could place only"]);
+}
+
+#[test]
+fn crowd_region_inverted() {
+    let text =
+        format!("{ROOM}[[crowds]]\ncount = 2\nradius = 0.2\nregion = [3.0, 0.0, 1.0, 4.0]\n");
+    assert_message(&error_of(&text), 3, &["[[crowds]] #1", "x1 > x0"]);
+}
+
+#[test]
+fn exit_target_without_exits() {
+    let text = format!(
+        "{ROOM}[desired]\nkind = \"exit\"\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n"
+    );
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[desired]", "needs at least one [[exits]]"],
+    );
+}
+
+#[test]
+fn point_target_without_point() {
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {{ kind = \"point\" }}\n"
+    );
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[people]] #1 desired", "needs `point"],
+    );
+}
+
+#[test]
+fn constant_velocity_without_velocity() {
+    let text = format!(
+        "{ROOM}[desired]\nkind = \"constant\"\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n"
+    );
+    assert_message(&error_of(&text), 3, &["[desired]", "needs `velocity"]);
+}
+
+#[test]
+fn room_with_both_shapes() {
+    let e = error_of("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\npolygon = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]\n");
+    assert_message(&e, 1, &["[room]", "not both"]);
+}
+
+#[test]
+fn empty_rectangle() {
+    let e = error_of("[room]\nrectangle = [0.0, 0.0, 0.0, 4.0]\n");
+    assert_message(&e, 1, &["[room]", "x1 > x0"]);
+}
+
+#[test]
+fn flat_polygon_room() {
+    let e = error_of("[room]\npolygon = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]\n");
+    assert_message(&e, 1, &["[room]", "zero area"]);
+}
+
+#[test]
+fn obstacle_with_two_shapes() {
+    let text = format!(
+        "{ROOM}[[obstacles]]\ndisk = {{ center = [2.0, 2.0], radius = 0.5 }}\nsegment = {{ from = [1.0, 1.0], to = [2.0, 1.0] }}\n"
+    );
+    assert_message(&error_of(&text), 3, &["[[obstacles]] #1", "exactly one"]);
+}
+
+#[test]
+fn obstacle_path_going_back_in_time() {
+    let text = format!(
+        "{ROOM}[[obstacles]]\nsegment = {{ from = [1.0, 1.0], to = [2.0, 1.0] }}\npath = [[0.0, 0.0, 0.0], [2.0, 1.0, 0.0], [1.0, 0.0, 0.0]]\n"
+    );
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[obstacles]] #1", "times must increase"],
+    );
+}
+
+#[test]
+fn obstacle_with_negative_radius() {
+    let text = format!("{ROOM}[[obstacles]]\ndisk = {{ center = [2.0, 2.0], radius = -0.5 }}\n");
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[obstacles]] #1", "radius must be positive"],
+    );
+}
+
+#[test]
+fn nobody() {
+    let e = error_of(ROOM);
+    let m = e.to_string();
+    assert!(m.starts_with("bad.toml: "), "{m}");
+    assert!(m.contains("nobody in it"), "{m}");
+}
+
+#[test]
+fn bad_output_setting() {
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[output]\nsnapshot_every = -1.0\n"
+    );
+    assert_message(
+        &error_of(&text),
+        6,
+        &["[output] snapshot_every", "positive"],
+    );
+}
+
+#[test]
+fn missing_file_names_the_file() {
+    let e = Scene::from_file("/nonexistent/dir/scene.toml").unwrap_err();
+    assert!(matches!(e, SceneError::Io { .. }));
+    assert!(
+        e.to_string()
+            .starts_with("/nonexistent/dir/scene.toml: cannot read"),
+        "{e}"
+    );
+}
+
+#[test]
+fn errors_from_a_file_name_the_file() {
+    let dir = std::env::temp_dir().join(format!("sweeping-scene-errors-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("broken.toml");
+    std::fs::write(
+        &path,
+        format!("{ROOM}\n[[people]]\nposition = [9.0, 1.0]\nradius = 0.2\n"),
+    )
+    .unwrap();
+    let e = Scene::from_file(&path)
+        .and_then(|s| s.build(&Overrides::default()))
+        .map(|_| ())
+        .unwrap_err();
+    let m = e.to_string();
+    assert!(
+        m.starts_with(&format!("{}:4: [[people]] #1", path.display())),
+        "{m}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
