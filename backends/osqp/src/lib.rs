@@ -442,7 +442,7 @@ impl OsqpProjector {
         let solve_start = Instant::now();
         let accept_inaccurate = settings.accept_inaccurate;
         let solved = catch_unwind(AssertUnwindSafe(|| {
-            read_status(cache.problem.solve(), accept_inaccurate)
+            read_status(cache.problem.solve())
         }));
         let solve_seconds = solve_start.elapsed().as_secs_f64();
         let (outcome, iterations) = match solved {
@@ -465,8 +465,24 @@ impl OsqpProjector {
                         "OSQP returned a non-finite answer with a converged status",
                     ));
                 }
-                let x = problem.y().iter().zip(&d).map(|(y, d)| y + d).collect();
-                let multipliers = y_osqp.iter().map(|y| (-y).max(0.0)).collect();
+                let x: Vec<f64> = problem.y().iter().zip(&d).map(|(y, d)| y + d).collect();
+                let multipliers: Vec<f64> = y_osqp.iter().map(|y| (-y).max(0.0)).collect();
+                if !accurate && !accept_inaccurate {
+                    // OSQP's own inaccurate flag is about its scaled residuals; what the
+                    // caller needs is the KKT conditions of the projection within
+                    // `tolerance()`. Keep the answer only when they hold.
+                    let kkt = problem.kkt_residuals(&x, &multipliers).max();
+                    if !(kkt <= self.tolerance()) {
+                        return Err(ProjectionError::NotConverged {
+                            backend: NAME.to_string(),
+                            iterations,
+                            status: format!(
+                                "solved inaccurate, KKT residual {kkt:.2e} > {:.1e}",
+                                self.tolerance()
+                            ),
+                        });
+                    }
+                }
                 cache.d = d;
                 cache.y_osqp = y_osqp;
                 self.cache = Some(cache);
@@ -494,7 +510,7 @@ impl OsqpProjector {
 }
 
 /// Maps every OSQP status to an outcome, with the iteration count.
-fn read_status(status: Status<'_>, accept_inaccurate: bool) -> (Outcome, u32) {
+fn read_status(status: Status<'_>) -> (Outcome, u32) {
     let not_converged = |iterations: u32, status: &str| {
         Outcome::Error(ProjectionError::NotConverged {
             backend: NAME.to_string(),
@@ -518,16 +534,14 @@ fn read_status(status: Status<'_>, accept_inaccurate: bool) -> (Outcome, u32) {
             },
             status.iter(),
         ),
-        Status::SolvedInaccurate(ref s) if accept_inaccurate => (
+        // Read the answer either way: when it is not accepted as such, `solve` still keeps it
+        // if its KKT residuals are within `tolerance()` (checked, not trusted).
+        Status::SolvedInaccurate(ref s) => (
             Outcome::Converged {
                 accurate: false,
                 d: s.x().to_vec(),
                 y_osqp: s.y().to_vec(),
             },
-            status.iter(),
-        ),
-        Status::SolvedInaccurate(_) => (
-            not_converged(status.iter(), "solved inaccurate"),
             status.iter(),
         ),
         Status::MaxIterationsReached(_) => (
