@@ -12,6 +12,8 @@
 //! * [`backends`] — the projection backends enabled by cargo features (`clarabel`, `osqp`) and
 //!   a by-name constructor.
 //! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles.
+//! * [`study`] — convergence orders (against a reference or an exact solution) and
+//!   work–precision studies.
 #![deny(missing_docs)]
 
 pub mod backends;
@@ -21,6 +23,7 @@ pub mod error;
 pub mod observers;
 pub mod problem;
 pub mod stepper;
+pub mod study;
 
 pub use error::SweepError;
 pub use sweeping_api as api;
