@@ -202,13 +202,18 @@ pub fn fit_order(hs: &[f64], es: &[f64]) -> Result<OrderFit, StudyError> {
     })
 }
 
-/// [`fit_order`] over the points whose error is positive (an error of exactly zero — a run
-/// that reproduces the reference — has no logarithm); `None` when fewer than two remain.
+/// Errors at or below this are rounding, not discretization: [`fit_order_positive`] leaves
+/// them out (the scheme can be exact at grid points, e.g. for disks on a line).
+pub const ROUNDING_FLOOR: f64 = 1e-12;
+
+/// [`fit_order`] over the points whose error exceeds [`ROUNDING_FLOOR`] (an error of zero —
+/// a run that reproduces the reference — has no logarithm, and one of `1e-16` measures
+/// rounding); `None` when fewer than two remain.
 pub fn fit_order_positive(hs: &[f64], es: &[f64]) -> Option<OrderFit> {
     let (h, e): (Vec<f64>, Vec<f64>) = hs
         .iter()
         .zip(es)
-        .filter(|(_, e)| e.is_finite() && **e > 0.0)
+        .filter(|(_, e)| e.is_finite() && **e > ROUNDING_FLOOR)
         .map(|(h, e)| (*h, *e))
         .unzip();
     fit_order(&h, &e).ok()
@@ -754,7 +759,9 @@ impl ConvergenceReport {
                 "{name}: {:.3} (R² = {:.3}, {} points)\n",
                 f.order, f.r_squared, f.points
             ),
-            None => format!("{name}: not fitted (fewer than two positive errors)\n"),
+            None => format!(
+                "{name}: not fitted (fewer than two errors above rounding, {ROUNDING_FLOOR:e})\n"
+            ),
         };
         s.push_str(&line(
             &format!("fitted order, t ≤ {}", self.settings.t_end),

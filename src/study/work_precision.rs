@@ -357,7 +357,7 @@ pub fn work_precision(
             "step {h} must be positive"
         )));
     }
-    if !(settings.t_end > t0) || settings.samples == 0 {
+    if settings.t_end.is_nan() || settings.t_end <= t0 || settings.samples == 0 {
         return Err(StudyError::InvalidInput(format!(
             "need T > t₀ (T = {}, t₀ = {t0}) and at least one comparison time",
             settings.t_end
