@@ -34,6 +34,13 @@ fn one_step(c: &mut Criterion) {
                     ..Default::default()
                 };
                 let label = format!("{}-{}", backend, if dense { "dense" } else { "spread" });
+                // A backend that cannot take this step (e.g. the reference on a jam) is
+                // reported and skipped rather than aborting the whole bench.
+                let mut probe = Stepper::new(&problem, settings.clone()).expect("a feasible start");
+                if let Err(e) = probe.step(projector.as_mut()) {
+                    eprintln!("skipping {label}/{n}: {e}");
+                    continue;
+                }
                 group.bench_with_input(BenchmarkId::new(label, n), &n, |b, _| {
                     b.iter_batched(
                         || Stepper::new(&problem, settings.clone()).expect("a feasible start"),

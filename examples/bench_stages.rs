@@ -50,8 +50,15 @@ fn main() -> anyhow::Result<()> {
                 let mut stepper = Stepper::new(&problem, settings)?;
                 let mut sum = StageTimes::default();
                 let (mut rows, mut active) = (0usize, 0usize);
+                let mut failure = None;
                 for _ in 0..steps {
-                    let r = stepper.step(projector.as_mut())?;
+                    let r = match stepper.step(projector.as_mut()) {
+                        Ok(r) => r,
+                        Err(e) => {
+                            failure = Some(e);
+                            break;
+                        }
+                    };
                     sum.effects += r.times.effects;
                     sum.broad_phase += r.times.broad_phase;
                     sum.assembly += r.times.assembly;
@@ -59,6 +66,15 @@ fn main() -> anyhow::Result<()> {
                     sum.check += r.times.check;
                     rows += r.rows;
                     active += r.active;
+                }
+                if let Some(e) = failure {
+                    println!(
+                        "{:<8} {:>5} {:<10} failed: {e}",
+                        if dense { "dense" } else { "spread" },
+                        n,
+                        backend.to_string()
+                    );
+                    continue;
                 }
                 let k = steps as f64;
                 let ms = |v: f64| format!("{:.3} ms", 1e3 * v / k);
