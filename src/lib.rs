@@ -16,6 +16,8 @@
 //! * [`crowd`] — disks that may not overlap: pairs, walls, obstacles; desired velocities.
 //! * [`scene`] — crowd scenes as TOML files, built with only the effects they call for.
 //! * [`output`] — trajectory CSV, run summary, SVG snapshots, HTML animation.
+//! * [`study`] — convergence orders (against a reference or an exact solution) and
+//!   work–precision studies.
 #![deny(missing_docs)]
 
 pub mod assumptions;
@@ -28,6 +30,7 @@ pub mod output;
 pub mod problem;
 pub mod scene;
 pub mod stepper;
+pub mod study;
 
 pub use error::SweepError;
 pub use sweeping_api as api;

@@ -441,9 +441,7 @@ impl OsqpProjector {
 
         let solve_start = Instant::now();
         let accept_inaccurate = settings.accept_inaccurate;
-        let solved = catch_unwind(AssertUnwindSafe(|| {
-            read_status(cache.problem.solve())
-        }));
+        let solved = catch_unwind(AssertUnwindSafe(|| read_status(cache.problem.solve())));
         let solve_seconds = solve_start.elapsed().as_secs_f64();
         let (outcome, iterations) = match solved {
             Ok(r) => r,

@@ -5,6 +5,8 @@ use clap::{Parser, Subcommand};
 mod check;
 mod converge;
 mod run;
+mod scene_loader;
+mod work_precision;
 
 /// Perturbed sweeping processes and crowd motion by the Bernicot–Venel scheme.
 #[derive(Parser)]
@@ -22,6 +24,8 @@ enum Command {
     Check(check::CheckArgs),
     /// The paper's convergence experiment on a scene: error against h and the fitted order.
     Converge(converge::ConvergeArgs),
+    /// Error against CPU time over step × backend × solver tolerance.
+    WorkPrecision(work_precision::WorkPrecisionArgs),
 }
 
 fn main() {
@@ -30,6 +34,7 @@ fn main() {
         Command::Run(a) => run::main(a),
         Command::Check(a) => check::main(a),
         Command::Converge(a) => converge::main(a),
+        Command::WorkPrecision(a) => work_precision::main(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

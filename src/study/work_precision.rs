@@ -1,0 +1,452 @@
+//! What accuracy costs in time: the error `e_h` of the paper's protocol against CPU time, over
+//! step × backend × solver tolerance.
+//!
+//! Every setting is compared with one reference run (step `h_min`, the tightest solver), so
+//! the error mixes the scheme's error (which shrinks with `h`) and the solver's (which
+//! shrinks with its tolerance). A setting is *efficient* when no other setting is both
+//! faster and more accurate ([`WorkPrecisionReport::pareto`]).
+
+use super::{
+    comparison_times, distance, map_runs, plot, run_sampled, ProblemFactory, ReferenceSummary,
+    StudyError,
+};
+use crate::backends::BackendChoice;
+use crate::stepper::StepperSettings;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use sweeping_api::Projector;
+
+/// A backend and, optionally, the tolerance it is asked for.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SolverSetting {
+    /// The backend.
+    pub backend: BackendChoice,
+    /// Its tolerance; `None` keeps the backend's default (tight) settings.
+    pub tolerance: Option<f64>,
+}
+
+impl SolverSetting {
+    /// A name such as `osqp@1e-3` or `clarabel` (default tolerance).
+    pub fn label(&self) -> String {
+        match self.tolerance {
+            Some(t) => format!("{}@{t:.0e}", self.backend),
+            None => self.backend.to_string(),
+        }
+    }
+}
+
+impl std::str::FromStr for SolverSetting {
+    type Err = String;
+    /// `backend` or `backend@tolerance`, e.g. `osqp@1e-3`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let (name, tol) = match s.split_once('@') {
+            Some((n, t)) => (
+                n,
+                Some(
+                    t.parse::<f64>()
+                        .map_err(|e| format!("bad tolerance `{t}` in `{s}`: {e}"))?,
+                ),
+            ),
+            None => (s, None),
+        };
+        if let Some(t) = tol {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(format!("the tolerance in `{s}` must be positive"));
+            }
+        }
+        Ok(Self {
+            backend: name.parse()?,
+            tolerance: tol,
+        })
+    }
+}
+
+/// Builds the projector of a [`SolverSetting`]: the backend's defaults with its accuracy
+/// tolerances set to `tolerance` (OSQP: `eps_abs = eps_rel`; Clarabel: `tol_gap_abs =
+/// tol_gap_rel = tol_feas`; reference: its KKT tolerance).
+///
+/// # Errors
+/// When the backend is not compiled in, or a tolerance is asked of the cross-check (which
+/// runs both backends at their defaults).
+pub fn projector_for(setting: &SolverSetting) -> Result<Box<dyn Projector>, String> {
+    let Some(tol) = setting.tolerance else {
+        return crate::backends::make_projector(setting.backend);
+    };
+    match setting.backend {
+        BackendChoice::Reference => Ok(Box::new(sweeping_api::conformance::ReferenceProjector {
+            tolerance: tol,
+            ..Default::default()
+        })),
+        #[cfg(feature = "osqp")]
+        BackendChoice::Osqp => Ok(Box::new(crate::backends::OsqpProjector::new(
+            crate::backends::OsqpSettings {
+                eps_abs: tol,
+                eps_rel: tol,
+                ..Default::default()
+            },
+        ))),
+        #[cfg(feature = "clarabel")]
+        BackendChoice::Clarabel => Ok(Box::new(crate::backends::ClarabelProjector::new(
+            crate::backends::ClarabelSettings {
+                tol_gap_abs: tol,
+                tol_gap_rel: tol,
+                tol_feas: tol,
+                ..Default::default()
+            },
+        ))),
+        BackendChoice::Cross => {
+            Err("the cross-check runs both backends at their defaults; give it no tolerance".into())
+        }
+        #[allow(unreachable_patterns)]
+        other => crate::backends::make_projector(other),
+    }
+}
+
+/// Settings of a work–precision study.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkPrecisionSettings {
+    /// Step of the reference run.
+    pub h_min: f64,
+    /// The solver of the reference run (the tightest available).
+    pub reference: SolverSetting,
+    /// Steps to try.
+    pub hs: Vec<f64>,
+    /// Solvers to try with each step.
+    pub solvers: Vec<SolverSetting>,
+    /// Horizon.
+    pub t_end: f64,
+    /// Comparison times.
+    pub samples: usize,
+    /// Run in parallel (rayon). CPU time is measured per thread either way.
+    pub parallel: bool,
+}
+
+/// One setting's outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkPrecisionRow {
+    /// Step.
+    pub h: f64,
+    /// Solver label ([`SolverSetting::label`]).
+    pub solver: String,
+    /// `e_h` against the reference (NaN when the run failed).
+    pub error: f64,
+    /// CPU seconds.
+    pub cpu_seconds: f64,
+    /// Wall seconds.
+    pub wall_seconds: f64,
+    /// Steps.
+    pub steps: usize,
+    /// Solver iterations.
+    pub iterations: u64,
+    /// Largest violation of the true constraints.
+    pub max_violation: f64,
+    /// Why the run failed, if it did.
+    pub failure: Option<String>,
+}
+
+/// The outcome of [`work_precision`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkPrecisionReport {
+    /// What was studied.
+    pub label: String,
+    /// The settings.
+    pub settings: WorkPrecisionSettings,
+    /// The reference run.
+    pub reference: ReferenceSummary,
+    /// One row per (h, solver), solvers varying fastest.
+    pub rows: Vec<WorkPrecisionRow>,
+}
+
+impl WorkPrecisionReport {
+    /// Indices of the efficient rows — no other successful row is at least as fast and at
+    /// least as accurate, and strictly better in one — sorted by CPU time.
+    pub fn pareto(&self) -> Vec<usize> {
+        let ok: Vec<usize> = (0..self.rows.len())
+            .filter(|&i| self.rows[i].failure.is_none() && self.rows[i].error.is_finite())
+            .collect();
+        let mut front: Vec<usize> = ok
+            .iter()
+            .copied()
+            .filter(|&i| {
+                let a = &self.rows[i];
+                !ok.iter().any(|&j| {
+                    let b = &self.rows[j];
+                    j != i
+                        && b.cpu_seconds <= a.cpu_seconds
+                        && b.error <= a.error
+                        && (b.cpu_seconds < a.cpu_seconds || b.error < a.error)
+                })
+            })
+            .collect();
+        front.sort_by(|&a, &b| {
+            self.rows[a]
+                .cpu_seconds
+                .total_cmp(&self.rows[b].cpu_seconds)
+        });
+        front
+    }
+
+    /// The cheapest successful row with `error ≤ target`.
+    pub fn cheapest_below(&self, target: f64) -> Option<&WorkPrecisionRow> {
+        self.rows
+            .iter()
+            .filter(|r| r.failure.is_none() && r.error <= target)
+            .min_by(|a, b| a.cpu_seconds.total_cmp(&b.cpu_seconds))
+    }
+
+    /// Writes the table. Columns: `h`, `solver`, `error`, `cpu_seconds`, `wall_seconds`,
+    /// `steps`, `iterations`, `max_violation`, `pareto` (1 on the efficient front),
+    /// `failure` (empty, or the error message in double quotes).
+    ///
+    /// # Errors
+    /// [`StudyError::Io`].
+    pub fn write_csv(&self, path: &Path) -> Result<(), StudyError> {
+        let front = self.pareto();
+        let mut s = String::from(
+            "h,solver,error,cpu_seconds,wall_seconds,steps,iterations,max_violation,pareto,failure\n",
+        );
+        for (i, r) in self.rows.iter().enumerate() {
+            s.push_str(&format!(
+                "{},{},{:.9e},{:.6},{:.6},{},{},{:.3e},{},{}\n",
+                r.h,
+                r.solver,
+                r.error,
+                r.cpu_seconds,
+                r.wall_seconds,
+                r.steps,
+                r.iterations,
+                r.max_violation,
+                u8::from(front.contains(&i)),
+                r.failure
+                    .as_deref()
+                    .map(|m| format!("\"{}\"", m.replace('"', "'")))
+                    .unwrap_or_default()
+            ));
+        }
+        super::write_file(path, &s)
+    }
+
+    /// Error against CPU time, log–log, one series per solver (SVG).
+    ///
+    /// # Errors
+    /// [`StudyError::Plot`].
+    pub fn plot(&self, path: &Path) -> Result<(), StudyError> {
+        let mut labels: Vec<String> = Vec::new();
+        for r in &self.rows {
+            if !labels.contains(&r.solver) {
+                labels.push(r.solver.clone());
+            }
+        }
+        let series: Vec<plot::Series> = labels
+            .iter()
+            .map(|l| plot::Series {
+                label: l.clone(),
+                points: self
+                    .rows
+                    .iter()
+                    .filter(|r| &r.solver == l && r.failure.is_none())
+                    .map(|r| (r.cpu_seconds, r.error))
+                    .collect(),
+                fit: None,
+            })
+            .collect();
+        plot::log_log(
+            path,
+            &format!("Work–precision: {}", self.label),
+            "CPU seconds",
+            "e_h",
+            &series,
+            None,
+        )
+    }
+
+    /// A table sorted by `h` then solver, with the efficient front marked, and the cheapest
+    /// setting reaching each decade of error.
+    pub fn summary(&self) -> String {
+        let front = self.pareto();
+        let mut s = format!(
+            "{}\nreference: h = {}, {}: {} steps, {:.2} s CPU\n{:>8} {:>16} {:>12} {:>10} {:>8} {:>10}\n",
+            self.label,
+            self.reference.h,
+            self.settings.reference.label(),
+            self.reference.steps,
+            self.reference.cpu_seconds,
+            "h",
+            "solver",
+            "e_h",
+            "cpu [s]",
+            "steps",
+            "efficient"
+        );
+        for (i, r) in self.rows.iter().enumerate() {
+            match &r.failure {
+                None => s.push_str(&format!(
+                    "{:>8} {:>16} {:12.4e} {:10.3} {:>8} {:>10}\n",
+                    r.h,
+                    r.solver,
+                    r.error,
+                    r.cpu_seconds,
+                    r.steps,
+                    if front.contains(&i) { "*" } else { "" }
+                )),
+                Some(m) => s.push_str(&format!("{:>8} {:>16} failed: {m}\n", r.h, r.solver)),
+            }
+        }
+        s.push_str("efficient front (fastest first):\n");
+        for &i in &front {
+            let r = &self.rows[i];
+            s.push_str(&format!(
+                "  h = {:<7} {:<16} e_h = {:.3e} in {:.3} s\n",
+                r.h, r.solver, r.error, r.cpu_seconds
+            ));
+        }
+        let finite: Vec<f64> = self
+            .rows
+            .iter()
+            .filter(|r| r.failure.is_none() && r.error > 0.0)
+            .map(|r| r.error)
+            .collect();
+        if let (Some(lo), Some(hi)) = (
+            finite.iter().copied().reduce(f64::min),
+            finite.iter().copied().reduce(f64::max),
+        ) {
+            let mut decade = 10f64.powf(hi.log10().ceil());
+            while decade >= lo {
+                if let Some(r) = self.cheapest_below(decade) {
+                    s.push_str(&format!(
+                        "cheapest with e_h ≤ {decade:.0e}: h = {}, {} ({:.3} s)\n",
+                        r.h, r.solver, r.cpu_seconds
+                    ));
+                }
+                decade /= 10.0;
+            }
+        }
+        s
+    }
+}
+
+/// Runs the reference and every (h, solver) setting, and measures `e_h` and CPU time.
+///
+/// A setting whose run fails is recorded with its message (loose tolerances may fail on
+/// jammed crowds); the study fails only when the reference does.
+///
+/// # Errors
+/// [`StudyError::InvalidInput`] for bad settings; the reference run's error.
+pub fn work_precision(
+    label: &str,
+    make_problem: &ProblemFactory<'_>,
+    base: &StepperSettings,
+    settings: &WorkPrecisionSettings,
+) -> Result<WorkPrecisionReport, StudyError> {
+    let t0 = make_problem()
+        .map_err(|source| StudyError::Setup {
+            h: settings.h_min,
+            source,
+        })?
+        .t0();
+    if settings.hs.is_empty() || settings.solvers.is_empty() {
+        return Err(StudyError::InvalidInput(
+            "a work–precision study needs at least one step and one solver".into(),
+        ));
+    }
+    if let Some(h) = std::iter::once(&settings.h_min)
+        .chain(&settings.hs)
+        .find(|h| !(h.is_finite() && **h > 0.0))
+    {
+        return Err(StudyError::InvalidInput(format!(
+            "step {h} must be positive"
+        )));
+    }
+    if settings.t_end.is_nan() || settings.t_end <= t0 || settings.samples == 0 {
+        return Err(StudyError::InvalidInput(format!(
+            "need T > t₀ (T = {}, t₀ = {t0}) and at least one comparison time",
+            settings.t_end
+        )));
+    }
+    let times = comparison_times(t0, settings.t_end, settings.samples);
+    let mut jobs: Vec<(f64, SolverSetting)> = vec![(settings.h_min, settings.reference)];
+    for &h in &settings.hs {
+        for s in &settings.solvers {
+            jobs.push((h, *s));
+        }
+    }
+    let runs = map_runs(&jobs, settings.parallel, |(h, solver)| {
+        let make_projector = || -> Result<Box<dyn Projector>, super::BoxError> {
+            projector_for(solver).map_err(Into::into)
+        };
+        run_sampled(
+            make_problem,
+            &make_projector,
+            base,
+            *h,
+            settings.t_end,
+            &times,
+            false,
+        )
+    });
+    let mut runs = runs.into_iter();
+    let reference = runs
+        .next()
+        .ok_or_else(|| StudyError::InvalidInput("no reference run".into()))??;
+    let rows = jobs[1..]
+        .iter()
+        .zip(runs)
+        .map(|((h, solver), run)| match run {
+            Ok(run) => WorkPrecisionRow {
+                h: *h,
+                solver: solver.label(),
+                error: run
+                    .samples
+                    .iter()
+                    .zip(&reference.samples)
+                    .map(|(a, b)| distance(a, b))
+                    .fold(0.0, f64::max),
+                cpu_seconds: run.cpu_seconds,
+                wall_seconds: run.wall_seconds,
+                steps: run.stats.steps,
+                iterations: run.stats.iterations,
+                max_violation: run.stats.max_violation,
+                failure: None,
+            },
+            Err(e) => WorkPrecisionRow {
+                h: *h,
+                solver: solver.label(),
+                error: f64::NAN,
+                cpu_seconds: f64::NAN,
+                wall_seconds: f64::NAN,
+                steps: 0,
+                iterations: 0,
+                max_violation: f64::NAN,
+                failure: Some(e.to_string()),
+            },
+        })
+        .collect();
+    Ok(WorkPrecisionReport {
+        label: label.to_string(),
+        settings: settings.clone(),
+        reference: ReferenceSummary {
+            h: settings.h_min,
+            cpu_seconds: reference.cpu_seconds,
+            steps: reference.stats.steps,
+            iterations: reference.stats.iterations,
+        },
+        rows,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solver_settings_parse_with_and_without_tolerance() {
+        let s: SolverSetting = "osqp@1e-3".parse().unwrap();
+        assert_eq!(s.backend, BackendChoice::Osqp);
+        assert!((s.tolerance.unwrap() - 1e-3).abs() < 1e-18);
+        assert_eq!(s.label(), "osqp@1e-3");
+        let r: SolverSetting = "reference".parse().unwrap();
+        assert_eq!(r.tolerance, None);
+        assert!("osqp@-1".parse::<SolverSetting>().is_err());
+        assert!("nope".parse::<SolverSetting>().is_err());
+    }
+}
