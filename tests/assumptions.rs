@@ -181,7 +181,9 @@ fn disk_pair_constants() {
     assert_abs_diff_eq!(r.theta.unwrap(), 2.0, epsilon = 1e-12);
     let expect_r = (4.0 * 0.05 / (13.0 * SQRT_2)).min(SQRT_2 / 4.0);
     assert_abs_diff_eq!(r.r.unwrap(), expect_r, epsilon = 1e-12);
-    assert!(r.k_l.is_none() && r.h_max.is_none());
+    // Nothing moves: Q(t) is constant, K_L = 0 and every h is well-posed.
+    assert_eq!(r.k_l, Some(0.0));
+    assert!(r.h_max.is_some_and(f64::is_infinite));
     assert!(r.failures.is_empty(), "{:?}", r.failures);
 }
 

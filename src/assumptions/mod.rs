@@ -165,10 +165,10 @@ pub struct AssumptionReport {
     /// `r = min(4ρ/(13β), α/(2Mγ))` (Theorem 4.1).
     #[serde(with = "serde_ext::ext_opt")]
     pub r: Option<f64>,
-    /// `K_L` of Prop 2.3: not derived (module docs), always `None` for now.
+    /// `K_L` of Prop 2.3: `0` for a static problem; `None` (not derived) when constraints move.
     #[serde(with = "serde_ext::ext_opt")]
     pub k_l: Option<f64>,
-    /// `c/K_L`, the step bound for well-posedness: needs `K_L`, so `None`.
+    /// `c/K_L`, the step bound for well-posedness: `∞` for a static problem, else `None`.
     #[serde(with = "serde_ext::ext_opt")]
     pub h_max: Option<f64>,
     /// Failed assumptions, one sentence each.
@@ -282,13 +282,14 @@ impl AssumptionReport {
         d(
             "K_L",
             self.k_l,
-            "Lipschitz constant of t ↦ Q(t) (Prop 2.3): not derived, the paper gives no formula"
+            "Lipschitz constant of t ↦ Q(t) (Prop 2.3): 0 when nothing moves; not derived for \
+             moving constraints (the paper gives no formula)"
                 .into(),
         );
         d(
             "h_max",
             self.h_max,
-            "well-posedness needs h < c/K_L: unavailable without K_L".into(),
+            "well-posedness needs h < c/K_L: any h when nothing moves, unknown otherwise".into(),
         );
         let wn = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
         let wv = rows.iter().map(|r| r.1.chars().count()).max().unwrap_or(0);
@@ -725,11 +726,20 @@ pub fn estimate_problem(
         }
     }
     let c = c.filter(|v| v.is_finite());
-    notes.push(
-        "K_L (Prop 2.3) is not derived: the paper asserts it exists without a formula, so the \
-         step bound h < c/K_L is not available"
-            .into(),
-    );
+    // A static problem has Q(t) = Q(0) for all t: d_H(Q(t), Q(s)) = 0, so K_L = 0 and the
+    // well-posedness bound h < c/K_L holds for every h. With moving constraints the paper
+    // asserts K_L exists (Prop 2.3) without a formula, and we do not invent one.
+    let static_problem = problem.families().iter().all(|f| !f.is_time_dependent());
+    let (k_l, h_max) = if static_problem {
+        (Some(0.0), Some(f64::INFINITY))
+    } else {
+        notes.push(
+            "K_L (Prop 2.3) is not derived for moving constraints: the paper asserts it exists \
+             without a formula, so the step bound h < c/K_L is not available"
+                .into(),
+        );
+        (None, None)
+    };
     if s.probe_depth == 0.0 {
         notes.push(
             "A1, A3, A4 were sampled on Q(t) near activity only (probe_depth = 0), A2 near \
@@ -800,8 +810,8 @@ pub fn estimate_problem(
         eta,
         theta,
         r,
-        k_l: None,
-        h_max: None,
+        k_l,
+        h_max,
         failures,
         notes,
     })
