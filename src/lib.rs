@@ -46,3 +46,8 @@ pub mod prelude {
     pub use num_dual::DualNum;
     pub use sweeping_api::{CrossCheck, ProjectionError, ProjectionProblem, Projector};
 }
+
+/// The README's code blocks, compiled and run as doc tests so that they stay true.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -164,7 +164,7 @@ pub fn log_log(
             .map(|&(x, y)| format!("{:.1},{:.1}", px(x), py(y.clamp(y0, y1))))
             .collect();
         format!(
-            r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="2" {extra}/>"#,
+            r#"<polyline points="{}" fill="none" stroke="{color}" {extra}/>"#,
             coords.join(" ")
         )
     };
@@ -187,7 +187,7 @@ pub fn log_log(
             });
             if a < b {
                 let line = [(a, f.predict(a)), (b, f.predict(b))];
-                let _ = writeln!(svg, "{}", polyline(&line, color, ""));
+                let _ = writeln!(svg, "{}", polyline(&line, color, r#"stroke-width="2""#));
             }
         }
         let label = match s.fit {

@@ -470,7 +470,7 @@ impl OsqpProjector {
                     // caller needs is the KKT conditions of the projection within
                     // `tolerance()`. Keep the answer only when they hold.
                     let kkt = problem.kkt_residuals(&x, &multipliers).max();
-                    if !(kkt <= self.tolerance()) {
+                    if kkt.is_nan() || kkt > self.tolerance() {
                         return Err(ProjectionError::NotConverged {
                             backend: NAME.to_string(),
                             iterations,
