@@ -36,6 +36,16 @@ use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use sweeping_api::{Projection, ProjectionProblem, Projector, SolveStats, SparseRows};
 
+/// A time or coordinate for messages: rounded to 1e-9 so that `t = k·h` prints as `3.78`, not
+/// `3.7800000000000002`.
+pub fn display_number(v: f64) -> String {
+    if v.is_finite() {
+        format!("{}", (v * 1e9).round() / 1e9)
+    } else {
+        format!("{v}")
+    }
+}
+
 /// How the prediction uses `f`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -190,7 +200,8 @@ impl RunStats {
         self.max_active = self.max_active.max(r.active);
         if r.max_violation > self.max_violation {
             self.max_violation = r.max_violation;
-            self.worst_constraint = format!("{} at t = {}", r.worst_constraint, r.t);
+            self.worst_constraint =
+                format!("{} at t = {}", r.worst_constraint, display_number(r.t));
         }
     }
 }

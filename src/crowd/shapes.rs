@@ -226,7 +226,16 @@ impl ConstraintFamily for PersonShapes {
     fn describe(&self, index: usize) -> String {
         let (i, s) = self.split(index);
         let what = match &self.shapes[s].0 {
-            Shape::Segment { a, b } => format!("segment ({}, {})–({}, {})", a[0], a[1], b[0], b[1]),
+            Shape::Segment { a, b } => {
+                let n = crate::stepper::display_number;
+                format!(
+                    "segment ({}, {})–({}, {})",
+                    n(a[0]),
+                    n(a[1]),
+                    n(b[0]),
+                    n(b[1])
+                )
+            }
             Shape::Disk { center, radius } => {
                 format!("disk of radius {radius} at ({}, {})", center[0], center[1])
             }

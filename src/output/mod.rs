@@ -270,11 +270,13 @@ impl<'a> SummaryCollector<'a> {
         let [(ov, ow), (pv, pw)] = self.violations(t, q);
         if ov > self.summary.max_overlap {
             self.summary.max_overlap = ov;
-            self.summary.max_overlap_at = format!("{ow} at t = {t}");
+            self.summary.max_overlap_at =
+                format!("{ow} at t = {}", crate::stepper::display_number(t));
         }
         if pv > self.summary.max_wall_penetration {
             self.summary.max_wall_penetration = pv;
-            self.summary.max_wall_penetration_at = format!("{pw} at t = {t}");
+            self.summary.max_wall_penetration_at =
+                format!("{pw} at t = {}", crate::stepper::display_number(t));
         }
         self.summary.t_final = t;
     }

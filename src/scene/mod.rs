@@ -1306,6 +1306,10 @@ fn absorb(s: &mut crate::stepper::RunStats, r: &crate::stepper::StepReport) {
     s.max_active = s.max_active.max(r.active);
     if r.max_violation > s.max_violation {
         s.max_violation = r.max_violation;
-        s.worst_constraint = format!("{} at t = {}", r.worst_constraint, r.t);
+        s.worst_constraint = format!(
+            "{} at t = {}",
+            r.worst_constraint,
+            crate::stepper::display_number(r.t)
+        );
     }
 }
