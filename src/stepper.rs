@@ -676,9 +676,24 @@ impl<'p> Stepper<'p> {
     /// # Errors
     /// A [`RunFailure`]: the [`SweepError`] and the partial [`Run`].
     pub fn run(
+        self,
+        projector: &mut dyn Projector,
+        observers: &mut [&mut dyn Observer],
+    ) -> Result<Run, Box<RunFailure>> {
+        self.run_until(projector, observers, |_, _| false)
+    }
+
+    /// Like [`run`](Self::run), but stops early, after the step at the end of which
+    /// `stop(t, q)` is true (a crowd stops when everybody has left). The last configuration is
+    /// always recorded.
+    ///
+    /// # Errors
+    /// A [`RunFailure`]: the [`SweepError`] and the partial [`Run`].
+    pub fn run_until(
         mut self,
         projector: &mut dyn Projector,
         observers: &mut [&mut dyn Observer],
+        mut stop: impl FnMut(f64, &[f64]) -> bool,
     ) -> Result<Run, Box<RunFailure>> {
         let mut run = Run {
             trajectory: Trajectory {
@@ -717,8 +732,9 @@ impl<'p> Stepper<'p> {
             run.stats.absorb(&report);
             run.q_final.clone_from(&self.q);
             run.t_final = self.t;
+            let stopping = stop(self.t, &self.q);
             let every = self.settings.record_every;
-            if (every > 0 && self.k.is_multiple_of(every)) || self.k == self.n_steps {
+            if (every > 0 && self.k.is_multiple_of(every)) || self.k == self.n_steps || stopping {
                 run.trajectory.times.push(self.t);
                 run.trajectory.states.push(self.q.clone());
             }
@@ -732,6 +748,9 @@ impl<'p> Stepper<'p> {
                     });
                     return Err(fail(run, e, observers));
                 }
+            }
+            if stopping {
+                break;
             }
         }
         for o in observers.iter_mut() {

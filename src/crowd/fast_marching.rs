@@ -140,21 +140,7 @@ impl Ord for Entry {
     }
 }
 
-fn point_in_polygon(v: &[[f64; 2]], p: [f64; 2]) -> bool {
-    let mut inside = false;
-    let mut j = v.len().wrapping_sub(1);
-    for i in 0..v.len() {
-        let (a, b) = (v[i], v[j]);
-        if (a[1] > p[1]) != (b[1] > p[1]) {
-            let x = a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1]);
-            if p[0] < x {
-                inside = !inside;
-            }
-        }
-        j = i;
-    }
-    inside
-}
+use super::population::point_in_polygon;
 
 impl DistanceField {
     /// Solves `|∇d| = 1`, `d = 0` on the exits, over the free nodes of a grid of spacing

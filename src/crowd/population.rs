@@ -19,20 +19,7 @@ impl Room {
 
     /// Whether `p` lies inside the polygon (even–odd rule).
     pub fn contains(&self, p: [f64; 2]) -> bool {
-        let v = &self.vertices;
-        let mut inside = false;
-        let mut j = v.len() - 1;
-        for i in 0..v.len() {
-            let (a, b) = (v[i], v[j]);
-            if (a[1] > p[1]) != (b[1] > p[1]) {
-                let x = a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1]);
-                if p[0] < x {
-                    inside = !inside;
-                }
-            }
-            j = i;
-        }
-        inside
+        point_in_polygon(&self.vertices, p)
     }
 
     /// Distance from `p` to the polygon's boundary.
@@ -42,6 +29,23 @@ impl Room {
             .map(|i| segment_distance(p, v[i], v[(i + 1) % v.len()]))
             .fold(f64::INFINITY, f64::min)
     }
+}
+
+/// Whether `p` lies inside the polygon with vertices `v` (even–odd rule).
+pub fn point_in_polygon(v: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut inside = false;
+    let mut j = v.len().wrapping_sub(1);
+    for i in 0..v.len() {
+        let (a, b) = (v[i], v[j]);
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+        j = i;
+    }
+    inside
 }
 
 /// Distance from `p` to the segment `[a, b]`.

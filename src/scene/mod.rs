@@ -1212,104 +1212,32 @@ impl BuiltScene {
         projector: &mut dyn sweeping_api::Projector,
         observers: &mut [&mut dyn crate::stepper::Observer],
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
-        use crate::error::SweepError;
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
-        let start = Run {
-            trajectory: Trajectory {
-                times: vec![self.problem.t0()],
-                states: vec![self.problem.q0().to_vec()],
-            },
-            stats: RunStats::default(),
-            q_final: self.problem.q0().to_vec(),
-            t_final: self.problem.t0(),
-        };
-        let fail =
-            |run: Run, error: SweepError, observers: &mut [&mut dyn crate::stepper::Observer]| {
+        let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
+            Ok(s) => s,
+            Err(error) => {
                 for o in observers.iter_mut() {
                     let _ = o.on_finish(Some(&error));
                 }
-                Box::new(RunFailure {
-                    error,
-                    partial: run,
-                })
-            };
-        let mut stepper = match Stepper::new(&self.problem, self.settings.clone()) {
-            Ok(s) => s,
-            Err(e) => return Err(fail(start, e, observers)),
-        };
-        let mut run = start;
-        for o in observers.iter_mut() {
-            if let Err(message) = o.on_start(stepper.time(), stepper.state()) {
-                let e = SweepError::Observer {
-                    step: 0,
-                    t: stepper.time(),
-                    observer: o.name().to_string(),
-                    message,
-                };
-                return Err(fail(run, e, observers));
-            }
-        }
-        while stepper.steps_done() < stepper.n_steps() {
-            let report = match stepper.step(projector) {
-                Ok(r) => r,
-                Err(e) => return Err(fail(run, e, observers)),
-            };
-            absorb(&mut run.stats, &report);
-            run.q_final.clone_from(&stepper.state().to_vec());
-            run.t_final = stepper.time();
-            for o in observers.iter_mut() {
-                if let Err(message) = o.on_step(&report, stepper.state()) {
-                    let e = SweepError::Observer {
-                        step: report.step,
-                        t: report.t,
-                        observer: o.name().to_string(),
-                        message,
-                    };
-                    return Err(fail(run, e, observers));
-                }
-            }
-            if self.stop_when_empty && self.population.present_count(stepper.state()) == 0 {
-                break;
-            }
-        }
-        run.trajectory.times.push(run.t_final);
-        run.trajectory.states.push(run.q_final.clone());
-        for o in observers.iter_mut() {
-            if let Err(message) = o.on_finish(None) {
-                let e = SweepError::Observer {
-                    step: run.stats.steps,
-                    t: run.t_final,
-                    observer: o.name().to_string(),
-                    message,
-                };
+                let q0 = self.problem.q0().to_vec();
                 return Err(Box::new(RunFailure {
-                    error: e,
-                    partial: run,
+                    error,
+                    partial: Run {
+                        trajectory: Trajectory {
+                            times: vec![self.problem.t0()],
+                            states: vec![q0.clone()],
+                        },
+                        stats: RunStats::default(),
+                        q_final: q0,
+                        t_final: self.problem.t0(),
+                    },
                 }));
             }
-        }
-        Ok(run)
-    }
-}
-
-fn absorb(s: &mut crate::stepper::RunStats, r: &crate::stepper::StepReport) {
-    s.steps += 1;
-    s.times.effects += r.times.effects;
-    s.times.broad_phase += r.times.broad_phase;
-    s.times.assembly += r.times.assembly;
-    s.times.projection += r.times.projection;
-    s.times.check += r.times.check;
-    s.iterations += u64::from(r.iterations);
-    s.solves += r.solves as u64;
-    s.rows += r.rows as u64;
-    s.max_rows = s.max_rows.max(r.rows);
-    s.max_active = s.max_active.max(r.active);
-    if r.max_violation > s.max_violation {
-        s.max_violation = r.max_violation;
-        s.worst_constraint = format!(
-            "{} at t = {}",
-            r.worst_constraint,
-            crate::stepper::display_number(r.t)
-        );
+        };
+        let stop_when_empty = self.stop_when_empty;
+        let population = &self.population;
+        stepper.run_until(projector, observers, |_, q| {
+            stop_when_empty && population.present_count(q) == 0
+        })
     }
 }
