@@ -56,8 +56,10 @@
 //! # Failures
 //!
 //! Every OSQP status is mapped to a result: `Solved` to an answer, `SolvedInaccurate` to an
-//! answer of reduced accuracy or [`ProjectionError::NotConverged`] (per
-//! [`OsqpSettings::accept_inaccurate`]), iteration and time limits to
+//! answer of reduced accuracy when [`OsqpSettings::accept_inaccurate`] is set or when its KKT
+//! residuals are within [`Projector::tolerance`] anyway (checked, not trusted; in the paper's
+//! jam OSQP stops this way at 1e-9 with residuals far below 1e-6), else to
+//! [`ProjectionError::NotConverged`], iteration and time limits to
 //! [`ProjectionError::NotConverged`], primal infeasibility to [`ProjectionError::Infeasible`],
 //! and the statuses a projection cannot produce (dual infeasibility, non-convexity) to
 //! [`ProjectionError::Backend`]. The osqp crate panics when the C library reports an internal
@@ -128,7 +130,9 @@ pub struct OsqpSettings {
     pub time_limit: Option<f64>,
     /// Whether OSQP's `SolvedInaccurate` (its tolerances met only when multiplied by 10, at
     /// the iteration or time limit) is accepted, as [`SolveStatus::SolvedReducedAccuracy`];
-    /// when `false` it is [`ProjectionError::NotConverged`]. Default `false`.
+    /// when `false` it is kept only if its KKT residuals are within
+    /// [`Projector::tolerance`], and is [`ProjectionError::NotConverged`] otherwise. Default
+    /// `false`.
     pub accept_inaccurate: bool,
     /// Reuse the workspace and start from the previous answer when the sparsity pattern of `A`
     /// is unchanged; when `false` every solve builds a new workspace and starts from `x = y`.

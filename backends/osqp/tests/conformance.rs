@@ -237,11 +237,27 @@ fn inaccurate_answers_follow_the_setting() {
             }
             assert_eq!(sol.stats.status, SolveStatus::SolvedReducedAccuracy);
             assert!(kkt(&p, sol) <= 1e-3);
-            match OsqpProjector::new(settings(max_iter, false)).project(&p) {
-                Err(ProjectionError::NotConverged { status, .. }) => {
-                    assert_eq!(status, "solved inaccurate")
+            // Not accepted as such, the answer is still kept when its KKT residuals are
+            // within the projector's tolerance (checked, not trusted); otherwise NotConverged.
+            let strict = OsqpProjector::new(settings(max_iter, false));
+            let tolerance = strict.tolerance();
+            match {
+                let mut strict = strict;
+                strict.project(&p)
+            } {
+                Ok(kept) => {
+                    assert_eq!(kept.stats.status, SolveStatus::SolvedReducedAccuracy);
+                    assert!(
+                        kkt(&p, &kept) <= tolerance,
+                        "kept with KKT {}",
+                        kkt(&p, &kept)
+                    );
                 }
-                other => panic!("expected NotConverged, got {other:?}"),
+                Err(ProjectionError::NotConverged { status, .. }) => {
+                    assert!(status.starts_with("solved inaccurate"), "{status}");
+                    assert!(kkt(&p, sol) > tolerance);
+                }
+                Err(other) => panic!("expected an answer or NotConverged, got {other}"),
             }
             found = true;
             break;
