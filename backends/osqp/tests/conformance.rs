@@ -239,12 +239,10 @@ fn inaccurate_answers_follow_the_setting() {
             assert!(kkt(&p, sol) <= 1e-3);
             // Not accepted as such, the answer is still kept when its KKT residuals are
             // within the projector's tolerance (checked, not trusted); otherwise NotConverged.
-            let strict = OsqpProjector::new(settings(max_iter, false));
+            let mut strict = OsqpProjector::new(settings(max_iter, false));
             let tolerance = strict.tolerance();
-            match {
-                let mut strict = strict;
-                strict.project(&p)
-            } {
+            let outcome = strict.project(&p);
+            match outcome {
                 Ok(kept) => {
                     assert_eq!(kept.stats.status, SolveStatus::SolvedReducedAccuracy);
                     assert!(
