@@ -19,6 +19,7 @@
 //! * [`study`] — convergence orders (against a reference or an exact solution) and
 //!   work–precision studies.
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod assumptions;
 pub mod backends;

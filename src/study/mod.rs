@@ -237,19 +237,30 @@ pub fn comparison_times(t0: f64, t_end: f64, count: usize) -> Vec<f64> {
 pub fn thread_cpu_seconds() -> Option<f64> {
     #[cfg(unix)]
     {
-        let mut ts = libc::timespec {
-            tv_sec: 0,
-            tv_nsec: 0,
-        };
-        // SAFETY: `ts` is a valid, writable timespec for the duration of the call, and
-        // CLOCK_THREAD_CPUTIME_ID is a clock id every supported unix defines.
-        let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-        if rc == 0 {
-            return Some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9);
-        }
-        None
+        use nix::time::{clock_gettime, ClockId};
+        clock_gettime(ClockId::CLOCK_THREAD_CPUTIME_ID)
+            .ok()
+            .map(|ts| ts.tv_sec() as f64 + ts.tv_nsec() as f64 * 1e-9)
     }
     #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
+/// The peak resident memory of this process so far, in bytes (`getrusage`'s `ru_maxrss`);
+/// `None` where the platform does not provide it.
+pub fn peak_memory_bytes() -> Option<u64> {
+    #[cfg(target_os = "linux")]
+    {
+        use nix::sys::resource::{getrusage, UsageWho};
+        // Linux reports ru_maxrss in kibibytes.
+        getrusage(UsageWho::RUSAGE_SELF)
+            .ok()
+            .and_then(|u| u64::try_from(u.max_rss()).ok())
+            .map(|kib| kib * 1024)
+    }
+    #[cfg(not(target_os = "linux"))]
     {
         None
     }

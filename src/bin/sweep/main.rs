@@ -1,4 +1,5 @@
 //! `sweep`: run, check and study sweeping processes and crowd scenes.
+#![forbid(unsafe_code)]
 
 use clap::{Parser, Subcommand};
 
