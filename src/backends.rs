@@ -24,6 +24,16 @@ pub enum BackendChoice {
     Reference,
 }
 
+impl BackendChoice {
+    /// Every backend this enum can name (compiled in or not: see [`make_projector`]).
+    pub const ALL: [BackendChoice; 4] = [
+        BackendChoice::Clarabel,
+        BackendChoice::Osqp,
+        BackendChoice::Cross,
+        BackendChoice::Reference,
+    ];
+}
+
 impl std::str::FromStr for BackendChoice {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {

@@ -126,7 +126,8 @@ impl StageTimes {
         self.effects + self.broad_phase + self.assembly + self.projection + self.check
     }
 
-    fn add(&mut self, o: &StageTimes) {
+    /// Adds another step's times, stage by stage.
+    pub fn add(&mut self, o: &StageTimes) {
         self.effects += o.effects;
         self.broad_phase += o.broad_phase;
         self.assembly += o.assembly;

@@ -14,6 +14,7 @@ pub mod fast_marching;
 mod pairs;
 mod population;
 mod shapes;
+pub mod synthetic;
 pub mod velocity;
 
 pub use pairs::{DiskPairKernel, DiskPairs};

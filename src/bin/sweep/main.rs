@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod check;
 mod converge;
 mod run;
@@ -27,6 +28,8 @@ enum Command {
     Converge(converge::ConvergeArgs),
     /// Error against CPU time over step × backend × solver tolerance.
     WorkPrecision(work_precision::WorkPrecisionArgs),
+    /// Milliseconds per step, by stage, on synthetic crowds of growing size, per backend.
+    Bench(bench::BenchArgs),
 }
 
 fn main() {
@@ -36,6 +39,7 @@ fn main() {
         Command::Check(a) => check::main(a),
         Command::Converge(a) => converge::main(a),
         Command::WorkPrecision(a) => work_precision::main(a),
+        Command::Bench(a) => bench::main(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
