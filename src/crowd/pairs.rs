@@ -34,7 +34,7 @@ impl ConstraintKernel<4> for DiskPairKernel {
 /// [`ConstraintFamily::candidates`]). People who have left are in no pair.
 pub struct DiskPairs {
     population: Arc<Population>,
-    scratch: Mutex<Vec<(i64, i64, usize)>>,
+    scratch: Mutex<CellGrid>,
     cull: bool,
 }
 
@@ -43,7 +43,7 @@ impl DiskPairs {
     pub fn new(population: Arc<Population>) -> Self {
         Self {
             population,
-            scratch: Mutex::new(Vec::new()),
+            scratch: Mutex::new(CellGrid::default()),
             cull: true,
         }
     }
@@ -92,6 +92,148 @@ impl DiskPairs {
             }
         }
         out
+    }
+}
+
+/// The present people binned into square cells: a dense array of cells filled by counting sort
+/// (`O(N)`, no allocation once warm) over the bounding box of the crowd, or, when that box is
+/// sparse (fewer people than a quarter of its cells: people far apart, or far away), cells
+/// sorted by key (`O(N log N)`, memory independent of the extent).
+#[derive(Debug, Default)]
+struct CellGrid {
+    /// Dense: `(nx, ny)`, with `start[c]..start[c + 1]` the slice of `order` in cell `c`.
+    dims: Option<(usize, usize)>,
+    start: Vec<usize>,
+    order: Vec<usize>,
+    /// Sparse: `(cx, cy, person)`, sorted.
+    keys: Vec<(i64, i64, usize)>,
+    /// Scratch: the present people, their cells (dense), and the fill cursor of each cell.
+    people: Vec<usize>,
+    cells: Vec<(usize, usize)>,
+    next: Vec<usize>,
+}
+
+impl CellGrid {
+    fn fill(&mut self, pop: &Population, q: &[f64], cell: f64) {
+        self.people.clear();
+        self.keys.clear();
+        self.cells.clear();
+        let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        for i in 0..pop.len() {
+            if pop.is_present(q, i) {
+                self.people.push(i);
+                x0 = x0.min(q[2 * i]);
+                y0 = y0.min(q[2 * i + 1]);
+                x1 = x1.max(q[2 * i]);
+                y1 = y1.max(q[2 * i + 1]);
+            }
+        }
+        let present = self.people.len();
+        let (nx, ny) = (((x1 - x0) / cell).floor() + 1.0, ((y1 - y0) / cell).floor() + 1.0);
+        let dense = present > 0 && nx * ny <= (4 * present + 64) as f64;
+        if !dense {
+            self.dims = None;
+            for &i in &self.people {
+                let cx = (q[2 * i] / cell).floor() as i64;
+                let cy = (q[2 * i + 1] / cell).floor() as i64;
+                self.keys.push((cx, cy, i));
+            }
+            self.keys.sort_unstable();
+            return;
+        }
+        let (nx, ny) = (nx as usize, ny as usize);
+        self.dims = Some((nx, ny));
+        self.start.clear();
+        self.start.resize(nx * ny + 1, 0);
+        for &i in &self.people {
+            let cx = (((q[2 * i] - x0) / cell) as usize).min(nx - 1);
+            let cy = (((q[2 * i + 1] - y0) / cell) as usize).min(ny - 1);
+            self.cells.push((cx, cy));
+            self.start[cx * ny + cy + 1] += 1;
+        }
+        for c in 0..nx * ny {
+            self.start[c + 1] += self.start[c];
+        }
+        // Scatter the people into cell order.
+        self.next.clear();
+        self.next.extend_from_slice(&self.start[..nx * ny]);
+        self.order.clear();
+        self.order.resize(present, 0);
+        for (&i, &(cx, cy)) in self.people.iter().zip(&self.cells) {
+            let c = cx * ny + cy;
+            self.order[self.next[c]] = i;
+            self.next[c] += 1;
+        }
+    }
+
+    /// Calls `f(a, b)` once for every unordered pair of present people in the same or
+    /// neighbouring cells.
+    fn for_each_near_pair(&self, mut f: impl FnMut(usize, usize)) {
+        // Each pair of neighbouring cells is visited once: the cell itself and its four
+        // "forward" neighbours.
+        const FORWARD: [(i64, i64); 4] = [(1, -1), (1, 0), (1, 1), (0, 1)];
+        match self.dims {
+            Some((nx, ny)) => {
+                let slice = |cx: usize, cy: usize| {
+                    let c = cx * ny + cy;
+                    &self.order[self.start[c]..self.start[c + 1]]
+                };
+                for cx in 0..nx {
+                    for cy in 0..ny {
+                        let here = slice(cx, cy);
+                        if here.is_empty() {
+                            continue;
+                        }
+                        for (k, &a) in here.iter().enumerate() {
+                            for &b in &here[k + 1..] {
+                                f(a, b);
+                            }
+                        }
+                        for (dx, dy) in FORWARD {
+                            let (ox, oy) = (cx as i64 + dx, cy as i64 + dy);
+                            if ox < 0 || oy < 0 || ox >= nx as i64 || oy >= ny as i64 {
+                                continue;
+                            }
+                            let there = slice(ox as usize, oy as usize);
+                            for &a in here {
+                                for &b in there {
+                                    f(a, b);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            None => {
+                let keys = &self.keys;
+                let find = |cx: i64, cy: i64| -> std::ops::Range<usize> {
+                    let lo = keys.partition_point(|k| (k.0, k.1) < (cx, cy));
+                    let hi = keys.partition_point(|k| (k.0, k.1) <= (cx, cy));
+                    lo..hi
+                };
+                let mut start = 0;
+                while start < keys.len() {
+                    let (cx, cy, _) = keys[start];
+                    let mut end = start;
+                    while end < keys.len() && keys[end].0 == cx && keys[end].1 == cy {
+                        end += 1;
+                    }
+                    for a in start..end {
+                        for b in (a + 1)..end {
+                            f(keys[a].2, keys[b].2);
+                        }
+                    }
+                    for (dx, dy) in FORWARD {
+                        for b in find(cx + dx, cy + dy) {
+                            for a in start..end {
+                                f(keys[a].2, keys[b].2);
+                            }
+                        }
+                    }
+                    start = end;
+                }
+            }
+        }
     }
 }
 
@@ -150,58 +292,23 @@ impl ConstraintFamily for DiskPairs {
             }
             return;
         }
-        // Two disks with D_ij ≤ cutoff have centres closer than r_i + r_j + cutoff ≤ cell.
+        // Two disks with D_ij ≤ cutoff have centres closer than r_i + r_j + cutoff ≤ cell, so
+        // they lie in the same or neighbouring cells of a grid of that size.
         let cell = 2.0 * pop.max_radius() + cutoff.max(0.0) + 1e-12;
-        let mut keys = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
-        keys.clear();
-        for i in 0..n {
-            if pop.is_present(q, i) {
-                let cx = (q[2 * i] / cell).floor() as i64;
-                let cy = (q[2 * i + 1] / cell).floor() as i64;
-                keys.push((cx, cy, i));
-            }
-        }
-        keys.sort_unstable();
-        let keys = &*keys;
-        let find = |cx: i64, cy: i64| -> std::ops::Range<usize> {
-            let lo = keys.partition_point(|k| (k.0, k.1) < (cx, cy));
-            let hi = keys.partition_point(|k| (k.0, k.1) <= (cx, cy));
-            lo..hi
-        };
-        let mut push = |a: usize, b: usize| {
-            let (i, j) = if a < b { (a, b) } else { (b, a) };
+        let mut grid = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        grid.fill(pop, q, cell);
+        let pair_within = |i: usize, j: usize| {
             let d = ((q[2 * i] - q[2 * j]).powi(2) + (q[2 * i + 1] - q[2 * j + 1]).powi(2)).sqrt()
                 - pop.radius(i)
                 - pop.radius(j);
-            if d <= cutoff {
+            d <= cutoff
+        };
+        grid.for_each_near_pair(|a, b| {
+            let (i, j) = if a < b { (a, b) } else { (b, a) };
+            if pair_within(i, j) {
                 out.push(i * n + j);
             }
-        };
-        let mut start = 0;
-        while start < keys.len() {
-            let (cx, cy, _) = keys[start];
-            let mut end = start;
-            while end < keys.len() && keys[end].0 == cx && keys[end].1 == cy {
-                end += 1;
-            }
-            // Pairs inside the cell.
-            for a in start..end {
-                for b in (a + 1)..end {
-                    push(keys[a].2, keys[b].2);
-                }
-            }
-            // Pairs with the four "forward" neighbours, so each neighbouring pair of cells is
-            // visited once.
-            for (dx, dy) in [(1, -1), (1, 0), (1, 1), (0, 1)] {
-                let r = find(cx + dx, cy + dy);
-                for a in start..end {
-                    for b in r.clone() {
-                        push(keys[a].2, keys[b].2);
-                    }
-                }
-            }
-            start = end;
-        }
+        });
     }
 
     /// `|⟨∇D_ij, x − q⟩| = |⟨e_ij, Δⱼ − Δᵢ⟩| ≤ |Δᵢ| + |Δⱼ|`, bounded by the sum of the two

@@ -177,14 +177,6 @@ impl PersonShapes {
             person_radius: self.population.radius(person),
         }
     }
-
-    fn value(&self, t: f64, q: &[f64], person: usize, shape: usize) -> f64 {
-        PersonShapeKernel.value(
-            &self.params(person, shape),
-            t,
-            [q[2 * person], q[2 * person + 1]],
-        )
-    }
 }
 
 impl ConstraintFamily for PersonShapes {
@@ -249,12 +241,60 @@ impl ConstraintFamily for PersonShapes {
 
     fn candidates(&self, t: f64, q: &[f64], cutoff: f64, out: &mut Vec<usize>) {
         let s_count = self.shapes.len();
+        // Each shape where it is at t, with its bounding box: a person whose centre is farther
+        // than r + cutoff from the box has g > cutoff and is skipped without evaluating g.
+        let placed: Vec<(Shape, [f64; 4])> = self
+            .shapes
+            .iter()
+            .map(|(shape, motion)| {
+                let o: [f64; 2] = motion.offset(t);
+                let moved = match *shape {
+                    Shape::Segment { a, b } => Shape::Segment {
+                        a: [a[0] + o[0], a[1] + o[1]],
+                        b: [b[0] + o[0], b[1] + o[1]],
+                    },
+                    Shape::Disk { center, radius } => Shape::Disk {
+                        center: [center[0] + o[0], center[1] + o[1]],
+                        radius,
+                    },
+                };
+                let bbox = match moved {
+                    Shape::Segment { a, b } => {
+                        [a[0].min(b[0]), a[1].min(b[1]), a[0].max(b[0]), a[1].max(b[1])]
+                    }
+                    Shape::Disk { center, radius } => [
+                        center[0] - radius,
+                        center[1] - radius,
+                        center[0] + radius,
+                        center[1] + radius,
+                    ],
+                };
+                (moved, bbox)
+            })
+            .collect();
         for i in 0..self.population.len() {
             if !self.population.is_present(q, i) {
                 continue;
             }
-            for s in 0..s_count {
-                if self.value(t, q, i, s) <= cutoff {
+            let p = [q[2 * i], q[2 * i + 1]];
+            // The kernel computes g with other roundings: a slack far above them keeps every
+            // member with g ≤ cutoff (returning more is allowed).
+            let slack = 1e-12 * (1.0 + p[0].abs() + p[1].abs() + cutoff.abs());
+            let reach = self.population.radius(i) + cutoff + slack;
+            for (s, (shape, bbox)) in placed.iter().enumerate() {
+                let dx = (bbox[0] - p[0]).max(p[0] - bbox[2]).max(0.0);
+                let dy = (bbox[1] - p[1]).max(p[1] - bbox[3]).max(0.0);
+                if dx > reach || dy > reach {
+                    continue;
+                }
+                // The kernel's value at t in plain floating point (the same formula).
+                let g = match *shape {
+                    Shape::Segment { a, b } => super::segment_distance(p, a, b),
+                    Shape::Disk { center, radius } => {
+                        ((p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2)).sqrt() - radius
+                    }
+                } - self.population.radius(i);
+                if g <= cutoff + slack {
                     out.push(i * s_count + s);
                 }
             }
