@@ -1213,6 +1213,8 @@ impl BuiltScene {
         observers: &mut [&mut dyn crate::stepper::Observer],
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
+        // A new run from q₀: nobody has left yet.
+        self.population.reset_departures();
         let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(error) => {
