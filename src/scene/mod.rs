@@ -59,7 +59,11 @@ use crate::crowd::{
     ShapeParams,
 };
 use crate::problem::Problem;
-use crate::stepper::StepperSettings;
+use crate::stepper::{display_number, StepperSettings};
+
+/// The most people a scene may hold (explicit and placed): beyond it a run would not end in
+/// reasonable time on the machines this is made for.
+pub const MAX_PEOPLE: usize = 1_000_000;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use spec::{DesiredKind, DesiredSpec, RadiusSpec};
@@ -196,12 +200,25 @@ struct Origin {
 
 struct Ctx<'a> {
     file: &'a str,
-    text: &'a str,
+    /// Byte offset of the start of every line: a line is found by binary search, so that
+    /// 200 000 `[[people]]` are located in `O(N log N)` (scanning the text for each was
+    /// quadratic).
+    line_starts: Vec<usize>,
 }
 
 impl Ctx<'_> {
+    fn new<'a>(file: &'a str, text: &str) -> Ctx<'a> {
+        let line_starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        Ctx { file, line_starts }
+    }
+
     fn line_of<T>(&self, s: &Spanned<T>) -> usize {
-        line_column(self.text, s.span().start).0
+        let offset = s.span().start;
+        self.line_starts
+            .partition_point(|&start| start <= offset)
+            .max(1)
     }
 
     fn err(
@@ -288,10 +305,7 @@ impl Scene {
     /// non-positive radius or step, an exit not on a wall, a person outside the room or
     /// inside an obstacle, overlapping people, a crowd that does not fit…
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
-        let cx = Ctx {
-            file: &self.origin,
-            text: &self.text,
-        };
+        let cx = Ctx::new(&self.origin, &self.text);
         let spec = &self.spec;
 
         // ---- run settings
@@ -674,25 +688,29 @@ impl Scene {
             group_of.push(groups.len());
             groups.push(item);
         }
-        // Explicit people must not overlap (random ones are placed clear of everybody).
+        // Explicit people must not overlap (random ones are placed clear of everybody): a
+        // spatial hash of cell 2·r_max finds every overlapping pair in O(N).
         {
-            let pop = Population::new(radii.clone()).shared();
-            let q: Vec<f64> = positions.iter().flatten().copied().collect();
-            let pairs = DiskPairs::new(pop);
-            let n = positions.len();
-            if let Some(&idx) = pairs.brute_force_candidates(&q, -1e-12).first() {
-                let (i, j) = (idx / n, idx % n);
-                let d = ((positions[i][0] - positions[j][0]).powi(2)
-                    + (positions[i][1] - positions[j][1]).powi(2))
-                .sqrt();
-                return Err(cx.err(
-                    Some(origins[j].line),
-                    format!("{} and {}", origins[i].item, origins[j].item),
-                    format!(
-                        "the two people overlap at t = 0 (centres {} apart, radii {} + {})",
-                        d, radii[i], radii[j]
-                    ),
-                ));
+            let rmax = radii.iter().copied().fold(0.0, f64::max);
+            let mut hash = SpatialHash::new(2.0 * rmax);
+            for (j, p) in positions.iter().enumerate() {
+                if let Some(i) = hash.near(*p).find(|&i| {
+                    let d = ((p[0] - positions[i][0]).powi(2) + (p[1] - positions[i][1]).powi(2))
+                        .sqrt();
+                    d < radii[i] + radii[j] - 1e-12
+                }) {
+                    let d = ((positions[i][0] - p[0]).powi(2) + (positions[i][1] - p[1]).powi(2))
+                        .sqrt();
+                    return Err(cx.err(
+                        Some(origins[j].line),
+                        format!("{} and {}", origins[i].item, origins[j].item),
+                        format!(
+                            "the two people overlap at t = 0 (centres {} apart, radii {} + {})",
+                            d, radii[i], radii[j]
+                        ),
+                    ));
+                }
+                hash.insert(*p, j);
             }
         }
         for (g, c) in spec.crowds.iter().enumerate() {
@@ -726,7 +744,26 @@ impl Scene {
                 None => cs.seed.unwrap_or(0),
             };
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            let max_attempts = 2000 * cs.count + 10_000;
+            // A packing bound before any placement: the disks (radius ≥ rmin) are disjoint and
+            // lie in the room and in the region grown by rmin, so their count is at most the
+            // smaller of those areas over π rmin² (a count beyond it would only fail, slowly).
+            let room_area = polygon_area(&room_vertices).abs();
+            let grown = (region[2] - region[0] + 2.0 * rmin) * (region[3] - region[1] + 2.0 * rmin);
+            let fit = room_area.min(grown) / (std::f64::consts::PI * rmin * rmin);
+            if cs.count as f64 > fit {
+                return Err(cx.err(Some(line), item, format!("{} people of radius ≥ {rmin} cannot fit: the area bound allows at most {} (room area {}, region {region:?})", cs.count, fit.floor(), display_number(room_area))));
+            }
+            if positions.len().saturating_add(cs.count) > MAX_PEOPLE {
+                return Err(cx.err(
+                    Some(line),
+                    item,
+                    format!(
+                        "{} people: a scene holds at most {MAX_PEOPLE}",
+                        positions.len().saturating_add(cs.count)
+                    ),
+                ));
+            }
+            let max_attempts = cs.count.saturating_mul(2000).saturating_add(10_000);
             let mut placed = 0usize;
             let mut attempts = 0usize;
             let global_rmax = radii.iter().copied().fold(rmax, f64::max);
@@ -971,6 +1008,9 @@ impl Scene {
                 ));
             }
         }
+        // Intervals below one step are clamped to one step (a write per step at most).
+        let trajectory_every = trajectory_every.max(h);
+        let snapshot_every = snapshot_every.max(h);
         if animation_frames < 2 {
             return Err(cx.err(out_line, "[output] animation_frames", "must be at least 2"));
         }
