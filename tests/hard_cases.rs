@@ -271,3 +271,143 @@ fn many_explicit_people_load_and_overlaps_are_still_found() {
         "{e}"
     );
 }
+
+fn build_error(text: &str) -> String {
+    use sweeping::scene::{Overrides, Scene};
+    match Scene::from_toml_str(text, "bad.toml").and_then(|s| s.build(&Overrides::default())) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Item 6: over-long (or short) arrays are errors, never truncated.
+#[test]
+fn arrays_of_the_wrong_length_are_refused() {
+    let person = "[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n";
+    let cases = [
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [1, 1, 3]\nradius = 0.2\n"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0, 5.0]\n{person}"),
+        format!("[room]\npolygon = [[0.0, 0.0, 1.0], [4.0, 0.0, 1.0], [4.0, 4.0, 1.0]]\n{person}"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\ndisk = {{ center = [3.0, 3.0], radius = 0.3 }}\nvelocity = [1.0, 0.0, 2.0]\n{person}"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\ndisk = {{ center = [3.0, 3.0], radius = 0.3 }}\npath = [[0.0, 0.0], [1.0, 1.0]]\n{person}"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n{person}[desired]\nkind = \"constant\"\nvelocity = [1.0]\n"),
+    ];
+    for text in cases {
+        let e = build_error(&text);
+        assert!(
+            e.contains("expected") && e.contains("numbers, got"),
+            "{e}\n{text}"
+        );
+    }
+}
+
+/// Item 6: a scene name is a plain directory name, never a path.
+#[test]
+fn scene_names_cannot_escape_the_output_directory() {
+    for name in ["/tmp/escape", "../up", "a/b", "..", ""] {
+        let text = format!(
+            "name = {name:?}\n[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n"
+        );
+        let e = build_error(&text);
+        assert!(e.contains("plain") && e.contains("name"), "{name}: {e}");
+    }
+}
+
+/// Item 6: a geodesic cell larger than the room or its door is refused with a reason.
+#[test]
+fn a_geodesic_cell_coarser_than_the_room_is_refused() {
+    let text =
+        "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[exits]]\nfrom = [4.0, 1.0]\nto = [4.0, 2.0]\n\
+                [[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[desired]\nkind = \"exit\"\n\
+                [geodesic]\ncell = 5.0\n";
+    let e = build_error(text);
+    assert!(e.contains("too coarse") && e.contains("bad.toml:11"), "{e}");
+}
+
+/// Items 5 and 6: extents f64 cannot resolve at the people's size are refused with the
+/// range that would do; a room at 1e6 runs clean (checked independently).
+#[test]
+fn far_or_huge_rooms_are_refused_and_near_ones_run_clean() {
+    let room = |x0: f64, w: f64| {
+        format!(
+            "[room]\nrectangle = [{x0:e}, {x0:e}, {:e}, {:e}]\n[[crowds]]\ncount = 60\nradius = 0.2\n\
+             region = [{x0:e}, {x0:e}, {:e}, {:e}]\n[run]\nt_end = 0.3\n",
+            x0 + w,
+            x0 + w,
+            x0 + w,
+            x0 + w
+        )
+    };
+    for text in [room(1e12, 5.0), room(1e10, 5.0)] {
+        let e = build_error(&text);
+        assert!(e.contains("too coarse for people of radius 0.2"), "{e}");
+    }
+    for text in [
+        "[room]\nrectangle = [0.0, 0.0, 2e150, 5.0]\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n",
+        "[room]\nrectangle = [-1e308, -1e308, 1e308, 1e308]\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n",
+    ] {
+        let e = build_error(text);
+        assert!(e.contains("too coarse") || e.contains("finite"), "{e}");
+    }
+    let x0 = 1e6;
+    let run = sweep_run("near-1e6", &room(x0, 5.0), &[]);
+    assert!(run.success, "{}", run.output);
+    let g = Geometry {
+        room: vec![
+            [x0, x0],
+            [x0 + 5.0, x0],
+            [x0 + 5.0, x0 + 5.0],
+            [x0, x0 + 5.0],
+        ],
+        exits: vec![],
+        obstacles: vec![],
+        radii: vec![0.2; 60],
+    };
+    // Coordinates near 1e6 carry 1.2e-10 of rounding in the CSV itself.
+    let f = check_trajectory(&run.out.join("trajectory.csv"), &g, 1e-8);
+    assert!(f.problems.is_empty(), "{:#?}", f.problems);
+}
+
+/// Item 6: `sweep check` refuses nonsensical sampling horizons, and a failed assumption (a
+/// person wedged between two walls: γ' = ∞) makes it exit non-zero.
+#[test]
+fn sweep_check_validates_its_arguments_and_fails_on_failed_assumptions() {
+    use std::process::Command;
+    let dir = common::checker::scratch("check");
+    let wedged = dir.join("wedged.toml");
+    std::fs::write(
+        &wedged,
+        "[room]\nrectangle = [0.0, 0.0, 0.4, 5.0]\n[[people]]\nposition = [0.2, 2.5]\nradius = 0.2\n",
+    )
+    .unwrap();
+    let fine = dir.join("fine.toml");
+    std::fs::write(
+        &fine,
+        "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [2.0, 2.0]\nradius = 0.2\n",
+    )
+    .unwrap();
+    let check = |scene: &std::path::Path, sample: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_sweep"))
+            .args(["check"])
+            .arg(scene)
+            .arg(format!("--sample-run={sample}"))
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            ),
+        )
+    };
+    for bad in ["nan", "-1", "1e300", "inf"] {
+        let (ok, out) = check(&fine, bad);
+        assert!(!ok && out.contains("--sample-run"), "{bad}: {out}");
+    }
+    let (ok, out) = check(&fine, "0.1");
+    assert!(ok, "{out}");
+    let (ok, out) = check(&wedged, "0");
+    assert!(!ok && out.contains("assumption failure"), "{out}");
+}

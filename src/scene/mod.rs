@@ -307,6 +307,22 @@ impl Scene {
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
         let cx = Ctx::new(&self.origin, &self.text);
         let spec = &self.spec;
+        // The name becomes a directory under out/: a path in it would write elsewhere.
+        if self.name.is_empty()
+            || self.name == "."
+            || self.name == ".."
+            || self.name.contains(['/', '\\', '\0', ':'])
+        {
+            return Err(cx.err(
+                None,
+                "name",
+                format!(
+                    "the name {:?} names the output directory out/<name>/: it must be a plain \
+                     file name (not empty, `.` or `..`, without `/`, `\\`, `:`)",
+                    self.name
+                ),
+            ));
+        }
 
         // ---- run settings
         let run_line = spec.run.as_ref().map(|r| cx.line_of(r));
@@ -420,6 +436,7 @@ impl Scene {
             vertices: room_vertices.clone(),
         };
         let (bx0, by0, bx1, by1) = bbox(&room_vertices);
+        check_resolution(&cx, spec, room_line, &room_vertices)?;
         let scale = (bx1 - bx0).max(by1 - by0);
         let on_tol = 1e-9 * scale.max(1.0);
         let n_edges = room_vertices.len();
@@ -858,6 +875,25 @@ impl Scene {
                     format!("the cell size must be positive and finite, got {cell}"),
                 ));
             }
+            // A grid coarser than the room (or than a door) cannot represent the routes: the
+            // field would point people anywhere. Refuse it rather than run with it.
+            let room_side = (bx1 - bx0).min(by1 - by0);
+            let shortest_exit = exits
+                .iter()
+                .map(|e| (e.b[0] - e.a[0]).hypot(e.b[1] - e.a[1]))
+                .fold(f64::INFINITY, f64::min);
+            if cell > room_side / 4.0 || cell > shortest_exit / 2.0 {
+                return Err(cx.err(
+                    geodesic_line,
+                    "[geodesic] cell",
+                    format!(
+                        "the cell {cell} is too coarse for the geodesic field: it must be at most a \
+                         quarter of the room's smallest side ({}) and half the narrowest exit ({})",
+                        display_number(room_side),
+                        display_number(shortest_exit)
+                    ),
+                ));
+            }
             let domain = MarchingDomain {
                 room: room_vertices.clone(),
                 exits: exits.iter().map(|e| (e.a, e.b)).collect(),
@@ -1182,6 +1218,87 @@ fn check_desired(
             }
             _ => {}
         },
+    }
+    Ok(())
+}
+
+/// Refuses scenes whose coordinates f64 cannot resolve at the people's size. Positions are
+/// stored as absolute coordinates, so a constraint value computed from them carries a rounding
+/// error of a few units in the last place of the largest coordinate: 16 ε max|x| must stay
+/// below `1e-6 · min(r_min, 1)` (the run-time violation tolerance is 1e-6). A 5 m room at
+/// (1e12, 1e12) with people of radius 0.2 is refused (ε·1e12 ≈ 2e-4); at (1e6, 1e6) it runs.
+fn check_resolution(
+    cx: &Ctx<'_>,
+    spec: &spec::SceneSpec,
+    room_line: Option<usize>,
+    room: &[[f64; 2]],
+) -> Result<(), SceneError> {
+    let mut max_abs = 0.0f64;
+    // Non-finite numbers are reported by their own checks, with their item.
+    let mut see = |v: f64| {
+        if v.is_finite() {
+            max_abs = max_abs.max(v.abs());
+        }
+    };
+    for p in room {
+        see(p[0]);
+        see(p[1]);
+    }
+    let mut r_min = f64::INFINITY;
+    for o in &spec.obstacles {
+        let o = o.get_ref();
+        if let Some(d) = &o.disk {
+            see(d.center[0].abs() + d.radius.abs());
+            see(d.center[1].abs() + d.radius.abs());
+        }
+        if let Some(sg) = &o.segment {
+            sg.from.iter().chain(&sg.to).for_each(|&v| see(v));
+        }
+        for p in o.polygon.iter().flatten() {
+            see(p[0]);
+            see(p[1]);
+        }
+        for w in o.path.iter().flatten() {
+            see(w[1]);
+            see(w[2]);
+        }
+    }
+    for p in &spec.people {
+        let p = p.get_ref();
+        see(p.position[0]);
+        see(p.position[1]);
+        if p.radius > 0.0 {
+            r_min = r_min.min(p.radius);
+        }
+    }
+    for c in &spec.crowds {
+        let c = c.get_ref();
+        c.region.iter().flatten().for_each(|&v| see(v));
+        let r = match c.radius {
+            RadiusSpec::Fixed(r) => r,
+            RadiusSpec::Range([a, _]) => a,
+        };
+        if r > 0.0 {
+            r_min = r_min.min(r);
+        }
+    }
+    if !r_min.is_finite() {
+        return Ok(()); // nobody (or bad radii): reported with their own errors
+    }
+    let needed = 1e-6 * r_min.min(1.0);
+    let rounding = 16.0 * f64::EPSILON * max_abs;
+    if rounding > needed {
+        let limit = needed / (16.0 * f64::EPSILON);
+        return Err(cx.err(
+            room_line,
+            "[room]",
+            format!(
+                "coordinates as large as {max_abs:.3e} are resolved by 64-bit floats only to \
+                 about {rounding:.1e}, too coarse for people of radius {r_min} (a contact must \
+                 be resolved to {needed:.1e}); keep every coordinate within ±{limit:.2e}, \
+                 for instance by moving the scene nearer the origin"
+            ),
+        ));
     }
     Ok(())
 }
