@@ -75,6 +75,59 @@ pub enum SweepError {
         /// The bound and the value seen.
         detail: String,
     },
+    /// After a step, a true constraint `gᵢ(t_{k+1}, q_{k+1}) ≥ 0` is violated by more than
+    /// [`StepperSettings::violation_tolerance`](crate::stepper::StepperSettings): the
+    /// configuration is physically wrong (people overlap, someone is inside a wall), so the run
+    /// stops instead of continuing from it.
+    #[error("step {step}, t = {t}: constraint {constraint} is violated by {violation:.3e} after the step, beyond the tolerance {tolerance:.1e}")]
+    ViolationTooLarge {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// Which constraint (and people, for crowds).
+        constraint: String,
+        /// `−gᵢ(t_{k+1}, q_{k+1})`.
+        violation: f64,
+        /// The tolerance it exceeds.
+        tolerance: f64,
+    },
+    /// The backend's answer does not satisfy the KKT conditions of the projection within
+    /// [`StepperSettings::kkt_tolerance`](crate::stepper::StepperSettings) (relative): it is
+    /// not the projection, whatever status the solver reported.
+    #[error("step {step}, t = {t}: the answer of backend {backend} fails the KKT check ({residuals}; tolerance {tolerance:.1e} relative to terms up to {scale:.3e})")]
+    KktCheckFailed {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// The backend that answered.
+        backend: String,
+        /// The four residuals, printed.
+        residuals: String,
+        /// The relative tolerance.
+        tolerance: f64,
+        /// The largest of the term sizes the residuals are compared with.
+        scale: f64,
+    },
+    /// A moving constraint moves farther in one step than the linearization can follow
+    /// (the rule of the README, from the paper's `h < c/K_L` with `K_L ≤ β/α` by A1–A2): the
+    /// moving boundary could pass over the point, which would then be kept on the wrong side.
+    #[error("step {step}, t = {t}: the step h = {h} is too long for the moving constraint {constraint}: {detail}; h ≤ {suggested_h:.3e} would do")]
+    StepTooLong {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// Which constraint.
+        constraint: String,
+        /// The step length used.
+        h: f64,
+        /// A step that passes the rule at this configuration (half the largest allowed).
+        suggested_h: f64,
+        /// The distance and the motion compared.
+        detail: String,
+    },
     /// An observer failed (for instance, writing a file).
     #[error("step {step}, t = {t}: observer {observer} failed: {message}")]
     Observer {

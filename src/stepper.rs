@@ -87,6 +87,18 @@ pub struct StepperSettings {
     pub record_every: usize,
     /// Compute `∂ₜgᵢ` of every assembled row (for the run-time checks of A2). Default `false`.
     pub want_time_derivatives: bool,
+    /// The run fails with [`SweepError::ViolationTooLarge`] when, after a step, some true
+    /// constraint has `gᵢ(t_{k+1}, q_{k+1}) < −violation_tolerance` (absolute, in the units of
+    /// `g`: metres for crowds). The scheme keeps the configuration inside `Q(t)` up to the
+    /// solver's accuracy, so a larger violation means the answer is wrong. Default `1e-6`.
+    pub violation_tolerance: f64,
+    /// Every backend's answer `(x, λ)` is checked against the KKT conditions of the projection
+    /// before it is used; the run fails with [`SweepError::KktCheckFailed`] when a residual
+    /// exceeds `kkt_tolerance` times the size of its terms: primal `b − Ax` against
+    /// `max(1, ‖b‖∞)`, stationarity `x − y − Aᵀλ` against `max(1, ‖x − y‖∞)`, dual `−λ` against
+    /// `max(1, ‖λ‖∞)`, complementarity against the product of the first and the last.
+    /// Default `1e-6`.
+    pub kkt_tolerance: f64,
 }
 
 impl Default for StepperSettings {
@@ -101,6 +113,8 @@ impl Default for StepperSettings {
             max_cull_retries: 12,
             record_every: 1,
             want_time_derivatives: false,
+            violation_tolerance: 1e-6,
+            kkt_tolerance: 1e-6,
         }
     }
 }
@@ -403,6 +417,25 @@ impl<'p> Stepper<'p> {
                 "feasibility_tolerance and min_cutoff must be ≥ 0".into(),
             ));
         }
+        for (name, v) in [
+            ("violation_tolerance", settings.violation_tolerance),
+            ("kkt_tolerance", settings.kkt_tolerance),
+        ] {
+            if !(v > 0.0 && !v.is_nan()) {
+                return Err(SweepError::InvalidInput(format!(
+                    "{name} = {v} must be positive (use f64::INFINITY to disable the check)"
+                )));
+            }
+        }
+        // The step count is a usize: a horizon of 1e300 steps would overflow it (and never end).
+        let steps = ((settings.t_end - problem.t0()) / settings.h).ceil();
+        if !(steps <= 1e12) {
+            return Err(SweepError::InvalidInput(format!(
+                "T − t₀ = {} with h = {} would take {steps:.3e} steps (at most 1e12)",
+                settings.t_end - problem.t0(),
+                settings.h
+            )));
+        }
         problem.validate(settings.feasibility_tolerance)?;
         let span = settings.t_end - problem.t0();
         let n_steps = ((span / settings.h) - 1e-9).ceil().max(0.0) as usize;
@@ -563,6 +596,156 @@ impl<'p> Stepper<'p> {
         Ok(())
     }
 
+    /// The KKT conditions of the projection at the backend's answer, each residual relative to
+    /// the size of its terms: whatever status the solver reported, an answer that is not the
+    /// projection is never used.
+    fn check_kkt(
+        &self,
+        qp: &ProjectionProblem,
+        sol: &Projection,
+        t_next: f64,
+    ) -> Result<(), SweepError> {
+        let tol = self.settings.kkt_tolerance;
+        if tol.is_infinite() {
+            return Ok(());
+        }
+        let wrong = |residuals: String, scale: f64| SweepError::KktCheckFailed {
+            step: self.k,
+            t: t_next,
+            backend: sol.stats.backend.clone(),
+            residuals,
+            tolerance: tol,
+            scale,
+        };
+        if sol.x.len() != qp.dim() || sol.multipliers.len() != qp.n_rows() {
+            return Err(wrong(
+                format!(
+                    "{} coordinates and {} multipliers for a problem of dimension {} with {} rows",
+                    sol.x.len(),
+                    sol.multipliers.len(),
+                    qp.dim(),
+                    qp.n_rows()
+                ),
+                1.0,
+            ));
+        }
+        let r = qp.kkt_residuals(&sol.x, &sol.multipliers);
+        // Each residual against the size of the terms it is made of (what rounding alone
+        // leaves): Ax − b against b, x − y − Aᵀλ against x − y, λᵢ(Ax − b)ᵢ against both.
+        let inf = |v: &[f64]| v.iter().map(|a| a.abs()).fold(0.0, f64::max);
+        let disp = sol
+            .x
+            .iter()
+            .zip(qp.y())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let primal_scale = 1f64.max(inf(qp.b()));
+        let lambda_scale = 1f64.max(inf(&sol.multipliers));
+        let scale = primal_scale.max(disp).max(lambda_scale);
+        let ok = r.primal <= tol * primal_scale
+            && r.stationarity <= tol * 1f64.max(disp)
+            && r.dual <= tol * lambda_scale
+            && r.complementarity <= tol * primal_scale * lambda_scale;
+        if ok {
+            Ok(())
+        } else {
+            Err(wrong(
+                format!(
+                    "primal {:.2e}, stationarity {:.2e}, dual {:.2e}, complementarity {:.2e}",
+                    r.primal, r.stationarity, r.dual, r.complementarity
+                ),
+                scale,
+            ))
+        }
+    }
+
+    /// Moving boundaries cannot be jumped. For every member of a time-dependent family (all of
+    /// them: a fast set may jump a point far outside any cutoff), the step is refused when
+    ///
+    /// * the constraint's gradient at `q_k` turns by more than 90° between `t_k` and `t_{k+1}`
+    ///   (the moving set passed over the point, which the linearization at `t_{k+1}` would then
+    ///   keep on the wrong side), or
+    /// * where the family knows the margin `c` of A0: `h · max|∂ₜgᵢ| / |∇gᵢ| ≥ gᵢ(t_k, q_k) + c`,
+    ///   the paper's condition `h < c/K_L` (with `K_L ≤ β/α` by A1–A2) applied to each member
+    ///   with its current distance: the set moves less in one step than its distance to the
+    ///   point's own "centre" (for a person and a wall: the wall cannot reach the centre).
+    ///
+    /// The error names the member and the `h` (half the largest allowed) that would pass.
+    fn check_moving_constraints(&mut self, t_k: f64, t_next: f64) -> Result<(), SweepError> {
+        let h = t_next - t_k;
+        for fam in self.problem.families() {
+            if !fam.is_time_dependent() {
+                continue;
+            }
+            let margin = fam.a0_margin().filter(|c| c.is_finite() && *c > 0.0);
+            self.cands.clear();
+            // Every member: a set moving fast may jump a point far outside any cutoff.
+            fam.candidates(t_k, &self.q, f64::INFINITY, &mut self.cands);
+            let mut now = LinearizedRow::default();
+            for &idx in &self.cands {
+                fam.linearize(idx, t_k, &self.q, true, &mut now);
+                fam.linearize(idx, t_next, &self.q, true, &mut self.lin);
+                let next = &self.lin;
+                let (n0, n1) = (now.gradient_norm(), next.gradient_norm());
+                if !(n0 > 1e-12 && now.value.is_finite()) {
+                    continue; // reported by the assembly with its own error
+                }
+                // A gradient that vanishes (or is NaN) at t_{k+1} but not at t_k: the moving
+                // set's singular point (a disk's centre, a segment) reached the point itself.
+                let cos = if n1 > 1e-12 {
+                    now.gradient
+                        .iter()
+                        .zip(&next.gradient)
+                        .map(|(a, b)| a * b)
+                        .sum::<f64>()
+                        / (n0 * n1)
+                } else {
+                    -1.0
+                };
+                // Speed of the set along the normal, |∂ₜg| / |∇g|, at both ends of the step.
+                // The change of g over the step counts too: a path may speed up in between.
+                let speed = [
+                    now.dt.unwrap_or(0.0).abs() / n0,
+                    next.dt.unwrap_or(0.0).abs() / n1,
+                    (next.value - now.value).abs() / (h * n0.min(n1)),
+                ]
+                .into_iter()
+                .filter(|v| v.is_finite())
+                .fold(0.0, f64::max);
+                let clearance = now.value.max(0.0) + margin.unwrap_or(0.0);
+                let too_far = margin.is_some() && h * speed >= clearance;
+                if cos < 0.0 || too_far {
+                    let suggested_h = if speed > 0.0 && clearance > 0.0 {
+                        0.5 * clearance / speed
+                    } else {
+                        0.25 * h
+                    };
+                    let detail = if cos < 0.0 {
+                        format!(
+                            "its normal at the point turns by {:.0}° within the step (the moving set passes over the point)",
+                            cos.clamp(-1.0, 1.0).acos().to_degrees()
+                        )
+                    } else {
+                        format!(
+                            "it moves {:.3e} along its normal in one step (h·|∂ₜg|/|∇g|), not less than the clearance g + c = {:.3e}",
+                            h * speed,
+                            clearance
+                        )
+                    };
+                    return Err(SweepError::StepTooLong {
+                        step: self.k,
+                        t: t_next,
+                        constraint: fam.describe(idx),
+                        h,
+                        suggested_h,
+                        detail,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// One step: computes `q_{k+1}` from `q_k`.
     ///
     /// # Errors
@@ -591,6 +774,8 @@ impl<'p> Stepper<'p> {
                     .max(1.5 * state.last_drift);
             }
         }
+
+        self.check_moving_constraints(t_k, t_next)?;
 
         let mut solves = 0usize;
         let mut iterations = 0u32;
@@ -623,6 +808,9 @@ impl<'p> Stepper<'p> {
                     ),
                 });
             }
+            let tc = Instant::now();
+            self.check_kkt(&qp, &sol, t_next)?;
+            times.check += tc.elapsed().as_secs_f64();
 
             // The culling proof (module docs): every omitted row holds at x when δ ≤ cutoff.
             let tc = Instant::now();
@@ -660,9 +848,22 @@ impl<'p> Stepper<'p> {
         let (max_violation, worst_constraint) =
             match self.problem.min_constraint(t_next, &solution.x, 0.0) {
                 Some((v, name)) if v < 0.0 => (-v, name),
+                Some((v, name)) if v.is_nan() => (f64::NAN, name),
                 _ => (0.0, String::new()),
             };
         times.check += tc.elapsed().as_secs_f64();
+        // A run never continues from a configuration outside Q(t): the linearized set is an
+        // inner approximation of Q for convex gᵢ (paper, inclusion after equation `schema`), so
+        // a violation beyond the solver's accuracy means the answer is wrong.
+        if !(max_violation <= self.settings.violation_tolerance) {
+            return Err(SweepError::ViolationTooLarge {
+                step: self.k,
+                t: t_next,
+                constraint: worst_constraint,
+                violation: max_violation,
+                tolerance: self.settings.violation_tolerance,
+            });
+        }
 
         let report = StepReport {
             step: self.k,

@@ -249,7 +249,11 @@ fn negative_step_from_the_command_line() {
 
 #[test]
 fn crowd_that_does_not_fit() {
+    // Beyond the area bound: refused before any placement.
     let text = format!("{ROOM}[[crowds]]\ncount = 200\nradius = 0.2\n");
+    assert_message(&error_of(&text), 3, &["[[crowds]] #1", "cannot fit"]);
+    // Under the bound (127) but beyond what random placement achieves.
+    let text = format!("{ROOM}[[crowds]]\ncount = 120\nradius = 0.2\n");
     assert_message(&error_of(&text), 3, &["[[crowds]] #1", "could place only"]);
 }
 

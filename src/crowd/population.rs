@@ -1,5 +1,6 @@
 //! Who is in the crowd, and who has left.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// A closed polygonal room (counter-clockwise or clockwise), used to tell who has left.
@@ -61,27 +62,65 @@ pub fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt()
 }
 
+/// Who has left, latched: once set, a flag stays set until [`Population::reset_departures`].
+#[derive(Debug, Default)]
+struct Departures(Vec<AtomicBool>);
+
+impl Departures {
+    fn new(n: usize) -> Self {
+        Self((0..n).map(|_| AtomicBool::new(false)).collect())
+    }
+    fn get(&self, i: usize) -> bool {
+        self.0[i].load(Ordering::Relaxed)
+    }
+    fn set(&self, i: usize) {
+        self.0[i].store(true, Ordering::Relaxed);
+    }
+    fn snapshot(&self) -> Vec<bool> {
+        self.0.iter().map(|b| b.load(Ordering::Relaxed)).collect()
+    }
+}
+
+impl Clone for Departures {
+    fn clone(&self) -> Self {
+        Self(self.snapshot().into_iter().map(AtomicBool::new).collect())
+    }
+}
+
+impl PartialEq for Departures {
+    fn eq(&self, other: &Self) -> bool {
+        self.snapshot() == other.snapshot()
+    }
+}
+
 /// The people of a crowd: their radii, and the rule that says who has left.
 ///
 /// Shared (behind an `Arc`) by the constraint families and the velocity field, so that all
-/// agree on who is present. Presence is a function of the configuration only: person `i` has
-/// left when a room is set and its centre is outside the room by at least `rᵢ` (the disk is
-/// wholly out). Walls are enforced, so that can only happen through an exit.
+/// agree on who is present. Person `i` leaves when a room is set and its centre is outside the
+/// room by at least `rᵢ` (the disk is wholly out); walls are enforced, so that can only happen
+/// through an exit. **Once left, always left**: the departure is latched the first time
+/// [`is_present`](Self::is_present) sees it, so a person walking on past the door can never
+/// re-enter the room, be counted, or touch anyone, even if their straight path crosses
+/// another part of a non-convex room. A run starts by clearing the latches
+/// ([`reset_departures`](Self::reset_departures); [`crate::scene::BuiltScene::run`] does it).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Population {
     radii: Vec<f64>,
     max_radius: f64,
     room: Option<Room>,
+    departed: Departures,
 }
 
 impl Population {
     /// `radii.len()` people; nobody ever leaves unless [`Population::with_room`] is set.
     pub fn new(radii: Vec<f64>) -> Self {
         let max_radius = radii.iter().copied().fold(0.0, f64::max);
+        let departed = Departures::new(radii.len());
         Self {
             radii,
             max_radius,
             room: None,
+            departed,
         }
     }
 
@@ -131,14 +170,35 @@ impl Population {
         [q[2 * i], q[2 * i + 1]]
     }
 
-    /// Whether person `i` is still in the room at configuration `q`.
+    /// Whether person `i` is still in the room at configuration `q`: not yet departed, and
+    /// with a disk not wholly outside the room. A departure seen here is latched (the type's
+    /// documentation), so `q` should be a configuration of the run (not a trial point).
     pub fn is_present(&self, q: &[f64], i: usize) -> bool {
         match &self.room {
             None => true,
             Some(room) => {
+                if self.departed.get(i) {
+                    return false;
+                }
                 let p = Self::position(q, i);
-                room.contains(p) || room.boundary_distance(p) < self.radii[i]
+                let inside = room.contains(p) || room.boundary_distance(p) < self.radii[i];
+                if !inside {
+                    self.departed.set(i);
+                }
+                inside
             }
+        }
+    }
+
+    /// Whether person `i` has been seen leaving (latched).
+    pub fn has_departed(&self, i: usize) -> bool {
+        self.departed.get(i)
+    }
+
+    /// Clears every departure: the start of a new run from `q₀`.
+    pub fn reset_departures(&self) {
+        for b in &self.departed.0 {
+            b.store(false, Ordering::Relaxed);
         }
     }
 
@@ -159,5 +219,16 @@ mod tests {
         assert!(pop.is_present(&[10.1, 5.0], 0)); // half out
         assert!(!pop.is_present(&[10.25, 5.0], 0));
         assert_eq!(pop.present_count(&[10.25, 5.0]), 0);
+    }
+
+    #[test]
+    fn once_left_always_left_until_reset() {
+        let pop = Population::new(vec![0.2]).with_room(Room::rectangle(0.0, 0.0, 10.0, 10.0));
+        assert!(!pop.is_present(&[10.25, 5.0], 0));
+        // Back inside (a non-convex room's other arm): still gone.
+        assert!(!pop.is_present(&[5.0, 5.0], 0));
+        assert!(pop.has_departed(0));
+        pop.reset_departures();
+        assert!(pop.is_present(&[5.0, 5.0], 0));
     }
 }

@@ -163,7 +163,9 @@ impl Perturbation for DesiredVelocity {
             for &i in people {
                 let p = Population::position(q, i);
                 let speed = self.speeds[i];
-                let outside = room.is_some_and(|r| !r.contains(p));
+                // Who has left keeps walking out, even where that path crosses the room again.
+                let outside =
+                    room.is_some_and(|r| !r.contains(p)) || self.population.has_departed(i);
                 let v = match (outside, self.nearest_exit_normal(p)) {
                     (true, Some(n)) => [n[0] * speed, n[1] * speed],
                     _ => field.velocity(p, speed),

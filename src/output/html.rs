@@ -289,9 +289,7 @@ impl Observer for AnimationWriter {
         if r.t >= self.next - 1e-9 * self.next.abs().max(1.0) {
             self.record(r.t, q);
             self.last = None;
-            while self.next <= r.t + 1e-9 * r.t.abs().max(1.0) {
-                self.next += self.interval;
-            }
+            self.next = super::next_time_after(self.next, self.interval, r.t);
         } else {
             self.last = Some((r.t, q.to_vec()));
         }

@@ -344,7 +344,51 @@ impl Observer for SummaryCollector<'_> {
     }
 }
 
-/// `every` steps between writes so that writes are `interval` seconds apart (at least 1).
+/// The first time of the schedule `next, next + every, …` strictly after `t` (within the
+/// `1e-9` relative tolerance the writers use), computed without a loop: a loop adding `every`
+/// would never end when `every` is tiny against `t − next` or below the resolution of `t`.
+pub(crate) fn next_time_after(next: f64, every: f64, t: f64) -> f64 {
+    let tol = 1e-9 * t.abs().max(1.0);
+    if !(every > 0.0 && every.is_finite()) {
+        return f64::INFINITY;
+    }
+    let n = ((t + tol - next) / every).floor() + 1.0;
+    let candidate = next + n.max(1.0) * every;
+    if candidate > t + tol {
+        candidate
+    } else {
+        // `every` is below the resolution of `t`: the next step is due.
+        t + tol + every
+    }
+}
+
+/// `every` steps between writes so that writes are `interval` seconds apart (at least 1; an
+/// interval below `h` is clamped to one step, a huge one to `usize::MAX`).
 pub fn steps_between(interval: f64, h: f64) -> usize {
-    ((interval / h).round() as usize).max(1)
+    let steps = (interval / h).round();
+    if steps.is_nan() {
+        1
+    } else {
+        // `as` saturates: 1e300 becomes usize::MAX, not a wrapped value.
+        (steps as usize).max(1)
+    }
+}
+
+#[cfg(test)]
+mod schedule_tests {
+    use super::{next_time_after, steps_between};
+
+    #[test]
+    fn tiny_intervals_terminate_and_land_after_t() {
+        // Issue #9 item 4: snapshot_every = 1e-12 looped ~1e12 times per step.
+        let n = next_time_after(0.0, 1e-12, 1.0);
+        assert!(n > 1.0 && n < 1.0 + 1e-8, "{n}");
+        // An interval below the resolution of t.
+        let n = next_time_after(1e17, 1e-3, 1e17);
+        assert!(n > 1e17, "{n}");
+        assert!((next_time_after(0.0, 0.5, 0.7) - 1.0).abs() < 1e-15);
+        assert!((next_time_after(0.0, 0.5, 1.0) - 1.5).abs() < 1e-15);
+        assert_eq!(steps_between(1e-12, 0.01), 1);
+        assert_eq!(steps_between(1e300, 1e-5), usize::MAX);
+    }
 }

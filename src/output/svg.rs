@@ -251,9 +251,7 @@ impl Observer for SnapshotWriter {
     fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
         if r.t >= self.next - 1e-9 * self.next.abs().max(1.0) {
             self.write(&format!("t{:07.2}.svg", r.t), r.t, q)?;
-            while self.next <= r.t + 1e-9 * r.t.abs().max(1.0) {
-                self.next += self.every;
-            }
+            self.next = super::next_time_after(self.next, self.every, r.t);
         }
         self.last = Some((r.t, q.to_vec()));
         Ok(())

@@ -59,7 +59,11 @@ use crate::crowd::{
     ShapeParams,
 };
 use crate::problem::Problem;
-use crate::stepper::StepperSettings;
+use crate::stepper::{display_number, StepperSettings};
+
+/// The most people a scene may hold (explicit and placed): beyond it a run would not end in
+/// reasonable time on the machines this is made for.
+pub const MAX_PEOPLE: usize = 1_000_000;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use spec::{DesiredKind, DesiredSpec, RadiusSpec};
@@ -196,12 +200,25 @@ struct Origin {
 
 struct Ctx<'a> {
     file: &'a str,
-    text: &'a str,
+    /// Byte offset of the start of every line: a line is found by binary search, so that
+    /// 200 000 `[[people]]` are located in `O(N log N)` (scanning the text for each was
+    /// quadratic).
+    line_starts: Vec<usize>,
 }
 
 impl Ctx<'_> {
+    fn new<'a>(file: &'a str, text: &str) -> Ctx<'a> {
+        let line_starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        Ctx { file, line_starts }
+    }
+
     fn line_of<T>(&self, s: &Spanned<T>) -> usize {
-        line_column(self.text, s.span().start).0
+        let offset = s.span().start;
+        self.line_starts
+            .partition_point(|&start| start <= offset)
+            .max(1)
     }
 
     fn err(
@@ -288,11 +305,24 @@ impl Scene {
     /// non-positive radius or step, an exit not on a wall, a person outside the room or
     /// inside an obstacle, overlapping people, a crowd that does not fit…
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
-        let cx = Ctx {
-            file: &self.origin,
-            text: &self.text,
-        };
+        let cx = Ctx::new(&self.origin, &self.text);
         let spec = &self.spec;
+        // The name becomes a directory under out/: a path in it would write elsewhere.
+        if self.name.is_empty()
+            || self.name == "."
+            || self.name == ".."
+            || self.name.contains(['/', '\\', '\0', ':'])
+        {
+            return Err(cx.err(
+                None,
+                "name",
+                format!(
+                    "the name {:?} names the output directory out/<name>/: it must be a plain \
+                     file name (not empty, `.` or `..`, without `/`, `\\`, `:`)",
+                    self.name
+                ),
+            ));
+        }
 
         // ---- run settings
         let run_line = spec.run.as_ref().map(|r| cx.line_of(r));
@@ -406,6 +436,7 @@ impl Scene {
             vertices: room_vertices.clone(),
         };
         let (bx0, by0, bx1, by1) = bbox(&room_vertices);
+        check_resolution(&cx, spec, room_line, &room_vertices)?;
         let scale = (bx1 - bx0).max(by1 - by0);
         let on_tol = 1e-9 * scale.max(1.0);
         let n_edges = room_vertices.len();
@@ -674,25 +705,29 @@ impl Scene {
             group_of.push(groups.len());
             groups.push(item);
         }
-        // Explicit people must not overlap (random ones are placed clear of everybody).
+        // Explicit people must not overlap (random ones are placed clear of everybody): a
+        // spatial hash of cell 2·r_max finds every overlapping pair in O(N).
         {
-            let pop = Population::new(radii.clone()).shared();
-            let q: Vec<f64> = positions.iter().flatten().copied().collect();
-            let pairs = DiskPairs::new(pop);
-            let n = positions.len();
-            if let Some(&idx) = pairs.brute_force_candidates(&q, -1e-12).first() {
-                let (i, j) = (idx / n, idx % n);
-                let d = ((positions[i][0] - positions[j][0]).powi(2)
-                    + (positions[i][1] - positions[j][1]).powi(2))
-                .sqrt();
-                return Err(cx.err(
-                    Some(origins[j].line),
-                    format!("{} and {}", origins[i].item, origins[j].item),
-                    format!(
-                        "the two people overlap at t = 0 (centres {} apart, radii {} + {})",
-                        d, radii[i], radii[j]
-                    ),
-                ));
+            let rmax = radii.iter().copied().fold(0.0, f64::max);
+            let mut hash = SpatialHash::new(2.0 * rmax);
+            for (j, p) in positions.iter().enumerate() {
+                if let Some(i) = hash.near(*p).find(|&i| {
+                    let d = ((p[0] - positions[i][0]).powi(2) + (p[1] - positions[i][1]).powi(2))
+                        .sqrt();
+                    d < radii[i] + radii[j] - 1e-12
+                }) {
+                    let d = ((positions[i][0] - p[0]).powi(2) + (positions[i][1] - p[1]).powi(2))
+                        .sqrt();
+                    return Err(cx.err(
+                        Some(origins[j].line),
+                        format!("{} and {}", origins[i].item, origins[j].item),
+                        format!(
+                            "the two people overlap at t = 0 (centres {} apart, radii {} + {})",
+                            d, radii[i], radii[j]
+                        ),
+                    ));
+                }
+                hash.insert(*p, j);
             }
         }
         for (g, c) in spec.crowds.iter().enumerate() {
@@ -726,7 +761,26 @@ impl Scene {
                 None => cs.seed.unwrap_or(0),
             };
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            let max_attempts = 2000 * cs.count + 10_000;
+            // A packing bound before any placement: the disks (radius ≥ rmin) are disjoint and
+            // lie in the room and in the region grown by rmin, so their count is at most the
+            // smaller of those areas over π rmin² (a count beyond it would only fail, slowly).
+            let room_area = polygon_area(&room_vertices).abs();
+            let grown = (region[2] - region[0] + 2.0 * rmin) * (region[3] - region[1] + 2.0 * rmin);
+            let fit = room_area.min(grown) / (std::f64::consts::PI * rmin * rmin);
+            if cs.count as f64 > fit {
+                return Err(cx.err(Some(line), item, format!("{} people of radius ≥ {rmin} cannot fit: the area bound allows at most {} (room area {}, region {region:?})", cs.count, fit.floor(), display_number(room_area))));
+            }
+            if positions.len().saturating_add(cs.count) > MAX_PEOPLE {
+                return Err(cx.err(
+                    Some(line),
+                    item,
+                    format!(
+                        "{} people: a scene holds at most {MAX_PEOPLE}",
+                        positions.len().saturating_add(cs.count)
+                    ),
+                ));
+            }
+            let max_attempts = cs.count.saturating_mul(2000).saturating_add(10_000);
             let mut placed = 0usize;
             let mut attempts = 0usize;
             let global_rmax = radii.iter().copied().fold(rmax, f64::max);
@@ -819,6 +873,25 @@ impl Scene {
                     geodesic_line,
                     "[geodesic] cell",
                     format!("the cell size must be positive and finite, got {cell}"),
+                ));
+            }
+            // A grid coarser than the room (or than a door) cannot represent the routes: the
+            // field would point people anywhere. Refuse it rather than run with it.
+            let room_side = (bx1 - bx0).min(by1 - by0);
+            let shortest_exit = exits
+                .iter()
+                .map(|e| (e.b[0] - e.a[0]).hypot(e.b[1] - e.a[1]))
+                .fold(f64::INFINITY, f64::min);
+            if cell > room_side / 4.0 || cell > shortest_exit / 2.0 {
+                return Err(cx.err(
+                    geodesic_line,
+                    "[geodesic] cell",
+                    format!(
+                        "the cell {cell} is too coarse for the geodesic field: it must be at most a \
+                         quarter of the room's smallest side ({}) and half the narrowest exit ({})",
+                        display_number(room_side),
+                        display_number(shortest_exit)
+                    ),
                 ));
             }
             let domain = MarchingDomain {
@@ -971,6 +1044,9 @@ impl Scene {
                 ));
             }
         }
+        // Intervals below one step are clamped to one step (a write per step at most).
+        let trajectory_every = trajectory_every.max(h);
+        let snapshot_every = snapshot_every.max(h);
         if animation_frames < 2 {
             return Err(cx.err(out_line, "[output] animation_frames", "must be at least 2"));
         }
@@ -1146,6 +1222,87 @@ fn check_desired(
     Ok(())
 }
 
+/// Refuses scenes whose coordinates f64 cannot resolve at the people's size. Positions are
+/// stored as absolute coordinates, so a constraint value computed from them carries a rounding
+/// error of a few units in the last place of the largest coordinate: 16 ε max|x| must stay
+/// below `1e-6 · min(r_min, 1)` (the run-time violation tolerance is 1e-6). A 5 m room at
+/// (1e12, 1e12) with people of radius 0.2 is refused (ε·1e12 ≈ 2e-4); at (1e6, 1e6) it runs.
+fn check_resolution(
+    cx: &Ctx<'_>,
+    spec: &spec::SceneSpec,
+    room_line: Option<usize>,
+    room: &[[f64; 2]],
+) -> Result<(), SceneError> {
+    let mut max_abs = 0.0f64;
+    // Non-finite numbers are reported by their own checks, with their item.
+    let mut see = |v: f64| {
+        if v.is_finite() {
+            max_abs = max_abs.max(v.abs());
+        }
+    };
+    for p in room {
+        see(p[0]);
+        see(p[1]);
+    }
+    let mut r_min = f64::INFINITY;
+    for o in &spec.obstacles {
+        let o = o.get_ref();
+        if let Some(d) = &o.disk {
+            see(d.center[0].abs() + d.radius.abs());
+            see(d.center[1].abs() + d.radius.abs());
+        }
+        if let Some(sg) = &o.segment {
+            sg.from.iter().chain(&sg.to).for_each(|&v| see(v));
+        }
+        for p in o.polygon.iter().flatten() {
+            see(p[0]);
+            see(p[1]);
+        }
+        for w in o.path.iter().flatten() {
+            see(w[1]);
+            see(w[2]);
+        }
+    }
+    for p in &spec.people {
+        let p = p.get_ref();
+        see(p.position[0]);
+        see(p.position[1]);
+        if p.radius > 0.0 {
+            r_min = r_min.min(p.radius);
+        }
+    }
+    for c in &spec.crowds {
+        let c = c.get_ref();
+        c.region.iter().flatten().for_each(|&v| see(v));
+        let r = match c.radius {
+            RadiusSpec::Fixed(r) => r,
+            RadiusSpec::Range([a, _]) => a,
+        };
+        if r > 0.0 {
+            r_min = r_min.min(r);
+        }
+    }
+    if !r_min.is_finite() {
+        return Ok(()); // nobody (or bad radii): reported with their own errors
+    }
+    let needed = 1e-6 * r_min.min(1.0);
+    let rounding = 16.0 * f64::EPSILON * max_abs;
+    if rounding > needed {
+        let limit = needed / (16.0 * f64::EPSILON);
+        return Err(cx.err(
+            room_line,
+            "[room]",
+            format!(
+                "coordinates as large as {max_abs:.3e} are resolved by 64-bit floats only to \
+                 about {rounding:.1e}, too coarse for people of radius {r_min} (a contact must \
+                 be resolved to {needed:.1e}); keep every coordinate within ±{limit:.2e}, \
+                 for instance by moving the scene nearer the origin"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn polygon_area(p: &[[f64; 2]]) -> f64 {
     let n = p.len();
     0.5 * (0..n)
@@ -1213,6 +1370,8 @@ impl BuiltScene {
         observers: &mut [&mut dyn crate::stepper::Observer],
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
+        // A new run from q₀: nobody has left yet.
+        self.population.reset_departures();
         let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(error) => {

@@ -7,6 +7,37 @@ use crate::backends::BackendChoice;
 use serde::Deserialize;
 use toml::Spanned;
 
+/// Fixed-size arrays read exactly: `position = [1, 1, 3]` is an error ("expected 2 numbers,
+/// got 3"), never silently truncated.
+mod exact {
+    use serde::de::Error;
+    use serde::{Deserialize, Deserializer};
+
+    fn fixed<E: Error, const N: usize>(v: Vec<f64>) -> Result<[f64; N], E> {
+        let n = v.len();
+        v.try_into()
+            .map_err(|_| E::custom(format!("expected {N} numbers, got {n}")))
+    }
+
+    pub fn array<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+        fixed(Vec::<f64>::deserialize(d)?)
+    }
+
+    pub fn option_array<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<[f64; N]>, D::Error> {
+        Option::<Vec<f64>>::deserialize(d)?.map(fixed).transpose()
+    }
+
+    pub fn option_vec_array<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<Vec<[f64; N]>>, D::Error> {
+        Option::<Vec<Vec<f64>>>::deserialize(d)?
+            .map(|vs| vs.into_iter().map(fixed).collect())
+            .transpose()
+    }
+}
+
 /// A whole scene file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -44,8 +75,10 @@ pub struct SceneSpec {
 #[serde(deny_unknown_fields)]
 pub struct RoomSpec {
     /// `[x0, y0, x1, y1]`.
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub rectangle: Option<[f64; 4]>,
     /// Vertices in order, the last joined to the first.
+    #[serde(default, deserialize_with = "exact::option_vec_array")]
     pub polygon: Option<Vec<[f64; 2]>>,
 }
 
@@ -54,8 +87,10 @@ pub struct RoomSpec {
 #[serde(deny_unknown_fields)]
 pub struct ExitSpec {
     /// One end.
+    #[serde(deserialize_with = "exact::array")]
     pub from: [f64; 2],
     /// The other end.
+    #[serde(deserialize_with = "exact::array")]
     pub to: [f64; 2],
 }
 
@@ -64,6 +99,7 @@ pub struct ExitSpec {
 #[serde(deny_unknown_fields)]
 pub struct DiskSpec {
     /// Centre.
+    #[serde(deserialize_with = "exact::array")]
     pub center: [f64; 2],
     /// Radius (> 0).
     pub radius: f64,
@@ -74,8 +110,10 @@ pub struct DiskSpec {
 #[serde(deny_unknown_fields)]
 pub struct SegmentSpec {
     /// One end.
+    #[serde(deserialize_with = "exact::array")]
     pub from: [f64; 2],
     /// The other end.
+    #[serde(deserialize_with = "exact::array")]
     pub to: [f64; 2],
 }
 
@@ -89,11 +127,14 @@ pub struct ObstacleSpec {
     /// A thin wall.
     pub segment: Option<SegmentSpec>,
     /// A polygon (its edges are the constraints).
+    #[serde(default, deserialize_with = "exact::option_vec_array")]
     pub polygon: Option<Vec<[f64; 2]>>,
     /// Moves at this constant velocity from `t = 0`.
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub velocity: Option<[f64; 2]>,
     /// Moves through these waypoints `[t, dx, dy]` (displacement from the declared position,
     /// times increasing), linearly in between, still before the first and after the last.
+    #[serde(default, deserialize_with = "exact::option_vec_array")]
     pub path: Option<Vec<[f64; 3]>>,
 }
 
@@ -102,6 +143,7 @@ pub struct ObstacleSpec {
 #[serde(deny_unknown_fields)]
 pub struct PersonSpec {
     /// Centre at `t = 0`.
+    #[serde(deserialize_with = "exact::array")]
     pub position: [f64; 2],
     /// Radius (> 0).
     pub radius: f64,
@@ -128,6 +170,7 @@ pub struct CrowdSpec {
     /// How many.
     pub count: usize,
     /// `[x0, y0, x1, y1]`: where the centres are drawn (default: the room's bounding box).
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub region: Option<[f64; 4]>,
     /// Radius or radius range.
     pub radius: RadiusSpec,
@@ -159,8 +202,10 @@ pub struct DesiredSpec {
     /// Which one.
     pub kind: DesiredKind,
     /// The target of `kind = "point"`.
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub point: Option<[f64; 2]>,
     /// The vector of `kind = "constant"`.
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub velocity: Option<[f64; 2]>,
 }
 

@@ -43,3 +43,5 @@ pub fn sci(values: &[f64]) -> String {
     let v: Vec<String> = values.iter().map(|e| format!("{e:.3e}")).collect();
     format!("[{}]", v.join(", "))
 }
+
+pub mod checker;

@@ -34,6 +34,13 @@ pub struct CheckArgs {
 /// constants of A0–A5 measured on the initial configuration and along a short run, with the
 /// paper's derived constants and a verdict.
 pub fn main(args: CheckArgs) -> Result<()> {
+    // Validated before anything is built: NaN, negative or absurd horizons are refused.
+    if !(args.sample_run.is_finite() && args.sample_run >= 0.0 && args.sample_run <= 1e6) {
+        anyhow::bail!(
+            "--sample-run {} must be a number of seconds in [0, 1e6]",
+            args.sample_run
+        );
+    }
     let scene = Scene::from_file(&args.scene)?;
     let built = scene.build(&Overrides::default())?;
     print!("{}", built.describe());
@@ -43,6 +50,7 @@ pub fn main(args: CheckArgs) -> Result<()> {
     }
 
     let mut samples = vec![(built.problem.t0(), built.problem.q0().to_vec())];
+    let mut sampling_failure = None;
     let mut projector = make_projector(built.backend).map_err(anyhow::Error::msg)?;
     let horizon = args
         .sample_run
@@ -51,10 +59,16 @@ pub fn main(args: CheckArgs) -> Result<()> {
         let mut settings = built.settings.clone();
         settings.t_end = built.problem.t0() + horizon;
         settings.record_every = args.sample_every.max(1);
-        let run = Stepper::new(&built.problem, settings)?
-            .run(projector.as_mut(), &mut [])
-            .map_err(|f| anyhow::anyhow!("the sampling run failed: {f}"))?;
-        samples = samples_from_trajectory(&run.trajectory);
+        match Stepper::new(&built.problem, settings)?.run(projector.as_mut(), &mut []) {
+            Ok(run) => samples = samples_from_trajectory(&run.trajectory),
+            Err(failure) => {
+                // What was computed before the failure is still worth measuring (the failure
+                // is often an assumption failing), and the failure is part of the verdict.
+                eprintln!("the sampling run failed: {failure}");
+                samples = samples_from_trajectory(&failure.partial.trajectory);
+                sampling_failure = Some(failure.to_string());
+            }
+        }
     }
     let settings = EstimateSettings {
         rho: args.rho,
@@ -74,13 +88,17 @@ pub fn main(args: CheckArgs) -> Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
         println!("report written to {}", path.display());
     }
+    if let Some(f) = sampling_failure {
+        anyhow::bail!("verdict: the sampling run failed ({f}); constants above are from before it");
+    }
     if report.failures.is_empty() {
         println!("verdict: no assumption failed on these samples");
+        Ok(())
     } else {
-        println!(
+        // A failed assumption is a failed check: the exit status says so (scripts rely on it).
+        anyhow::bail!(
             "verdict: {} assumption failure(s) on these samples (see above)",
             report.failures.len()
-        );
+        )
     }
-    Ok(())
 }

@@ -1,0 +1,413 @@
+//! Issue #9: hard cases stay numerically stable. Each reproduction of the issue either fails
+//! loudly (non-zero exit, a typed error naming step, time and constraint) or runs correctly, as
+//! judged by an independent checker reading the `trajectory.csv` the real `sweep` binary wrote.
+
+mod common;
+
+use common::checker::{check_trajectory, moving, still, sweep_run, Geometry, Obstacle};
+
+const TOL: f64 = 1e-6;
+
+fn assert_clean(name: &str, csv: &std::path::Path, g: &Geometry) -> common::checker::Findings {
+    let f = check_trajectory(csv, g, TOL);
+    assert!(f.rows > 0, "{name}: empty trajectory");
+    assert!(f.problems.is_empty(), "{name}: {:#?}", f.problems);
+    f
+}
+
+/// Item 1: people who left cannot walk back in through a wall of a U-shaped room.
+#[test]
+fn once_left_always_left_in_a_u_shaped_room() {
+    let scene = r#"
+[room]
+polygon = [[0,0],[6,0],[6,5],[4,5],[4,2],[2,2],[2,5],[0,5]]
+[[exits]]
+from = [2,3]
+to = [2,4]
+[[people]]
+position = [1, 3.5]
+radius = 0.2
+[[people]]
+position = [4.2, 3.5]
+radius = 0.2
+speed = 0
+[desired]
+kind = "exit"
+[run]
+t_end = 6
+[output]
+trajectory_every = 0.01
+"#;
+    let run = sweep_run("u-room", scene, &[]);
+    assert!(run.success, "{}", run.output);
+    let g = Geometry {
+        room: vec![
+            [0., 0.],
+            [6., 0.],
+            [6., 5.],
+            [4., 5.],
+            [4., 2.],
+            [2., 2.],
+            [2., 5.],
+            [0., 5.],
+        ],
+        exits: vec![([2., 3.], [2., 4.])],
+        obstacles: vec![],
+        radii: vec![0.2, 0.2],
+    };
+    let f = assert_clean("u-room", &run.out.join("trajectory.csv"), &g);
+    assert_eq!(
+        f.present_at_end, 1,
+        "the standing person stays, the walker is gone"
+    );
+    assert!(f.times > 500, "{} times", f.times);
+}
+
+/// Item 2: a moving wall cannot jump people when its step is longer than their distance.
+#[test]
+fn moving_wall_with_long_steps_fails_and_names_a_step_that_would_do() {
+    let scene = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/moving-wall.toml"
+    ))
+    .unwrap();
+    for h in ["1.0", "0.5"] {
+        let run = sweep_run(&format!("moving-wall-{h}"), &scene, &["--h", h]);
+        assert!(!run.success, "h = {h} completed:\n{}", run.output);
+        assert!(
+            run.output.contains("too long for the moving constraint")
+                && run.output.contains("would do")
+                && run.output.contains("obstacles #0"),
+            "{}",
+            run.output
+        );
+        // What was written before the failure is physically right.
+        let g = Geometry {
+            room: vec![[0., 0.], [6., 0.], [6., 3.], [0., 3.]],
+            exits: vec![],
+            obstacles: vec![Obstacle::Segment(
+                [0.3, 0.05],
+                [0.3, 2.95],
+                moving([0.4, 0.0]),
+            )],
+            radii: vec![0.2; 40],
+        };
+        assert_clean("moving wall", &run.out.join("trajectory.csv"), &g);
+    }
+}
+
+/// Item 2: the same scene at a step the rule accepts runs clean to the end (the wall moves
+/// 0.4 m/s for 8 s and the crowd is compressed, nobody jumped).
+#[test]
+fn moving_wall_at_an_accepted_step_runs_clean() {
+    let scene = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/moving-wall.toml"
+    ))
+    .unwrap();
+    let run = sweep_run("moving-wall-ok", &scene, &["--h", "0.1"]);
+    assert!(run.success, "{}", run.output);
+    let path = |t: f64| [0.4 * t.min(8.0), 0.0];
+    let g = Geometry {
+        room: vec![[0., 0.], [6., 0.], [6., 3.], [0., 3.]],
+        exits: vec![],
+        obstacles: vec![Obstacle::Segment([0.3, 0.05], [0.3, 2.95], Box::new(path))],
+        radii: vec![0.2; 40],
+    };
+    assert_clean("moving wall h = 0.1", &run.out.join("trajectory.csv"), &g);
+}
+
+/// Item 2: a segment at 2 m/s with a person 0.6 m ahead and h = 0.5; a small disk at 30 m/s
+/// at the default h; a fast path.
+#[test]
+fn fast_obstacles_fail_loudly() {
+    let cases = [
+        (
+            "segment",
+            "segment = { from = [1.0, 1.0], to = [1.0, 4.0] }\nvelocity = [2.0, 0.0]",
+            "0.5",
+        ),
+        (
+            "disk",
+            "disk = { center = [1.0, 2.5], radius = 0.1 }\nvelocity = [30.0, 0.0]",
+            "0.01",
+        ),
+        (
+            "path",
+            "disk = { center = [1.0, 2.5], radius = 0.3 }\npath = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.05, 5.0, 0.0]]",
+            "0.1",
+        ),
+    ];
+    for (name, obstacle, h) in cases {
+        let scene = format!(
+            "[room]\nrectangle = [0.0, 0.0, 10.0, 5.0]\n[[obstacles]]\n{obstacle}\n\
+             [[people]]\nposition = [1.8, 2.5]\nradius = 0.2\nspeed = 0\n\
+             [run]\nh = {h}\nt_end = 2.0\n"
+        );
+        let run = sweep_run(&format!("fast-{name}"), &scene, &[]);
+        assert!(!run.success, "{name} completed:\n{}", run.output);
+        assert!(
+            run.output.contains("too long for the moving constraint")
+                && run.output.contains("would do"),
+            "{name}: {}",
+            run.output
+        );
+    }
+}
+
+/// Item 3: 40 people pushed into a corner at 1e12 m/s: no backend's answer is accepted with
+/// an overlap (exit non-zero, the error names the step and the constraint or the check).
+#[test]
+fn a_corner_at_1e12_never_completes_with_overlaps() {
+    let scene = r#"
+[room]
+rectangle = [0, 0, 5, 5]
+[[crowds]]
+count = 40
+radius = 0.2
+desired = { kind = "constant", velocity = [-1e12, -1e12] }
+[run]
+t_end = 0.05
+"#;
+    for backend in ["osqp", "clarabel"] {
+        let run = sweep_run(&format!("corner-{backend}"), scene, &["--backend", backend]);
+        let csv = run.out.join("trajectory.csv");
+        let g = Geometry {
+            room: vec![[0., 0.], [5., 0.], [5., 5.], [0., 5.]],
+            exits: vec![],
+            obstacles: vec![],
+            radii: vec![0.2; 40],
+        };
+        if run.success {
+            assert_clean(backend, &csv, &g);
+        } else {
+            assert!(run.output.contains("step 0, t = 0.01"), "{}", run.output);
+            assert_clean(backend, &csv, &g);
+        }
+    }
+    // The static obstacle helper is exercised too.
+    let _ = Obstacle::Disk([0.0, 0.0], 1.0, still());
+}
+
+/// Item 4: a snapshot interval of 1e-12 s (below h) is clamped and the run ends.
+#[test]
+fn tiny_snapshot_interval_terminates() {
+    let scene = "[room]\nrectangle = [0.0, 0.0, 5.0, 5.0]\n[[people]]\nposition = [2.0, 2.0]\n\
+                 radius = 0.2\n[desired]\nkind = \"constant\"\nvelocity = [0.5, 0.0]\n\
+                 [run]\nt_end = 1.0\nh = 0.1\n[output]\nsnapshot_every = 1e-12\n";
+    let run = sweep_run("tiny-snapshots", scene, &[]);
+    assert!(run.success, "{}", run.output);
+    let snaps = std::fs::read_dir(run.out.join("snapshots"))
+        .unwrap()
+        .count();
+    // One per step at most (h = 0.1, T = 1: the start, ten steps, and final.svg).
+    assert!((2..=12).contains(&snaps), "{snaps} snapshots");
+}
+
+/// Item 4: a crowd that cannot fit is refused by an area bound before any placement, and
+/// counts whose attempt budget would overflow do not.
+#[test]
+fn crowd_counts_are_checked_against_the_area() {
+    use sweeping::scene::{Overrides, Scene};
+    for count in ["100000", "1000000000", "9223372036854775807"] {
+        let text = format!(
+            "[room]\nrectangle = [0.0, 0.0, 5.0, 5.0]\n[[crowds]]\ncount = {count}\nradius = 0.2\n"
+        );
+        let started = std::time::Instant::now();
+        let result =
+            Scene::from_toml_str(&text, "crowd.toml").and_then(|s| s.build(&Overrides::default()));
+        let e = match result {
+            Ok(_) => panic!("count {count} accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.contains("cannot fit") && e.contains("crowd.toml:3"),
+            "{e}"
+        );
+        // Not a wall-clock assertion on the machine: the bound is checked before placing, so
+        // this is instantaneous; a generous ceiling only catches a regression to the 72 s loop.
+        assert!(started.elapsed().as_secs() < 30, "count {count}: {e}");
+    }
+}
+
+/// Item 6: explicit `[[people]]` load in near-linear time (line lookup by binary search,
+/// overlap check by a spatial hash); 20 000 took 11 s before. Here: they load, and an overlap
+/// between the last two is still found and named.
+#[test]
+fn many_explicit_people_load_and_overlaps_are_still_found() {
+    use sweeping::scene::{Overrides, Scene};
+    let n = 20_000usize;
+    let side = 150usize;
+    let mut text = format!(
+        "[room]\nrectangle = [0.0, 0.0, {}, {}]\n",
+        side as f64 + 1.0,
+        side as f64 + 1.0
+    );
+    for k in 0..n {
+        let (x, y) = ((k % side) as f64 + 1.0, (k / side) as f64 + 1.0);
+        text.push_str(&format!(
+            "[[people]]\nposition = [{x}, {y}]\nradius = 0.2\n"
+        ));
+    }
+    let built = Scene::from_toml_str(&text, "many.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(built.population.len(), n);
+    // One more person overlapping the last one.
+    let (x, y) = (((n - 1) % side) as f64 + 1.1, ((n - 1) / side) as f64 + 1.0);
+    text.push_str(&format!(
+        "[[people]]\nposition = [{x}, {y}]\nradius = 0.2\n"
+    ));
+    let e = match Scene::from_toml_str(&text, "many.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+    {
+        Ok(_) => panic!("the overlap was not found"),
+        Err(e) => e.to_string(),
+    };
+    let line = 2 + 3 * n + 1;
+    assert!(
+        e.contains(&format!("many.toml:{line}"))
+            && e.contains(&format!("[[people]] #{n} and [[people]] #{}", n + 1)),
+        "{e}"
+    );
+}
+
+fn build_error(text: &str) -> String {
+    use sweeping::scene::{Overrides, Scene};
+    match Scene::from_toml_str(text, "bad.toml").and_then(|s| s.build(&Overrides::default())) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Item 6: over-long (or short) arrays are errors, never truncated.
+#[test]
+fn arrays_of_the_wrong_length_are_refused() {
+    let person = "[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n";
+    let cases = [
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [1, 1, 3]\nradius = 0.2\n"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0, 5.0]\n{person}"),
+        format!("[room]\npolygon = [[0.0, 0.0, 1.0], [4.0, 0.0, 1.0], [4.0, 4.0, 1.0]]\n{person}"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\ndisk = {{ center = [3.0, 3.0], radius = 0.3 }}\nvelocity = [1.0, 0.0, 2.0]\n{person}"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\ndisk = {{ center = [3.0, 3.0], radius = 0.3 }}\npath = [[0.0, 0.0], [1.0, 1.0]]\n{person}"),
+        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n{person}[desired]\nkind = \"constant\"\nvelocity = [1.0]\n"),
+    ];
+    for text in cases {
+        let e = build_error(&text);
+        assert!(
+            e.contains("expected") && e.contains("numbers, got"),
+            "{e}\n{text}"
+        );
+    }
+}
+
+/// Item 6: a scene name is a plain directory name, never a path.
+#[test]
+fn scene_names_cannot_escape_the_output_directory() {
+    for name in ["/tmp/escape", "../up", "a/b", "..", ""] {
+        let text = format!(
+            "name = {name:?}\n[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n"
+        );
+        let e = build_error(&text);
+        assert!(e.contains("plain") && e.contains("name"), "{name}: {e}");
+    }
+}
+
+/// Item 6: a geodesic cell larger than the room or its door is refused with a reason.
+#[test]
+fn a_geodesic_cell_coarser_than_the_room_is_refused() {
+    let text =
+        "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[exits]]\nfrom = [4.0, 1.0]\nto = [4.0, 2.0]\n\
+                [[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[desired]\nkind = \"exit\"\n\
+                [geodesic]\ncell = 5.0\n";
+    let e = build_error(text);
+    assert!(e.contains("too coarse") && e.contains("bad.toml:11"), "{e}");
+}
+
+/// Items 5 and 6: extents f64 cannot resolve at the people's size are refused with the
+/// range that would do; a room at 1e6 runs clean (checked independently).
+#[test]
+fn far_or_huge_rooms_are_refused_and_near_ones_run_clean() {
+    let room = |x0: f64, w: f64| {
+        format!(
+            "[room]\nrectangle = [{x0:e}, {x0:e}, {:e}, {:e}]\n[[crowds]]\ncount = 60\nradius = 0.2\n\
+             region = [{x0:e}, {x0:e}, {:e}, {:e}]\n[run]\nt_end = 0.3\n",
+            x0 + w,
+            x0 + w,
+            x0 + w,
+            x0 + w
+        )
+    };
+    for text in [room(1e12, 5.0), room(1e10, 5.0)] {
+        let e = build_error(&text);
+        assert!(e.contains("too coarse for people of radius 0.2"), "{e}");
+    }
+    for text in [
+        "[room]\nrectangle = [0.0, 0.0, 2e150, 5.0]\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n",
+        "[room]\nrectangle = [-1e308, -1e308, 1e308, 1e308]\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n",
+    ] {
+        let e = build_error(text);
+        assert!(e.contains("too coarse") || e.contains("finite"), "{e}");
+    }
+    let x0 = 1e6;
+    let run = sweep_run("near-1e6", &room(x0, 5.0), &[]);
+    assert!(run.success, "{}", run.output);
+    let g = Geometry {
+        room: vec![
+            [x0, x0],
+            [x0 + 5.0, x0],
+            [x0 + 5.0, x0 + 5.0],
+            [x0, x0 + 5.0],
+        ],
+        exits: vec![],
+        obstacles: vec![],
+        radii: vec![0.2; 60],
+    };
+    // Coordinates near 1e6 carry 1.2e-10 of rounding in the CSV itself.
+    let f = check_trajectory(&run.out.join("trajectory.csv"), &g, 1e-8);
+    assert!(f.problems.is_empty(), "{:#?}", f.problems);
+}
+
+/// Item 6: `sweep check` refuses nonsensical sampling horizons, and a failed assumption (a
+/// person wedged between two walls: γ' = ∞) makes it exit non-zero.
+#[test]
+fn sweep_check_validates_its_arguments_and_fails_on_failed_assumptions() {
+    use std::process::Command;
+    let dir = common::checker::scratch("check");
+    let wedged = dir.join("wedged.toml");
+    std::fs::write(
+        &wedged,
+        "[room]\nrectangle = [0.0, 0.0, 0.4, 5.0]\n[[people]]\nposition = [0.2, 2.5]\nradius = 0.2\n",
+    )
+    .unwrap();
+    let fine = dir.join("fine.toml");
+    std::fs::write(
+        &fine,
+        "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [2.0, 2.0]\nradius = 0.2\n",
+    )
+    .unwrap();
+    let check = |scene: &std::path::Path, sample: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_sweep"))
+            .args(["check"])
+            .arg(scene)
+            .arg(format!("--sample-run={sample}"))
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            ),
+        )
+    };
+    for bad in ["nan", "-1", "1e300", "inf"] {
+        let (ok, out) = check(&fine, bad);
+        assert!(!ok && out.contains("--sample-run"), "{bad}: {out}");
+    }
+    let (ok, out) = check(&fine, "0.1");
+    assert!(ok, "{out}");
+    let (ok, out) = check(&wedged, "0");
+    assert!(!ok && out.contains("assumption failure"), "{out}");
+}
