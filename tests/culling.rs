@@ -137,3 +137,58 @@ fn moving_wall_pushes_people_faster_than_they_walk() {
     let (gap, _, _) = compare(text, 35);
     assert!(gap <= GAP);
 }
+
+/// A "backend" that ignores the constraints (`x = y`): every step ends with violations, so
+/// the run-time check has something to find.
+struct Unconstrained;
+
+impl sweeping::api::Projector for Unconstrained {
+    fn name(&self) -> &str {
+        "unconstrained"
+    }
+    fn project(
+        &mut self,
+        p: &sweeping::api::ProjectionProblem,
+    ) -> Result<sweeping::api::Projection, sweeping::api::ProjectionError> {
+        Ok(sweeping::api::Projection::identity(p, self.name()))
+    }
+}
+
+#[test]
+fn the_true_constraint_check_on_assembled_rows_finds_the_worst_violation() {
+    // The stepper checks only the assembled rows of culling families (convexity and the
+    // culling proof cover the rest). Against the full check over every member, on jammed
+    // scenes whose steps violate many constraints when the projection is skipped.
+    for seed in 0..6 {
+        let text = random_scene(seed);
+        let built = build(&text, false);
+        let mut settings = built.settings.clone();
+        settings.kkt_tolerance = f64::INFINITY;
+        settings.violation_tolerance = f64::INFINITY;
+        let mut stepper = Stepper::new(&built.problem, settings).unwrap();
+        let mut found = 0usize;
+        for _ in 0..stepper.n_steps().min(5) {
+            // Without projections a moving wall soon passes over someone, which the stepper
+            // refuses (StepTooLong): the steps before that are what is compared.
+            let Ok(report) = stepper.step(&mut Unconstrained) else {
+                break;
+            };
+            let full = built
+                .problem
+                .min_constraint(report.t, stepper.state(), 0.0)
+                .map_or(0.0, |(v, _)| (-v).max(0.0));
+            assert!(
+                (report.max_violation - full).abs() <= 1e-12,
+                "seed {seed}, step {}: assembled rows give {:.6e}, every member {:.6e}\n{text}",
+                report.step,
+                report.max_violation,
+                full
+            );
+            if full > 0.0 {
+                found += 1;
+                assert!(!report.worst_constraint.is_empty());
+            }
+        }
+        assert!(found > 0, "seed {seed}: no step violated anything\n{text}");
+    }
+}

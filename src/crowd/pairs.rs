@@ -129,7 +129,10 @@ impl CellGrid {
             }
         }
         let present = self.people.len();
-        let (nx, ny) = (((x1 - x0) / cell).floor() + 1.0, ((y1 - y0) / cell).floor() + 1.0);
+        let (nx, ny) = (
+            ((x1 - x0) / cell).floor() + 1.0,
+            ((y1 - y0) / cell).floor() + 1.0,
+        );
         let dense = present > 0 && nx * ny <= (4 * present + 64) as f64;
         if !dense {
             self.dims = None;

@@ -259,9 +259,12 @@ impl ConstraintFamily for PersonShapes {
                     },
                 };
                 let bbox = match moved {
-                    Shape::Segment { a, b } => {
-                        [a[0].min(b[0]), a[1].min(b[1]), a[0].max(b[0]), a[1].max(b[1])]
-                    }
+                    Shape::Segment { a, b } => [
+                        a[0].min(b[0]),
+                        a[1].min(b[1]),
+                        a[0].max(b[0]),
+                        a[1].max(b[1]),
+                    ],
                     Shape::Disk { center, radius } => [
                         center[0] - radius,
                         center[1] - radius,
