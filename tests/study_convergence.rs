@@ -2,7 +2,7 @@
 //! solutions, and a short convergence study on a small crowd (the paper's protocol).
 
 use std::sync::Arc;
-use sweeping::crowd::{DiskPairs, Motion, PersonShapes, Population, Shape};
+use sweeping::crowd::{rectangle_walls, DiskPairs, PersonShapes, Population};
 use sweeping::prelude::*;
 use sweeping::study::exact::{
     true_error_study, PointAroundDisk, PointBehindMovingWall, TwoDisksOnALine,
@@ -179,15 +179,7 @@ fn small_crowd() -> Result<Problem, BoxError> {
             v[1] = d[1] / n;
         }
     };
-    let walls = [
-        ([0.0, 0.0], [4.0, 0.0]),
-        ([4.0, 0.0], [4.0, 4.0]),
-        ([4.0, 4.0], [0.0, 4.0]),
-        ([0.0, 4.0], [0.0, 0.0]),
-    ]
-    .iter()
-    .map(|&(a, b)| (Shape::Segment { a, b }, Motion::Static))
-    .collect();
+    let walls = rectangle_walls(0.0, 0.0, 4.0, 4.0);
     Ok(Problem::new(q0, velocity)
         .with_family(DiskPairs::new(pop.clone()))
         .with_family(PersonShapes::new("walls", pop, walls)))

@@ -19,4 +19,4 @@ pub mod velocity;
 
 pub use pairs::{DiskPairKernel, DiskPairs};
 pub use population::{segment_distance, Population, Room};
-pub use shapes::{Motion, PersonShapeKernel, PersonShapes, Shape, ShapeParams};
+pub use shapes::{rectangle_walls, Motion, PersonShapeKernel, PersonShapes, Shape, ShapeParams};

@@ -78,6 +78,19 @@ pub enum Shape {
     },
 }
 
+/// The four sides of the rectangle `[x0, x1] × [y0, y1]` as fixed segments.
+pub fn rectangle_walls(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<(Shape, Motion)> {
+    [
+        ([x0, y0], [x1, y0]),
+        ([x1, y0], [x1, y1]),
+        ([x1, y1], [x0, y1]),
+        ([x0, y1], [x0, y0]),
+    ]
+    .into_iter()
+    .map(|(a, b)| (Shape::Segment { a, b }, Motion::Static))
+    .collect()
+}
+
 /// A shape, how it moves, and the radius of the person it is paired with.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShapeParams {

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{DiskPairs, Motion, PersonShapes, Population, Shape};
+use super::{rectangle_walls, DiskPairs, PersonShapes, Population};
 use crate::error::SweepError;
 use crate::problem::Problem;
 
@@ -140,15 +140,7 @@ impl SyntheticCrowd {
                 v[1] = d[1] / norm;
             }
         };
-        let walls = [
-            ([0.0, 0.0], [l, 0.0]),
-            ([l, 0.0], [l, l]),
-            ([l, l], [0.0, l]),
-            ([0.0, l], [0.0, 0.0]),
-        ]
-        .iter()
-        .map(|&(a, b)| (Shape::Segment { a, b }, Motion::Static))
-        .collect();
+        let walls = rectangle_walls(0.0, 0.0, l, l);
         Ok(Problem::new(q0, velocity)
             .with_family(DiskPairs::new(pop.clone()))
             .with_family(PersonShapes::new("walls", pop, walls)))

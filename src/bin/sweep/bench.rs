@@ -148,52 +148,49 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
                 };
                 let row = measure(crowd, backend, &args)?;
                 let k = row.steps.max(1) as f64;
-                let ms = |v: f64| 1e3 * v / k;
                 let t = &row.times;
+                // effects, broad phase, assembly, projection, check, total: ms per step.
+                let ms = [
+                    t.effects,
+                    t.broad_phase,
+                    t.assembly,
+                    t.projection,
+                    t.check,
+                    t.total(),
+                ]
+                .map(|v| 1e3 * v / k);
+                let (rows, active) = (row.rows / row.steps.max(1), row.active / row.steps.max(1));
                 let peak = row
                     .peak_mib
                     .map_or_else(|| "—".to_string(), |m| format!("{m:.0}"));
-                println!(
-                    "{:<7} {:>7} {:<9} {:>5} {:>9.3} {:>9.3} {:>9.3} {:>10.3} {:>9.3} {:>9.3} {:>7} {:>6} {:>8}{}",
+                let failure = row.failure.as_deref().unwrap_or("");
+                print!(
+                    "{:<7} {:>7} {:<9} {:>5}",
                     row.start.to_string(),
                     row.n,
                     row.backend,
-                    row.steps,
-                    ms(t.effects),
-                    ms(t.broad_phase),
-                    ms(t.assembly),
-                    ms(t.projection),
-                    ms(t.check),
-                    ms(t.total()),
-                    row.rows / row.steps.max(1),
-                    row.active / row.steps.max(1),
-                    peak,
-                    row.failure
-                        .as_deref()
-                        .map(|f| format!("  failed after {} steps: {f}", row.steps))
-                        .unwrap_or_default()
+                    row.steps
                 );
+                for (v, width) in ms.iter().zip([9, 9, 9, 10, 9, 9]) {
+                    print!(" {v:>width$.3}");
+                }
+                print!(" {rows:>7} {active:>6} {peak:>8}");
+                if !failure.is_empty() {
+                    print!("  failed after {} steps: {failure}", row.steps);
+                }
+                println!();
                 std::io::stdout().flush().ok();
+                let ms: Vec<String> = ms.iter().map(f64::to_string).collect();
                 csv.push_str(&format!(
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                    "{},{},{},{},{},{rows},{active},{},{},{}\n",
                     row.start,
                     row.n,
                     row.backend,
                     row.steps,
-                    ms(t.effects),
-                    ms(t.broad_phase),
-                    ms(t.assembly),
-                    ms(t.projection),
-                    ms(t.check),
-                    ms(t.total()),
-                    row.rows / row.steps.max(1),
-                    row.active / row.steps.max(1),
+                    ms.join(","),
                     row.solves,
                     row.peak_mib.map(|m| m.to_string()).unwrap_or_default(),
-                    row.failure
-                        .as_deref()
-                        .unwrap_or("")
-                        .replace([',', '\n'], ";")
+                    failure.replace([',', '\n'], ";")
                 ));
             }
         }
