@@ -595,6 +595,65 @@ impl<'p> Stepper<'p> {
         Ok(())
     }
 
+    /// A failed solve of a far prediction, retried once on the same QP written relative to
+    /// `q_k` and scaled by `s = ‖y − q_k‖∞`: `min ½‖u − (y − q_k)/s‖²` s.t.
+    /// `A u ≥ (b − A q_k)/s`, then `x = q_k + s u`, `λ = s μ`. The set is never empty (`q_k`
+    /// satisfies every row: `gᵢ(t, q_k) + 0 ≥ …` is the row at `x = q_k` up to the previous
+    /// step's accuracy), so an "infeasible" answer at speed 1e8 is the solver's scaling, not
+    /// the problem's. The answer is then KKT-checked on the original QP like any other; when
+    /// the retry fails too, the error says that the prediction is too far to be resolved.
+    fn rescaled_projection(
+        &self,
+        projector: &mut dyn Projector,
+        qp: &ProjectionProblem,
+        first: sweeping_api::ProjectionError,
+        t_next: f64,
+    ) -> Result<Projection, SweepError> {
+        let fail = |source| SweepError::Projection {
+            step: self.k,
+            t: t_next,
+            rows: qp.n_rows(),
+            source,
+        };
+        let far = qp
+            .y()
+            .iter()
+            .zip(&self.q)
+            .map(|(y, q)| (y - q).abs())
+            .fold(0.0, f64::max);
+        if !(far > 1.0 && far.is_finite())
+            || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
+        {
+            return Err(fail(first));
+        }
+        let mut aq = vec![0.0; qp.n_rows()];
+        qp.a().mul_vec(&self.q, &mut aq);
+        let b: Vec<f64> = qp.b().iter().zip(&aq).map(|(b, a)| (b - a) / far).collect();
+        let y: Vec<f64> = qp
+            .y()
+            .iter()
+            .zip(&self.q)
+            .map(|(y, q)| (y - q) / far)
+            .collect();
+        let scaled = ProjectionProblem::new(y, qp.a().clone(), b).map_err(fail)?;
+        match projector.project(&scaled) {
+            Ok(mut sol) => {
+                for (x, q) in sol.x.iter_mut().zip(&self.q) {
+                    *x = q + far * *x;
+                }
+                sol.multipliers.iter_mut().for_each(|l| *l *= far);
+                Ok(sol)
+            }
+            Err(second) => Err(SweepError::PredictionTooFar {
+                step: self.k,
+                t: t_next,
+                distance: far,
+                first: first.to_string(),
+                second: second.to_string(),
+            }),
+        }
+    }
+
     /// The KKT conditions of the projection at the backend's answer, each residual relative to
     /// the size of its terms: whatever status the solver reported, an answer that is not the
     /// projection is never used.
@@ -788,12 +847,10 @@ impl<'p> Stepper<'p> {
                     rows: self.b.len(),
                     source: e,
                 })?;
-            let sol = projector.project(&qp).map_err(|e| SweepError::Projection {
-                step: self.k,
-                t: t_next,
-                rows: self.b.len(),
-                source: e,
-            })?;
+            let sol = match projector.project(&qp) {
+                Ok(sol) => sol,
+                Err(e) => self.rescaled_projection(projector, &qp, e, t_next)?,
+            };
             times.projection += tp.elapsed().as_secs_f64();
             solves += 1;
             iterations += sol.stats.iterations;

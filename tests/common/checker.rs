@@ -133,7 +133,7 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
     f.times = states.len();
     let walls = wall_pieces(g);
     let mut left = vec![false; g.radii.len()];
-    let mut push = |f: &mut Findings, m: String| {
+    let push = |f: &mut Findings, m: String| {
         if f.problems.len() < 20 {
             f.problems.push(m);
         }
