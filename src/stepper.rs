@@ -420,7 +420,7 @@ impl<'p> Stepper<'p> {
             ("violation_tolerance", settings.violation_tolerance),
             ("kkt_tolerance", settings.kkt_tolerance),
         ] {
-            if !(v > 0.0 && !v.is_nan()) {
+            if v.is_nan() || v <= 0.0 {
                 return Err(SweepError::InvalidInput(format!(
                     "{name} = {v} must be positive (use f64::INFINITY to disable the check)"
                 )));
@@ -428,7 +428,7 @@ impl<'p> Stepper<'p> {
         }
         // The step count is a usize: a horizon of 1e300 steps would overflow it (and never end).
         let steps = ((settings.t_end - problem.t0()) / settings.h).ceil();
-        if !(steps <= 1e12) {
+        if steps.is_nan() || steps > 1e12 {
             return Err(SweepError::InvalidInput(format!(
                 "T − t₀ = {} with h = {} would take {steps:.3e} steps (at most 1e12)",
                 settings.t_end - problem.t0(),
@@ -911,7 +911,7 @@ impl<'p> Stepper<'p> {
         // A run never continues from a configuration outside Q(t): the linearized set is an
         // inner approximation of Q for convex gᵢ (paper, inclusion after equation `schema`), so
         // a violation beyond the solver's accuracy means the answer is wrong.
-        if !(max_violation <= self.settings.violation_tolerance) {
+        if max_violation.is_nan() || max_violation > self.settings.violation_tolerance {
             return Err(SweepError::ViolationTooLarge {
                 step: self.k,
                 t: t_next,

@@ -303,7 +303,7 @@ fn build_error(text: &str) -> String {
 fn arrays_of_the_wrong_length_are_refused() {
     let person = "[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n";
     let cases = [
-        format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [1, 1, 3]\nradius = 0.2\n"),
+        "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\nposition = [1, 1, 3]\nradius = 0.2\n".to_string(),
         format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0, 5.0]\n{person}"),
         format!("[room]\npolygon = [[0.0, 0.0, 1.0], [4.0, 0.0, 1.0], [4.0, 4.0, 1.0]]\n{person}"),
         format!("[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\ndisk = {{ center = [3.0, 3.0], radius = 0.3 }}\nvelocity = [1.0, 0.0, 2.0]\n{person}"),
