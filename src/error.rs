@@ -128,6 +128,22 @@ pub enum SweepError {
         /// The distance and the motion compared.
         detail: String,
     },
+    /// The projection failed on a prediction `y` so far from `q_k` that the QP could not be
+    /// solved, also after rescaling. The set is not empty (`q_k` satisfies every row), so any
+    /// "infeasible" from the backend is numerical: a shorter step or lower speeds would do.
+    #[error("step {step}, t = {t}: the prediction is {distance:.3e} away from the current configuration, too far for the projection to be resolved ({first}; rescaled: {second}); the set is not empty (the current configuration satisfies every row): use a shorter step or lower speeds")]
+    PredictionTooFar {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// `‖y − q_k‖∞`.
+        distance: f64,
+        /// The backend's error on the original QP.
+        first: String,
+        /// Its error on the rescaled QP.
+        second: String,
+    },
     /// An observer failed (for instance, writing a file).
     #[error("step {step}, t = {t}: observer {observer} failed: {message}")]
     Observer {

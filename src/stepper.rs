@@ -421,7 +421,7 @@ impl<'p> Stepper<'p> {
             ("violation_tolerance", settings.violation_tolerance),
             ("kkt_tolerance", settings.kkt_tolerance),
         ] {
-            if !(v > 0.0 && !v.is_nan()) {
+            if v.is_nan() || v <= 0.0 {
                 return Err(SweepError::InvalidInput(format!(
                     "{name} = {v} must be positive (use f64::INFINITY to disable the check)"
                 )));
@@ -429,7 +429,7 @@ impl<'p> Stepper<'p> {
         }
         // The step count is a usize: a horizon of 1e300 steps would overflow it (and never end).
         let steps = ((settings.t_end - problem.t0()) / settings.h).ceil();
-        if !(steps <= 1e12) {
+        if steps.is_nan() || steps > 1e12 {
             return Err(SweepError::InvalidInput(format!(
                 "T − t₀ = {} with h = {} would take {steps:.3e} steps (at most 1e12)",
                 settings.t_end - problem.t0(),
@@ -594,6 +594,65 @@ impl<'p> Stepper<'p> {
             times.assembly += t1.elapsed().as_secs_f64();
         }
         Ok(())
+    }
+
+    /// A failed solve of a far prediction, retried once on the same QP written relative to
+    /// `q_k` and scaled by `s = ‖y − q_k‖∞`: `min ½‖u − (y − q_k)/s‖²` s.t.
+    /// `A u ≥ (b − A q_k)/s`, then `x = q_k + s u`, `λ = s μ`. The set is never empty (`q_k`
+    /// satisfies every row: `gᵢ(t, q_k) + 0 ≥ …` is the row at `x = q_k` up to the previous
+    /// step's accuracy), so an "infeasible" answer at speed 1e8 is the solver's scaling, not
+    /// the problem's. The answer is then KKT-checked on the original QP like any other; when
+    /// the retry fails too, the error says that the prediction is too far to be resolved.
+    fn rescaled_projection(
+        &self,
+        projector: &mut dyn Projector,
+        qp: &ProjectionProblem,
+        first: sweeping_api::ProjectionError,
+        t_next: f64,
+    ) -> Result<Projection, SweepError> {
+        let fail = |source| SweepError::Projection {
+            step: self.k,
+            t: t_next,
+            rows: qp.n_rows(),
+            source,
+        };
+        let far = qp
+            .y()
+            .iter()
+            .zip(&self.q)
+            .map(|(y, q)| (y - q).abs())
+            .fold(0.0, f64::max);
+        if !(far > 1.0 && far.is_finite())
+            || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
+        {
+            return Err(fail(first));
+        }
+        let mut aq = vec![0.0; qp.n_rows()];
+        qp.a().mul_vec(&self.q, &mut aq);
+        let b: Vec<f64> = qp.b().iter().zip(&aq).map(|(b, a)| (b - a) / far).collect();
+        let y: Vec<f64> = qp
+            .y()
+            .iter()
+            .zip(&self.q)
+            .map(|(y, q)| (y - q) / far)
+            .collect();
+        let scaled = ProjectionProblem::new(y, qp.a().clone(), b).map_err(fail)?;
+        match projector.project(&scaled) {
+            Ok(mut sol) => {
+                for (x, q) in sol.x.iter_mut().zip(&self.q) {
+                    *x = q + far * *x;
+                }
+                sol.multipliers.iter_mut().for_each(|l| *l *= far);
+                Ok(sol)
+            }
+            Err(second) => Err(SweepError::PredictionTooFar {
+                step: self.k,
+                t: t_next,
+                distance: far,
+                first: first.to_string(),
+                second: second.to_string(),
+            }),
+        }
     }
 
     /// The KKT conditions of the projection at the backend's answer, each residual relative to
@@ -833,12 +892,10 @@ impl<'p> Stepper<'p> {
                     rows: self.b.len(),
                     source: e,
                 })?;
-            let sol = projector.project(&qp).map_err(|e| SweepError::Projection {
-                step: self.k,
-                t: t_next,
-                rows: self.b.len(),
-                source: e,
-            })?;
+            let sol = match projector.project(&qp) {
+                Ok(sol) => sol,
+                Err(e) => self.rescaled_projection(projector, &qp, e, t_next)?,
+            };
             times.projection += tp.elapsed().as_secs_f64();
             solves += 1;
             iterations += sol.stats.iterations;
@@ -894,7 +951,7 @@ impl<'p> Stepper<'p> {
         // A run never continues from a configuration outside Q(t): the linearized set is an
         // inner approximation of Q for convex gᵢ (paper, inclusion after equation `schema`), so
         // a violation beyond the solver's accuracy means the answer is wrong.
-        if !(max_violation <= self.settings.violation_tolerance) {
+        if max_violation.is_nan() || max_violation > self.settings.violation_tolerance {
             return Err(SweepError::ViolationTooLarge {
                 step: self.k,
                 t: t_next,

@@ -28,6 +28,9 @@ pub struct Geometry {
     pub radii: Vec<f64>,
 }
 
+/// The people at one recorded time: `(id, position, present)`.
+type State = Vec<(usize, [f64; 2], bool)>;
+
 /// What the checker found.
 #[derive(Debug, Default)]
 pub struct Findings {
@@ -107,7 +110,7 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
         "header of {}",
         csv.display()
     );
-    let mut by_time: BTreeMap<u64, (f64, Vec<(usize, [f64; 2], bool)>)> = BTreeMap::new();
+    let mut by_time: BTreeMap<u64, (f64, State)> = BTreeMap::new();
     let mut f = Findings::default();
     for (ln, line) in lines.enumerate() {
         let c: Vec<&str> = line.split(',').collect();
@@ -128,12 +131,12 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
             .1
             .push((id, [x, y], present));
     }
-    let mut states: Vec<(f64, Vec<(usize, [f64; 2], bool)>)> = by_time.into_values().collect();
+    let mut states: Vec<(f64, State)> = by_time.into_values().collect();
     states.sort_by(|a, b| a.0.total_cmp(&b.0));
     f.times = states.len();
     let walls = wall_pieces(g);
     let mut left = vec![false; g.radii.len()];
-    let mut push = |f: &mut Findings, m: String| {
+    let push = |f: &mut Findings, m: String| {
         if f.problems.len() < 20 {
             f.problems.push(m);
         }
@@ -158,7 +161,7 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
                 let d = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
                 let overlap = ri + g.radii[j] - d;
                 f.max_overlap = f.max_overlap.max(overlap);
-                if !(overlap <= tol) {
+                if overlap.is_nan() || overlap > tol {
                     push(
                         &mut f,
                         format!("t = {t}: people {i} and {j} overlap by {overlap:.3e}"),
@@ -168,7 +171,7 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
             for (w0, w1) in &walls {
                 let pen = ri - dist_point_segment(p, *w0, *w1);
                 f.max_penetration = f.max_penetration.max(pen);
-                if !(pen <= tol) {
+                if pen.is_nan() || pen > tol {
                     push(
                         &mut f,
                         format!(
@@ -193,7 +196,7 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
                     }
                 };
                 f.max_penetration = f.max_penetration.max(pen);
-                if !(pen <= tol) {
+                if pen.is_nan() || pen > tol {
                     push(
                         &mut f,
                         format!("t = {t}: person {i} at {p:?} is {pen:.3e} into obstacle #{k}"),
