@@ -35,16 +35,25 @@ pub mod study;
 pub use error::SweepError;
 pub use sweeping_api as api;
 
-/// The names most programs need.
+/// The names a first problem, a custom backend and a backend swap need: everything a
+/// program writes after `use sweeping::prelude::*;` in the README and the examples.
 pub mod prelude {
-    pub use crate::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily};
+    pub use crate::assumptions::{
+        estimate_problem, Bounds, BoundsMonitor, EstimateSettings, MonitorSettings, Policy,
+    };
+    pub use crate::backends::{make_projector, BackendChoice, BackendError};
+    pub use crate::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily, Scalar};
     pub use crate::error::SweepError;
     pub use crate::problem::{NoPerturbation, Perturbation, Problem};
     pub use crate::stepper::{
         Observer, Prediction, Run, RunFailure, StepReport, Stepper, StepperSettings,
     };
     pub use num_dual::DualNum;
-    pub use sweeping_api::{CrossCheck, ProjectionError, ProjectionProblem, Projector};
+    pub use sweeping_api::conformance::ReferenceProjector;
+    pub use sweeping_api::{
+        CrossCheck, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats,
+        SolveStatus, SparseRows,
+    };
 }
 
 /// The README's code blocks, compiled and run as doc tests so that they stay true.

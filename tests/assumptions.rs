@@ -11,7 +11,7 @@ use sweeping::assumptions::{
 };
 use sweeping::crowd::{DiskPairs, Motion, PersonShapes, Population, Shape};
 use sweeping::prelude::*;
-use sweeping_api::conformance::ReferenceProjector;
+use sweeping::api::conformance::ReferenceProjector;
 
 fn estimate(problem: &Problem, samples: &[(f64, Vec<f64>)]) -> AssumptionReport {
     estimate_problem(

@@ -31,7 +31,7 @@ use std::sync::Arc;
 use sweeping::crowd::{Motion, PersonShapes, Population, Shape};
 use sweeping::prelude::*;
 use sweeping::stepper::Run;
-use sweeping_api::conformance::ReferenceProjector;
+use sweeping::api::conformance::ReferenceProjector;
 
 // --- Case 1: the disk obstacle -------------------------------------------------------------
 

@@ -31,7 +31,7 @@ mod common;
 
 use sweeping::prelude::*;
 use sweeping::stepper::{Prediction, Run};
-use sweeping_api::conformance::ReferenceProjector;
+use sweeping::api::conformance::ReferenceProjector;
 
 const X0: f64 = 1.0;
 const V: f64 = 0.25;

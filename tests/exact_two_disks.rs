@@ -19,7 +19,7 @@ mod common;
 use sweeping::crowd::{DiskPairs, Population};
 use sweeping::prelude::*;
 use sweeping::stepper::Run;
-use sweeping_api::conformance::ReferenceProjector;
+use sweeping::api::conformance::ReferenceProjector;
 
 const T_END: f64 = 2.0;
 

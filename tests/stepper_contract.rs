@@ -10,8 +10,8 @@ use sweeping::crowd::{DiskPairs, Population};
 use sweeping::error::SweepError;
 use sweeping::prelude::*;
 use sweeping::stepper::{Run, StepReport};
-use sweeping_api::conformance::ReferenceProjector;
-use sweeping_api::Projection;
+use sweeping::api::conformance::ReferenceProjector;
+use sweeping::api::Projection;
 
 /// `x ≥ 0` on one coordinate.
 struct Floor;

@@ -8,7 +8,7 @@ use sweeping::study::exact::{
     true_error_study, PointAroundDisk, PointBehindMovingWall, TwoDisksOnALine,
 };
 use sweeping::study::{converge, fit_order, BoxError, ConvergenceSettings, StudyError};
-use sweeping_api::conformance::ReferenceProjector;
+use sweeping::api::conformance::ReferenceProjector;
 
 fn reference() -> Result<Box<dyn Projector>, BoxError> {
     Ok(Box::new(ReferenceProjector::default()))
