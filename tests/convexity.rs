@@ -134,10 +134,16 @@ fn concave_constraint_fails_the_estimate_and_no_prox_regularity_is_claimed() {
     assert_eq!((report.eta, report.theta, report.r), (None, None, None));
     let f = &report.failures[0];
     assert!(f.starts_with(CONVEXITY), "{f}");
-    assert!(f.contains("-2") && f.contains("q[0] = 0.9, q[1] = 0"), "{f}");
+    assert!(
+        f.contains("-2") && f.contains("q[0] = 0.9, q[1] = 0"),
+        "{f}"
+    );
     assert!(f.contains("order-1/2 guarantee does not hold"), "{f}");
     let table = report.table();
-    assert!(table.contains("NEGATIVE") && !table.contains("prox-regular: the"), "{table}");
+    assert!(
+        table.contains("NEGATIVE") && !table.contains("prox-regular: the"),
+        "{table}"
+    );
 }
 
 #[test]
@@ -170,7 +176,11 @@ fn a0_margin_of_affine_constraints_is_infinite_not_missing() {
         .unwrap()
         .to_string();
     assert!(line.contains('∞'), "{line}");
-    assert!(report.notes.iter().all(|n| !n.starts_with("A0")), "{:?}", report.notes);
+    assert!(
+        report.notes.iter().all(|n| !n.starts_with("A0")),
+        "{:?}",
+        report.notes
+    );
 }
 
 #[test]
@@ -182,8 +192,16 @@ fn a_false_affine_claim_is_caught_once_by_the_estimate_and_the_monitor() {
     );
     let report = estimate(&problem, &[(0.0, vec![0.5, 0.0])]);
     assert!(report.convexity_failed);
-    assert!(report.failures[0].starts_with(AFFINE_CLAIM), "{:?}", report.failures);
-    assert!(report.failures[0].contains("|D²g| = 2"), "{:?}", report.failures);
+    assert!(
+        report.failures[0].starts_with(AFFINE_CLAIM),
+        "{:?}",
+        report.failures
+    );
+    assert!(
+        report.failures[0].contains("|D²g| = 2"),
+        "{:?}",
+        report.failures
+    );
 
     let mut monitor = error_monitor(&problem, Bounds::default());
     let failure = Stepper::new(&problem, settings(0.1, 1.0))
@@ -197,15 +215,21 @@ fn a_false_affine_claim_is_caught_once_by_the_estimate_and_the_monitor() {
         panic!("{}", failure.error);
     };
     assert_eq!(assumption, AFFINE_CLAIM);
-    assert!(detail.contains("2.000000e0 ≠ 0") && detail.contains("is_affine"), "{detail}");
+    assert!(
+        detail.contains("2.000000e0 ≠ 0") && detail.contains("is_affine"),
+        "{detail}"
+    );
 }
 
 #[test]
 fn static_affine_problems_get_their_second_order_check() {
     // Before: the monitor skipped every static affine row, so M was never checked at all.
-    let problem = Problem::new(vec![1.0], pushed_1d(-1.0)).with_family(
-        KernelFamily::single_with("wall", RightOf, [0], 0.0),
-    );
+    let problem = Problem::new(vec![1.0], pushed_1d(-1.0)).with_family(KernelFamily::single_with(
+        "wall",
+        RightOf,
+        [0],
+        0.0,
+    ));
     let mut monitor = error_monitor(
         &problem,
         Bounds {
@@ -229,8 +253,12 @@ fn pushed_1d(v: f64) -> impl Fn(f64, &[f64], &mut [f64]) + Send + Sync + 'static
 fn the_start_is_checked_however_far_from_contact() {
     // |∇g| = 1 > β = 0.5, with the point 5 away from the wall (the neighbourhood is 0.1):
     // before, nothing was checked at t = 0; now the run stops before its first step.
-    let problem = Problem::new(vec![5.0], pushed_1d(1.0))
-        .with_family(KernelFamily::single_with("wall", RightOf, [0], 0.0));
+    let problem = Problem::new(vec![5.0], pushed_1d(1.0)).with_family(KernelFamily::single_with(
+        "wall",
+        RightOf,
+        [0],
+        0.0,
+    ));
     let mut monitor = error_monitor(
         &problem,
         Bounds {
@@ -244,7 +272,10 @@ fn the_start_is_checked_however_far_from_contact() {
         .unwrap_err();
     assert_eq!(failure.partial.stats.steps, 0);
     let msg = failure.error.to_string();
-    assert!(msg.starts_with("step 0, t = 0: assumption A1 violated by wall"), "{msg}");
+    assert!(
+        msg.starts_with("step 0, t = 0: assumption A1 violated by wall"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -265,7 +296,10 @@ fn concave_constraint_under_the_monitor_error_and_warn_and_off() {
         msg.contains(&format!("assumption {CONVEXITY} violated by inside disk")),
         "{msg}"
     );
-    assert!(msg.contains("D²g = -2.000000e0 < 0: at q[0] = 0.3, q[1] = 0.1"), "{msg}");
+    assert!(
+        msg.contains("D²g = -2.000000e0 < 0: at q[0] = 0.3, q[1] = 0.1"),
+        "{msg}"
+    );
     // Warn: the run completes; the check ran at the start and on the schedule near contact.
     let mut monitor = BoundsMonitor::new(&problem, MonitorSettings::default());
     let run = Stepper::new(&problem, settings(0.1, 2.0))
@@ -276,7 +310,11 @@ fn concave_constraint_under_the_monitor_error_and_warn_and_off() {
     assert!(monitor.warnings().len() >= 2, "{:?}", monitor.warnings());
     assert!(monitor.warnings().iter().all(|w| w.assumption == CONVEXITY));
     // The outer approximation the warning announces: the point ends outside the disk.
-    assert!(run.stats.max_violation > 1e-6, "{:.3e}", run.stats.max_violation);
+    assert!(
+        run.stats.max_violation > 1e-6,
+        "{:.3e}",
+        run.stats.max_violation
+    );
     // convexity = false (or Policy::Off): not checked.
     for settings_off in [
         MonitorSettings {
@@ -338,7 +376,11 @@ fn nonsense_bounds_are_invalid_input() {
         neighbourhood: -1.0,
         ..Default::default()
     };
-    assert!(bad.validate().unwrap_err().to_string().contains("neighbourhood = -1"));
+    assert!(bad
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("neighbourhood = -1"));
     assert!(Bounds::default().validate().is_ok());
 }
 
@@ -356,8 +398,13 @@ fn kernel_family_single_takes_default_parameters_and_single_with_any() {
     let mut row = sweeping::constraint::LinearizedRow::default();
     KernelFamily::single("default", Shifted, [0]).linearize(0, 0.0, &[3.0], false, &mut row);
     assert_eq!(row.value, 3.0);
-    KernelFamily::single_with("given", Shifted, [0], Offset(1.0))
-        .linearize(0, 0.0, &[3.0], false, &mut row);
+    KernelFamily::single_with("given", Shifted, [0], Offset(1.0)).linearize(
+        0,
+        0.0,
+        &[3.0],
+        false,
+        &mut row,
+    );
     assert_eq!(row.value, 2.0);
 }
 

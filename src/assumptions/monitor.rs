@@ -558,12 +558,7 @@ impl<'p> BoundsMonitor<'p> {
             let n = (h.len() as f64).sqrt().round() as usize;
             let norm = symmetric_spectral_norm(&h, n);
             if not_within(norm, self.settings.relative_tolerance) {
-                found.push(affine_claim_violation(
-                    step,
-                    t,
-                    fam.describe(0),
-                    norm,
-                ));
+                found.push(affine_claim_violation(step, t, fam.describe(0), norm));
             }
         }
     }

@@ -184,7 +184,10 @@ impl OsqpSettings {
 
     /// The former name of [`loose`](Self::loose) (the same spelling as
     /// `ClarabelSettings::loose`).
-    #[deprecated(since = "0.1.0", note = "renamed `OsqpSettings::loose`, as for Clarabel")]
+    #[deprecated(
+        since = "0.1.0",
+        note = "renamed `OsqpSettings::loose`, as for Clarabel"
+    )]
     pub fn preset_loose() -> Self {
         Self::loose()
     }

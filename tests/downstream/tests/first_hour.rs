@@ -192,7 +192,11 @@ fn the_same_region_from_affine_pieces_passes_every_check_and_stays_inside() {
         "octagon, h = 0.1: largest violation {:.2e}",
         run.stats.max_violation
     );
-    assert!(run.stats.max_violation < 1e-8, "{:.3e}", run.stats.max_violation);
+    assert!(
+        run.stats.max_violation < 1e-8,
+        "{:.3e}",
+        run.stats.max_violation
+    );
     let report = estimate_problem(
         &problem,
         &samples_from_trajectory(&run.trajectory),
@@ -286,7 +290,8 @@ impl Projector for Cyclic {
         "cyclic"
     }
     fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
-        let rows: Vec<Vec<(usize, f64)>> = (0..p.n_rows()).map(|r| p.a().row(r).collect()).collect();
+        let rows: Vec<Vec<(usize, f64)>> =
+            (0..p.n_rows()).map(|r| p.a().row(r).collect()).collect();
         let mut x = p.y().to_vec();
         let mut lambda = vec![0.0; rows.len()];
         for sweep in 1..=100_000u32 {
@@ -345,12 +350,21 @@ fn three_disks_reach_the_wall_with_every_backend_including_our_own() -> TestResu
     for mut backend in backends {
         let run = Stepper::new(&problem, settings.clone())?.run(backend.as_mut(), &mut [])?;
         for (x, e) in run.q_final.iter().zip(&exact_end) {
-            assert!((x - e).abs() < 1e-7, "{}: {:?}", backend.name(), run.q_final);
+            assert!(
+                (x - e).abs() < 1e-7,
+                "{}: {:?}",
+                backend.name(),
+                run.q_final
+            );
         }
         finals.push(run.q_final);
     }
     for f in &finals[1..] {
-        let gap = f.iter().zip(&finals[0]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let gap = f
+            .iter()
+            .zip(&finals[0])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(gap < 1e-7, "backends disagree by {gap:.3e}");
     }
     Ok(())
@@ -360,7 +374,14 @@ fn three_disks_reach_the_wall_with_every_backend_including_our_own() -> TestResu
 fn three_disks_against_the_exact_solution_converge_at_order_one_in_the_sup_norm() -> TestResult {
     let make = || -> Result<Box<dyn Projector>, BoxError> { Ok(Box::new(Cyclic)) };
     let hs = [0.07, 0.035, 0.0175];
-    let report = true_error_study(&ThreeDisks, &hs, 8, &make, &StepperSettings::default(), false)?;
+    let report = true_error_study(
+        &ThreeDisks,
+        &hs,
+        8,
+        &make,
+        &StepperSettings::default(),
+        false,
+    )?;
     let sup: Vec<f64> = report.rows.iter().map(|r| r.error_sup.unwrap()).collect();
     // The scheme is exact at the grid times here (affine constraints, constant f); the sup
     // over [0, T] is the piecewise-linear interpolant's error across the contact steps, ≤ h.
@@ -423,8 +444,14 @@ fn measured_constants_then_a_wrong_bound_stops_the_run() -> TestResult {
         .run(backend.as_mut(), &mut [&mut monitor])
         .unwrap_err();
     let message = failure.to_string();
-    assert!(message.contains("assumption A1 violated by contacts"), "{message}");
-    assert!(message.contains("|∇g| = 1.414214e0 exceeds the declared bound β = 1.2"), "{message}");
+    assert!(
+        message.contains("assumption A1 violated by contacts"),
+        "{message}"
+    );
+    assert!(
+        message.contains("|∇g| = 1.414214e0 exceeds the declared bound β = 1.2"),
+        "{message}"
+    );
     Ok(())
 }
 
@@ -461,7 +488,10 @@ fn nonsense_bounds_are_typed_errors_not_silent_comparisons() {
             .unwrap()
             .run(&mut Cyclic, &mut [&mut monitor])
             .unwrap_err();
-        assert!(matches!(failure.error, SweepError::InvalidInput(_)), "{failure}");
+        assert!(
+            matches!(failure.error, SweepError::InvalidInput(_)),
+            "{failure}"
+        );
         assert!(failure.to_string().contains(what), "{failure}");
     }
 }
