@@ -466,3 +466,44 @@ fn solve_runs_with_the_default_backend_and_a_concave_constraint_only_warns() {
     let report = estimate(&problem, &samples_from_trajectory(&run.trajectory));
     assert!(report.convexity_failed);
 }
+
+#[test]
+fn crowd_constraints_are_convex_even_probed_outside_q() {
+    use sweeping::crowd::{DiskPairs, Motion, PersonShapes, Population, Shape};
+    // Four people pressed together near a wall and a moving disk obstacle: pair distances,
+    // segment and disk distances are convex, so no false alarm (also a little outside Qᵢ).
+    let pop = Population::new(vec![0.2; 4]).shared();
+    let q = vec![0.2, 1.0, 0.6, 1.0, 0.4, 1.35, 1.0, 1.0];
+    let shapes = vec![
+        (
+            Shape::Segment {
+                a: [0.0, 0.0],
+                b: [0.0, 3.0],
+            },
+            Motion::Static,
+        ),
+        (
+            Shape::Disk {
+                center: [1.5, 1.0],
+                radius: 0.3,
+            },
+            Motion::Velocity([-0.1, 0.0]),
+        ),
+    ];
+    let problem = Problem::new(q.clone(), NoPerturbation)
+        .with_family(DiskPairs::new(pop.clone()))
+        .with_family(PersonShapes::new("walls and obstacles", pop, shapes));
+    let report = estimate_problem(
+        &problem,
+        &[(0.0, q.clone()), (0.5, q)],
+        &EstimateSettings {
+            probe_depth: 0.05,
+            ..Default::default()
+        },
+        &mut ReferenceProjector::default(),
+    )
+    .unwrap();
+    assert!(!report.convexity_failed, "{}", report.table());
+    assert!(report.min_curvature.unwrap().value > -1e-9);
+    assert!(report.eta.is_some());
+}
