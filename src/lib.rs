@@ -5,6 +5,13 @@
 //! prediction–correction scheme of Bernicot & Venel (see [`stepper`]), and the Maury–Venel
 //! crowd-motion model on top of it (see [`crowd`]).
 //!
+//! A first problem needs only [`prelude`]: a [`ConstraintKernel`](constraint::ConstraintKernel)
+//! written over a [`Scalar`](constraint::Scalar) (its docs list the arithmetic spellings that
+//! compile, such as `t * 0.5` and `-x + 1.0`), [`Problem::with_constraint`](problem::Problem::with_constraint)
+//! and [`Problem::solve`](problem::Problem::solve); the README walks through it, then through
+//! exact-solution checks, measured assumptions and declared bounds. Each `gᵢ` must be convex
+//! in `q`: [`assumptions`] checks it and says what to do when it is not.
+//!
 //! * [`constraint`] — write each `gᵢ` once over dual numbers; value, `∇g`, `D²g`, `∂ₜg`,
 //!   `∂ₜ∇g` by autodiff; constraint families.
 //! * [`problem`] — the process: constraints, perturbation, start.
