@@ -24,9 +24,8 @@ struct OutsideMovingEllipse {
     omega: f64,
 }
 
-impl ConstraintKernel<2> for OutsideMovingEllipse {
-    type Params = ();
-    fn value<D: Scalar>(&self, _: &(), t: D, z: [D; 2]) -> D {
+impl Constraint<2> for OutsideMovingEllipse {
+    fn value<D: Scalar>(&self, t: D, z: [D; 2]) -> D {
         let dx = z[0] - (t * -0.2 + 0.5);
         let dy = z[1] - t.sin() * 0.3;
         let (s, c) = ((t * self.omega).sin(), (t * self.omega).cos());

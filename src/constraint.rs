@@ -82,7 +82,8 @@ impl<D: DualNum<Primitive = f64> + Copy> Scalar for D {}
 /// constraint that fails.
 ///
 /// `Params` carries what distinguishes one instance from another (two radii, a wall's
-/// endpoints…); a single user constraint uses `()`. Arithmetic with constants: see
+/// endpoints…); a single constraint without data is shorter as a [`Constraint`] (which is a
+/// `ConstraintKernel` with `Params = ()`). Arithmetic with constants: see
 /// [`Scalar`] for the spellings that compile (`t * 0.5`, `-x + 1.0`).
 ///
 /// # Example
@@ -128,6 +129,60 @@ pub trait ConstraintKernel<const K: usize>: Send + Sync {
     /// Default `false`.
     fn is_affine(&self) -> bool {
         false
+    }
+}
+
+/// A constraint without parameters, `g(t, z) ≥ 0` on `K` coordinates: the short form of
+/// [`ConstraintKernel`] for a single constraint of your own (every `Constraint` is a
+/// `ConstraintKernel` with `Params = ()`, so it goes wherever a kernel goes). Use
+/// `ConstraintKernel` when one kernel serves many instances with their own data (radii, a
+/// wall's position…).
+///
+/// `g` must be convex in `z` (see [`ConstraintKernel`]); constants go on the right of an
+/// operator (see [`Scalar`]).
+///
+/// ```
+/// use sweeping::prelude::*;
+/// /// Stay outside the unit ball centred at (t/2, 0).
+/// struct OutsideMovingBall;
+/// impl Constraint<2> for OutsideMovingBall {
+///     fn value<D: Scalar>(&self, t: D, z: [D; 2]) -> D {
+///         let dx = z[0] - t * 0.5;
+///         (dx * dx + z[1] * z[1]).sqrt() - 1.0
+///     }
+/// }
+/// let problem = Problem::new(vec![2.0, 0.0], NoPerturbation)
+///     .with_constraint("ball", OutsideMovingBall, [0, 1]);
+/// let lin = sweeping::constraint::linearize(&OutsideMovingBall, &(), 0.0, [2.0, 0.0], true);
+/// assert!((lin.value - 1.0).abs() < 1e-15 && (lin.dt.unwrap() + 0.5).abs() < 1e-15);
+/// ```
+pub trait Constraint<const K: usize>: Send + Sync {
+    /// `g(t, z)`, with `z` the `K` coordinates of the support, in support order.
+    fn value<D: Scalar>(&self, t: D, z: [D; K]) -> D;
+
+    /// Whether `g` depends on `t` (see [`ConstraintKernel::is_time_dependent`]). Default
+    /// `true`.
+    fn is_time_dependent(&self) -> bool {
+        true
+    }
+
+    /// Whether `g` is affine in `z` (see [`ConstraintKernel::is_affine`]; checked once).
+    /// Default `false`.
+    fn is_affine(&self) -> bool {
+        false
+    }
+}
+
+impl<C: Constraint<K>, const K: usize> ConstraintKernel<K> for C {
+    type Params = ();
+    fn value<D: Scalar>(&self, _: &(), t: D, z: [D; K]) -> D {
+        Constraint::value(self, t, z)
+    }
+    fn is_time_dependent(&self) -> bool {
+        Constraint::is_time_dependent(self)
+    }
+    fn is_affine(&self) -> bool {
+        Constraint::is_affine(self)
     }
 }
 

@@ -49,7 +49,9 @@ pub mod prelude {
         estimate_problem, Bounds, BoundsMonitor, EstimateSettings, MonitorSettings, Policy,
     };
     pub use crate::backends::{make_projector, BackendChoice, BackendError};
-    pub use crate::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily, Scalar};
+    pub use crate::constraint::{
+        Constraint, ConstraintFamily, ConstraintKernel, KernelFamily, Scalar,
+    };
     pub use crate::error::SweepError;
     pub use crate::problem::{NoPerturbation, Perturbation, Problem};
     pub use crate::stepper::{

@@ -44,9 +44,8 @@ impl ConstraintKernel<2> for InsideDisk {
 
 /// Outside the unit disk, |z| − 1: convex.
 struct OutsideDisk;
-impl ConstraintKernel<2> for OutsideDisk {
-    type Params = ();
-    fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 2]) -> D {
+impl Constraint<2> for OutsideDisk {
+    fn value<D: Scalar>(&self, _t: D, z: [D; 2]) -> D {
         (z[0] * z[0] + z[1] * z[1]).sqrt() - 1.0
     }
     fn is_time_dependent(&self) -> bool {

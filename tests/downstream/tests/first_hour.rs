@@ -15,9 +15,8 @@ type TestResult = Result<(), Box<dyn std::error::Error>>;
 /// Written the natural way, `g = 1 − ((x − t/4)/2)² − y²`: concave in q (D²g = diag(−½, −2)),
 /// outside the theory.
 struct InsideEllipse;
-impl ConstraintKernel<2> for InsideEllipse {
-    type Params = ();
-    fn value<D: Scalar>(&self, _: &(), t: D, z: [D; 2]) -> D {
+impl Constraint<2> for InsideEllipse {
+    fn value<D: Scalar>(&self, t: D, z: [D; 2]) -> D {
         let u = (z[0] - t * 0.25) * 0.5;
         -(u * u + z[1] * z[1]) + 1.0
     }
