@@ -792,8 +792,15 @@ pub fn estimate_problem(
             infeasible_reported += 1;
             if infeasible_reported <= 10 {
                 failures.push(format!(
-                    "sample {k} (t = {t}) is not in Q(t): {name} = {} (A5 is stated on Q(t))",
-                    fmt_num(v)
+                    "sample {k} (t = {}) is not in Q(t): {name} = {} (A5 is stated on Q(t)){}",
+                    crate::stepper::display_number(t),
+                    fmt_num(v),
+                    if concave_reported > 0 {
+                        "; expected here: a constraint is not convex (above), so its \
+                         linearization lets computed states end outside Q(t)"
+                    } else {
+                        ""
+                    }
                 ));
             }
         }
@@ -835,7 +842,12 @@ pub fn estimate_problem(
     }
     if infeasible_reported > 10 {
         failures.push(format!(
-            "… {infeasible_reported} samples outside Q(t) in all"
+            "… {infeasible_reported} samples outside Q(t) in all{}",
+            if concave_reported > 0 {
+                " (a constraint is not convex: see above)"
+            } else {
+                ""
+            }
         ));
     }
     if let Some(g) = &gamma.best {

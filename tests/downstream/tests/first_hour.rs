@@ -127,6 +127,14 @@ fn estimate_problem_reports_failed_convexity_instead_of_prox_regularity() {
         "{table}"
     );
     assert!(!table.contains("η-prox-regular"), "{table}");
+    // The samples outside Q(t) are explained by the failed convexity.
+    assert!(
+        report
+            .failures
+            .iter()
+            .any(|f| f.contains("is not in Q(t)") && f.contains("not convex")),
+        "{table}"
+    );
     assert!(table.contains("not claimed"), "{table}");
 }
 
