@@ -116,6 +116,20 @@ fn the_spellings_of_the_cheat_sheet_differentiate_correctly() {
     let lin = linearize(&Spelled, &(), 0.0, [2.0], false);
     assert!((lin.value - 1.0).abs() < 1e-15); // 1 − 1 + 1
     assert!((lin.gradient[0] - (-0.5 - 0.5)).abs() < 1e-15); // −½ − 2/x²
+
+    // The rest of the table: 2/x as x.recip() * 2.0, x², √x, |x|, a branch on the value.
+    struct Rest;
+    impl Constraint<1> for Rest {
+        fn value<D: Scalar>(&self, _t: D, z: [D; 1]) -> D {
+            let x = z[0];
+            let branch = if x.re() < 0.0 { -x } else { x };
+            x.recip() * 2.0 + x.powi(2) + x.sqrt() + (-x).abs() + branch
+        }
+    }
+    let lin = linearize(&Rest, &(), 0.0, [4.0], false);
+    assert!((lin.value - (0.5 + 16.0 + 2.0 + 4.0 + 4.0)).abs() < 1e-12);
+    // −2/x² + 2x + 1/(2√x) + 1 + 1 at x = 4
+    assert!((lin.gradient[0] - (-0.125 + 8.0 + 0.25 + 2.0)).abs() < 1e-12);
 }
 
 #[test]
