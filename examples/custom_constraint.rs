@@ -12,12 +12,8 @@
 //! cargo run --no-default-features --example custom_constraint  # reference only
 //! ```
 
-use anyhow::anyhow;
 use std::time::Instant;
-use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::prelude::*;
-use sweeping::stepper::{Run, StepReport};
-use sweeping_api::conformance::ReferenceProjector;
 
 /// `g(t, z) = √((u/a)² + (w/b)²) − 1 ≥ 0`, with `(u, w)` the point in the ellipse's frame:
 /// centre `c(t) = (0.5 − 0.2 t, 0.3 sin t)`, turned by `ω t`. Convex in `z` (a norm of an
@@ -28,9 +24,8 @@ struct OutsideMovingEllipse {
     omega: f64,
 }
 
-impl ConstraintKernel<2> for OutsideMovingEllipse {
-    type Params = ();
-    fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), t: D, z: [D; 2]) -> D {
+impl Constraint<2> for OutsideMovingEllipse {
+    fn value<D: Scalar>(&self, t: D, z: [D; 2]) -> D {
         let dx = z[0] - (t * -0.2 + 0.5);
         let dy = z[1] - t.sin() * 0.3;
         let (s, c) = ((t * self.omega).sin(), (t * self.omega).cos());
@@ -67,11 +62,11 @@ fn problem() -> Problem {
         b: 0.6,
         omega: 0.4,
     };
-    Problem::new(vec![-3.0, 0.15], field).with_family(KernelFamily::single(
+    Problem::new(vec![-3.0, 0.15], field).with_constraint(
         "outside the moving ellipse",
         ellipse,
         [0, 1],
-    ))
+    )
 }
 
 fn settings() -> StepperSettings {
@@ -85,9 +80,7 @@ fn settings() -> StepperSettings {
 fn run_with(problem: &Problem, projector: &mut dyn Projector) -> anyhow::Result<(Run, usize, f64)> {
     let mut contact = ContactSteps::default();
     let start = Instant::now();
-    let run = Stepper::new(problem, settings())?
-        .run(projector, &mut [&mut contact])
-        .map_err(|f| anyhow!("{f}"))?;
+    let run = Stepper::new(problem, settings())?.run(projector, &mut [&mut contact])?;
     Ok((run, contact.0, start.elapsed().as_secs_f64()))
 }
 

@@ -30,7 +30,7 @@ fn main() -> anyhow::Result<()> {
             .find(|&c| make_projector(c).is_ok())
             .unwrap_or(BackendChoice::Reference),
     };
-    let mut projector = make_projector(choice).map_err(|e| anyhow!(e))?;
+    let mut projector = make_projector(choice)?;
     println!(
         "backend: {}; gap d₀ = {D0}; contact at t = {D0}",
         projector.name()

@@ -64,11 +64,25 @@ impl std::fmt::Display for BackendChoice {
 /// settings: `1e-6`.
 pub const DEFAULT_CROSS_TOLERANCE: f64 = 1e-6;
 
+/// Why [`make_projector`] could not build a backend.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum BackendError {
+    /// The backend's cargo feature is off in this build.
+    #[error("backend `{backend}` is not compiled in: build with `--features {features}`")]
+    NotCompiled {
+        /// The backend asked for.
+        backend: BackendChoice,
+        /// The cargo features it needs.
+        features: String,
+    },
+}
+
 /// Builds the chosen backend with its default (tight) settings.
 ///
 /// # Errors
-/// When the backend was not compiled in (its cargo feature is off).
-pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, String> {
+/// [`BackendError::NotCompiled`] when the backend's cargo feature is off.
+pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, BackendError> {
     match choice {
         BackendChoice::Reference => Ok(Box::new(
             sweeping_api::conformance::ReferenceProjector::default(),
@@ -84,13 +98,13 @@ pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, Strin
             DEFAULT_CROSS_TOLERANCE,
         ))),
         #[allow(unreachable_patterns)]
-        other => Err(format!(
-            "backend `{other}` is not compiled in: build with `--features {}`",
-            match other {
+        other => Err(BackendError::NotCompiled {
+            backend: other,
+            features: match other {
                 BackendChoice::Cross => "clarabel,osqp".to_string(),
                 o => o.to_string(),
-            }
-        )),
+            },
+        }),
     }
 }
 

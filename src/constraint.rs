@@ -21,24 +21,84 @@ use num_dual::{
     HyperDualSVec64,
 };
 
+/// The scalar a constraint is written over: a num-dual number on `f64` (plain `f64`, or any
+/// dual number the library differentiates with). An alias of `DualNum<Primitive = f64> + Copy`,
+/// implemented for every such type; write kernels as `fn value<D: Scalar>(…)`.
+///
+/// # Arithmetic with constants: the spellings that compile
+/// `D` is a type parameter, and Rust lets no crate implement `f64 − D` for every `D` (the
+/// orphan rule), so a constant may stand on the **right** of an operator, or be turned into a
+/// `D` first. With `x, y: D`:
+///
+/// | maths | write | not |
+/// |---|---|---|
+/// | `1 − x` | `-x + 1.0` or `D::from(1.0) - x` or `x.rsub(1.0)` | `1.0 - x` |
+/// | `t/2` | `t * 0.5` or `t / 2.0` | `0.5 * t` |
+/// | `2/x` | `x.recip() * 2.0` or `D::from(2.0) / x` | `2.0 / x` |
+/// | `x²`, `√x`, `|x|` | `x * x` or `x.powi(2)`, `x.sqrt()`, `x.abs()` | |
+/// | `max(x, y)` | `if x > y { x } else { y }` (not differentiable where they tie) | |
+/// | `x < 0` | `x.re() < 0.0` (compare the value) or `x < 0.0` | |
+///
+/// The compiler's message for the wrong spelling is `cannot subtract D from {float}` (or
+/// `cannot multiply {float} by D`), followed by "the trait `Sub<D>` is not implemented for
+/// `{float}`"; the fix is one of the spellings above:
+///
+/// ```compile_fail
+/// use sweeping::prelude::*;
+/// fn inside_unit_disk<D: Scalar>(u: D, w: D) -> D {
+///     1.0 - (u * u + w * w) // error[E0277]: cannot subtract `D` from `{float}`
+/// }
+/// ```
+///
+/// ```
+/// use sweeping::prelude::*;
+/// fn inside_unit_disk<D: Scalar>(u: D, w: D) -> D {
+///     -(u * u + w * w) + 1.0 // or: D::from(1.0) - (u * u + w * w), or (u * u + w * w).rsub(1.0)
+/// }
+/// assert_eq!(inside_unit_disk(0.6, 0.0), 0.64);
+/// ```
+pub trait Scalar: DualNum<Primitive = f64> + Copy {
+    /// `c − self`: the constant on the left, spelled as a method.
+    fn rsub(self, c: f64) -> Self {
+        -self + c
+    }
+}
+
+impl<D: DualNum<Primitive = f64> + Copy> Scalar for D {}
+
 /// One kind of constraint `g(t, z) ≥ 0`, written once over dual numbers on its `K` coordinates.
 ///
+/// # The theory's requirement: `g` convex in `z`
+/// The scheme replaces `{g ≥ 0}` by its linearization at the current state; that set lies
+/// inside `{g ≥ 0}` (so every step is feasible and the order-½ theorem applies) when `g` is
+/// **convex** in `z` (its Hessian `D²g` has no negative eigenvalue). "Stay outside a ball"
+/// (`|z − c| − r ≥ 0`) is convex; "stay inside an ellipse" written as `1 − |E(z − c)|² ≥ 0` is
+/// concave, and its linearization is an outer approximation: points end slightly outside.
+/// Express a convex feasible region as an intersection of convex pieces — affine ones
+/// (`⟨n, z⟩ − d ≥ 0`, one per side of a polygon), or "outside a ball" — or, for a region
+/// that is not convex itself, expect drift outside of order `h²·|D²g|·|velocity|²` per step
+/// and no convergence guarantee. [`crate::assumptions::estimate_problem`] and
+/// [`crate::assumptions::BoundsMonitor`] check the smallest eigenvalue of `D²g` and name the
+/// constraint that fails.
+///
 /// `Params` carries what distinguishes one instance from another (two radii, a wall's
-/// endpoints…); a single user constraint uses `()`.
+/// endpoints…); a single constraint without data is shorter as a [`Constraint`] (which is a
+/// `ConstraintKernel` with `Params = ()`). Arithmetic with constants: see
+/// [`Scalar`] for the spellings that compile (`t * 0.5`, `-x + 1.0`).
 ///
 /// # Example
 /// A point of the plane kept outside a ball of radius 1 whose centre moves at speed 0.5 along
 /// the first axis: `g(t, z) = |z − c(t)| − 1`.
 ///
 /// ```
-/// use num_dual::DualNum;
-/// use sweeping::constraint::{linearize, ConstraintKernel};
+/// use sweeping::prelude::*;
+/// use sweeping::constraint::linearize;
 ///
 /// struct OutsideMovingBall;
 ///
 /// impl ConstraintKernel<2> for OutsideMovingBall {
 ///     type Params = ();
-///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), t: D, z: [D; 2]) -> D {
+///     fn value<D: Scalar>(&self, _: &(), t: D, z: [D; 2]) -> D {
 ///         let dx = z[0] - t * 0.5;
 ///         (dx * dx + z[1] * z[1]).sqrt() - 1.0
 ///     }
@@ -54,12 +114,7 @@ pub trait ConstraintKernel<const K: usize>: Send + Sync {
     type Params: Send + Sync;
 
     /// `g(t, z)`, with `z` the `K` coordinates of the support, in support order.
-    fn value<D: DualNum<Primitive = f64> + Copy>(
-        &self,
-        params: &Self::Params,
-        t: D,
-        z: [D; K],
-    ) -> D;
+    fn value<D: Scalar>(&self, params: &Self::Params, t: D, z: [D; K]) -> D;
 
     /// Whether `g` depends on `t`. When `false`, `∂ₜg` and `∂ₜ∇g` are not computed (they are
     /// zero). Default `true`.
@@ -67,10 +122,67 @@ pub trait ConstraintKernel<const K: usize>: Send + Sync {
         true
     }
 
-    /// Whether `g` is affine in `z`. When `true`, `D²g` is not computed (it is zero), and
-    /// the linearization is exact. Default `false`.
+    /// Whether `g` is affine in `z`. When `true`, `D²g` is not computed (it is zero), the
+    /// linearization is exact and the convexity check is skipped; the claim itself is checked
+    /// once by [`crate::assumptions::estimate_problem`] and
+    /// [`crate::assumptions::BoundsMonitor`] (through [`ConstraintFamily::affine_check`]).
+    /// Default `false`.
     fn is_affine(&self) -> bool {
         false
+    }
+}
+
+/// A constraint without parameters, `g(t, z) ≥ 0` on `K` coordinates: the short form of
+/// [`ConstraintKernel`] for a single constraint of your own (every `Constraint` is a
+/// `ConstraintKernel` with `Params = ()`, so it goes wherever a kernel goes). Use
+/// `ConstraintKernel` when one kernel serves many instances with their own data (radii, a
+/// wall's position…).
+///
+/// `g` must be convex in `z` (see [`ConstraintKernel`]); constants go on the right of an
+/// operator (see [`Scalar`]).
+///
+/// ```
+/// use sweeping::prelude::*;
+/// /// Stay outside the unit ball centred at (t/2, 0).
+/// struct OutsideMovingBall;
+/// impl Constraint<2> for OutsideMovingBall {
+///     fn value<D: Scalar>(&self, t: D, z: [D; 2]) -> D {
+///         let dx = z[0] - t * 0.5;
+///         (dx * dx + z[1] * z[1]).sqrt() - 1.0
+///     }
+/// }
+/// let problem = Problem::new(vec![2.0, 0.0], NoPerturbation)
+///     .with_constraint("ball", OutsideMovingBall, [0, 1]);
+/// let lin = sweeping::constraint::linearize(&OutsideMovingBall, &(), 0.0, [2.0, 0.0], true);
+/// assert!((lin.value - 1.0).abs() < 1e-15 && (lin.dt.unwrap() + 0.5).abs() < 1e-15);
+/// ```
+pub trait Constraint<const K: usize>: Send + Sync {
+    /// `g(t, z)`, with `z` the `K` coordinates of the support, in support order.
+    fn value<D: Scalar>(&self, t: D, z: [D; K]) -> D;
+
+    /// Whether `g` depends on `t` (see [`ConstraintKernel::is_time_dependent`]). Default
+    /// `true`.
+    fn is_time_dependent(&self) -> bool {
+        true
+    }
+
+    /// Whether `g` is affine in `z` (see [`ConstraintKernel::is_affine`]; checked once).
+    /// Default `false`.
+    fn is_affine(&self) -> bool {
+        false
+    }
+}
+
+impl<C: Constraint<K>, const K: usize> ConstraintKernel<K> for C {
+    type Params = ();
+    fn value<D: Scalar>(&self, _: &(), t: D, z: [D; K]) -> D {
+        Constraint::value(self, t, z)
+    }
+    fn is_time_dependent(&self) -> bool {
+        Constraint::is_time_dependent(self)
+    }
+    fn is_affine(&self) -> bool {
+        Constraint::is_affine(self)
     }
 }
 
@@ -175,23 +287,31 @@ pub fn second_order<C: ConstraintKernel<K> + ?Sized, const K: usize>(
         out.gradient = lin.gradient;
     }
     if !kernel.is_affine() {
-        let (_, _, h) = hessian(
-            |v: SVector<Dual2SVec64<K>, K>| {
-                kernel.value(
-                    params,
-                    Dual2SVec64::<K>::from_re(t),
-                    std::array::from_fn(|i| v[i]),
-                )
-            },
-            &zv,
-        );
-        for i in 0..K {
-            for j in 0..K {
-                out.hessian[i][j] = h[(i, j)];
-            }
-        }
+        out.hessian = hessian_of(kernel, params, t, z);
     }
     out
+}
+
+/// `D²_z g` at `(t, z)`, row-major, computed whatever [`ConstraintKernel::is_affine`] says
+/// (to check that claim).
+pub fn hessian_of<C: ConstraintKernel<K> + ?Sized, const K: usize>(
+    kernel: &C,
+    params: &C::Params,
+    t: f64,
+    z: [f64; K],
+) -> [[f64; K]; K] {
+    let zv = SVector::<f64, K>::from(z);
+    let (_, _, h) = hessian(
+        |v: SVector<Dual2SVec64<K>, K>| {
+            kernel.value(
+                params,
+                Dual2SVec64::<K>::from_re(t),
+                std::array::from_fn(|i| v[i]),
+            )
+        },
+        &zv,
+    );
+    std::array::from_fn(|i| std::array::from_fn(|j| h[(i, j)]))
 }
 
 /// A linearized constraint: `value + ⟨gradient, x_support − q_support⟩ ≥ 0`, on the
@@ -303,6 +423,15 @@ pub trait ConstraintFamily: Send + Sync {
     fn a0_margin(&self) -> Option<f64> {
         None
     }
+
+    /// For a family that declares itself affine: `D²_q g` of member `index` at `(t, q)`
+    /// (row-major on its support, as in [`SecondOrderData::hessian`]), computed although the
+    /// family says it is zero, so that the checks can verify the claim once. Default `None`
+    /// (the family cannot compute it; the claim is then trusted).
+    fn affine_check(&self, index: usize, t: f64, q: &[f64]) -> Option<Vec<f64>> {
+        let _ = (index, t, q);
+        None
+    }
 }
 
 /// One instance of a kernel: its support and parameters.
@@ -319,14 +448,14 @@ pub struct KernelInstance<P, const K: usize> {
 /// The family of an explicit list of instances of one [`ConstraintKernel`].
 ///
 /// ```
-/// use num_dual::DualNum;
-/// use sweeping::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily, LinearizedRow};
+/// use sweeping::prelude::*;
+/// use sweeping::constraint::LinearizedRow;
 ///
 /// /// x_a ≤ x_b − gap: an ordering constraint, affine and static.
 /// struct Ordered;
 /// impl ConstraintKernel<2> for Ordered {
 ///     type Params = f64;
-///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, gap: &f64, _t: D, z: [D; 2]) -> D {
+///     fn value<D: Scalar>(&self, gap: &f64, _t: D, z: [D; 2]) -> D {
 ///         z[1] - z[0] - *gap
 ///     }
 ///     fn is_time_dependent(&self) -> bool { false }
@@ -382,13 +511,44 @@ impl<C: ConstraintKernel<K>, const K: usize> KernelFamily<C, K> {
     }
 }
 
-impl<C: ConstraintKernel<K, Params = ()>, const K: usize> KernelFamily<C, K> {
-    /// A family of one parameterless constraint reading `support`.
-    pub fn single(name: impl Into<String>, kernel: C, support: [usize; K]) -> Self {
+impl<C: ConstraintKernel<K>, const K: usize> KernelFamily<C, K> {
+    /// A family of one constraint reading `support`, with its parameters (for a kernel whose
+    /// `Params` is `()`, [`single`](Self::single) says the same in fewer words).
+    ///
+    /// ```
+    /// use sweeping::prelude::*;
+    /// /// x ≥ wall: the wall's position is the parameter.
+    /// struct RightOf;
+    /// impl ConstraintKernel<1> for RightOf {
+    ///     type Params = f64;
+    ///     fn value<D: Scalar>(&self, wall: &f64, _t: D, z: [D; 1]) -> D { z[0] - *wall }
+    ///     fn is_affine(&self) -> bool { true }
+    /// }
+    /// let problem = Problem::new(vec![1.0], NoPerturbation)
+    ///     .with_family(KernelFamily::single_with("wall", RightOf, [0], 0.5));
+    /// assert_eq!(problem.families()[0].count(), 1);
+    /// ```
+    pub fn single_with(
+        name: impl Into<String>,
+        kernel: C,
+        support: [usize; K],
+        params: C::Params,
+    ) -> Self {
         let name = name.into();
         let mut f = Self::new(name.clone(), kernel);
-        f.push(support, (), name);
+        f.push(support, params, name);
         f
+    }
+}
+
+impl<C: ConstraintKernel<K>, const K: usize> KernelFamily<C, K>
+where
+    C::Params: Default,
+{
+    /// A family of one constraint reading `support`, with default parameters (`()` for a
+    /// kernel without any).
+    pub fn single(name: impl Into<String>, kernel: C, support: [usize; K]) -> Self {
+        Self::single_with(name, kernel, support, C::Params::default())
     }
 }
 
@@ -441,6 +601,12 @@ impl<C: ConstraintKernel<K>, const K: usize> ConstraintFamily for KernelFamily<C
             hessian: so.hessian.iter().flatten().copied().collect(),
             dt_gradient: so.dt_gradient.to_vec(),
         }
+    }
+
+    fn affine_check(&self, index: usize, t: f64, q: &[f64]) -> Option<Vec<f64>> {
+        let inst = &self.instances[index];
+        let h = hessian_of(&self.kernel, &inst.params, t, self.gather(index, q));
+        Some(h.iter().flatten().copied().collect())
     }
 
     fn min_dimension(&self) -> usize {

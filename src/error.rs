@@ -1,5 +1,6 @@
 //! The library's error type: what went wrong, and where (step, time, constraint, agent).
 
+use crate::stepper::display_number;
 use sweeping_api::ProjectionError;
 
 /// A violated constraint, as reported in [`SweepError::InfeasibleStart`].
@@ -19,7 +20,7 @@ pub enum SweepError {
     #[error("invalid input: {0}")]
     InvalidInput(String),
     /// `q₀ ∉ Q(0)`: the constraints listed are violated.
-    #[error("the initial configuration is not feasible at t = {t}: {} constraint(s) violated, worst {}", violations.len(), violations.first().map(|v| format!("{} = {:.3e}", v.constraint, v.value)).unwrap_or_default())]
+    #[error("the initial configuration is not feasible at t = {}: {} constraint(s) violated, worst {}", display_number(*t), violations.len(), violations.first().map(|v| format!("{} = {:.3e}", v.constraint, v.value)).unwrap_or_default())]
     InfeasibleStart {
         /// Initial time.
         t: f64,
@@ -27,7 +28,7 @@ pub enum SweepError {
         violations: Vec<Violation>,
     },
     /// A non-finite number appeared (in `f`, in a constraint's value or gradient).
-    #[error("step {step}, t = {t}: {what} is not finite")]
+    #[error("step {step}, t = {}: {what} is not finite", display_number(*t))]
     NonFinite {
         /// Step index `k` (the step computing `q_{k+1}`).
         step: usize,
@@ -37,7 +38,7 @@ pub enum SweepError {
         what: String,
     },
     /// A constraint's gradient vanished, so its linearization is meaningless (A1 fails).
-    #[error("step {step}, t = {t}: constraint {constraint} has a vanishing gradient (|∇g| = {norm:.3e}); assumption A1 fails")]
+    #[error("step {step}, t = {}: constraint {constraint} has a vanishing gradient (|∇g| = {norm:.3e}); assumption A1 fails", display_number(*t))]
     DegenerateConstraint {
         /// Step index.
         step: usize,
@@ -49,7 +50,7 @@ pub enum SweepError {
         norm: f64,
     },
     /// The projection backend failed.
-    #[error("step {step}, t = {t}: projection failed ({rows} rows): {source}")]
+    #[error("step {step}, t = {}: projection failed ({rows} rows): {source}", display_number(*t))]
     Projection {
         /// Step index.
         step: usize,
@@ -62,7 +63,7 @@ pub enum SweepError {
         source: ProjectionError,
     },
     /// A run-time assumption check failed under the `error` policy.
-    #[error("step {step}, t = {t}: assumption {assumption} violated by {constraint}: {detail}")]
+    #[error("step {step}, t = {}: assumption {assumption} violated by {constraint}: {detail}", display_number(*t))]
     AssumptionViolated {
         /// Step index.
         step: usize,
@@ -145,7 +146,7 @@ pub enum SweepError {
         second: String,
     },
     /// An observer failed (for instance, writing a file).
-    #[error("step {step}, t = {t}: observer {observer} failed: {message}")]
+    #[error("step {step}, t = {}: observer {observer} failed: {message}", display_number(*t))]
     Observer {
         /// Step index.
         step: usize,

@@ -5,6 +5,13 @@
 //! prediction–correction scheme of Bernicot & Venel (see [`stepper`]), and the Maury–Venel
 //! crowd-motion model on top of it (see [`crowd`]).
 //!
+//! A first problem needs only [`prelude`]: a [`ConstraintKernel`](constraint::ConstraintKernel)
+//! written over a [`Scalar`](constraint::Scalar) (its docs list the arithmetic spellings that
+//! compile, such as `t * 0.5` and `-x + 1.0`), [`Problem::with_constraint`](problem::Problem::with_constraint)
+//! and [`Problem::solve`](problem::Problem::solve); the README walks through it, then through
+//! exact-solution checks, measured assumptions and declared bounds. Each `gᵢ` must be convex
+//! in `q`: [`assumptions`] checks it and says what to do when it is not.
+//!
 //! * [`constraint`] — write each `gᵢ` once over dual numbers; value, `∇g`, `D²g`, `∂ₜg`,
 //!   `∂ₜ∇g` by autodiff; constraint families.
 //! * [`problem`] — the process: constraints, perturbation, start.
@@ -36,16 +43,27 @@ pub mod study;
 pub use error::SweepError;
 pub use sweeping_api as api;
 
-/// The names most programs need.
+/// The names a first problem, a custom backend and a backend swap need: everything a
+/// program writes after `use sweeping::prelude::*;` in the README and the examples.
 pub mod prelude {
-    pub use crate::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily};
+    pub use crate::assumptions::{
+        estimate_problem, Bounds, BoundsMonitor, EstimateSettings, MonitorSettings, Policy,
+    };
+    pub use crate::backends::{make_projector, BackendChoice, BackendError};
+    pub use crate::constraint::{
+        Constraint, ConstraintFamily, ConstraintKernel, KernelFamily, Scalar,
+    };
     pub use crate::error::SweepError;
     pub use crate::problem::{NoPerturbation, Perturbation, Problem};
     pub use crate::stepper::{
         Observer, Prediction, Run, RunFailure, StepReport, Stepper, StepperSettings,
     };
     pub use num_dual::DualNum;
-    pub use sweeping_api::{CrossCheck, ProjectionError, ProjectionProblem, Projector};
+    pub use sweeping_api::conformance::ReferenceProjector;
+    pub use sweeping_api::{
+        CrossCheck, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats,
+        SolveStatus, SparseRows,
+    };
 }
 
 /// The README's code blocks, compiled and run as doc tests so that they stay true.

@@ -268,7 +268,9 @@ impl std::fmt::Display for RunFailure {
         write!(
             f,
             "{} (after {} completed steps, t = {})",
-            self.error, self.partial.stats.steps, self.partial.t_final
+            self.error,
+            self.partial.stats.steps,
+            display_number(self.partial.t_final)
         )
     }
 }
@@ -349,7 +351,7 @@ struct FamilyState {
 ///
 /// ```
 /// use sweeping::prelude::*;
-/// use sweeping_api::conformance::ReferenceProjector;
+/// use sweeping::api::conformance::ReferenceProjector;
 ///
 /// struct Floor;
 /// impl ConstraintKernel<1> for Floor {

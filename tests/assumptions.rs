@@ -5,13 +5,13 @@ use approx::assert_abs_diff_eq;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::SQRT_2;
+use sweeping::api::conformance::ReferenceProjector;
 use sweeping::assumptions::{
     coordinate_groups, estimate_problem, hull_distance, symmetric_spectral_norm, AssumptionReport,
     Bounds, BoundsMonitor, EstimateSettings, MonitorSettings, Policy, SparseVector,
 };
 use sweeping::crowd::{DiskPairs, Motion, PersonShapes, Population, Shape};
 use sweeping::prelude::*;
-use sweeping_api::conformance::ReferenceProjector;
 
 fn estimate(problem: &Problem, samples: &[(f64, Vec<f64>)]) -> AssumptionReport {
     estimate_problem(

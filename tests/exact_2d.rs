@@ -28,10 +28,10 @@
 mod common;
 
 use std::sync::Arc;
+use sweeping::api::conformance::ReferenceProjector;
 use sweeping::crowd::{Motion, PersonShapes, Population, Shape};
 use sweeping::prelude::*;
 use sweeping::stepper::Run;
-use sweeping_api::conformance::ReferenceProjector;
 
 // --- Case 1: the disk obstacle -------------------------------------------------------------
 

@@ -29,9 +29,9 @@
 
 mod common;
 
+use sweeping::api::conformance::ReferenceProjector;
 use sweeping::prelude::*;
 use sweeping::stepper::{Prediction, Run};
-use sweeping_api::conformance::ReferenceProjector;
 
 const X0: f64 = 1.0;
 const V: f64 = 0.25;

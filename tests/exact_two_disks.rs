@@ -16,10 +16,10 @@
 
 mod common;
 
+use sweeping::api::conformance::ReferenceProjector;
 use sweeping::crowd::{DiskPairs, Population};
 use sweeping::prelude::*;
 use sweeping::stepper::Run;
-use sweeping_api::conformance::ReferenceProjector;
 
 const T_END: f64 = 2.0;
 

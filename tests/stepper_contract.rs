@@ -6,12 +6,12 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::cell::RefCell;
 use std::rc::Rc;
+use sweeping::api::conformance::ReferenceProjector;
+use sweeping::api::Projection;
 use sweeping::crowd::{DiskPairs, Population};
 use sweeping::error::SweepError;
 use sweeping::prelude::*;
 use sweeping::stepper::{Run, StepReport};
-use sweeping_api::conformance::ReferenceProjector;
-use sweeping_api::Projection;
 
 /// `x ≥ 0` on one coordinate.
 struct Floor;

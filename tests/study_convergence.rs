@@ -2,13 +2,13 @@
 //! solutions, and a short convergence study on a small crowd (the paper's protocol).
 
 use std::sync::Arc;
+use sweeping::api::conformance::ReferenceProjector;
 use sweeping::crowd::{rectangle_walls, DiskPairs, PersonShapes, Population};
 use sweeping::prelude::*;
 use sweeping::study::exact::{
     true_error_study, PointAroundDisk, PointBehindMovingWall, TwoDisksOnALine,
 };
 use sweeping::study::{converge, fit_order, BoxError, ConvergenceSettings, StudyError};
-use sweeping_api::conformance::ReferenceProjector;
 
 fn reference() -> Result<Box<dyn Projector>, BoxError> {
     Ok(Box::new(ReferenceProjector::default()))

@@ -55,7 +55,7 @@ impl SparseVector {
 ///
 /// ```
 /// use sweeping::assumptions::{hull_distance, SparseVector};
-/// use sweeping_api::conformance::ReferenceProjector;
+/// use sweeping::api::conformance::ReferenceProjector;
 /// // Unit normals at 90°: the nearest point of their hull is the midpoint, at distance 1/√2.
 /// let n1 = SparseVector { columns: vec![0], values: vec![1.0] };
 /// let n2 = SparseVector { columns: vec![1], values: vec![1.0] };

@@ -14,7 +14,14 @@
 //! | `M` | A4 | `|D²_q gᵢ|`, largest | spectral (largest `|eigenvalue|`) |
 //! | `γ` | A5 at `ρ` | `1/dist(0, conv{∇gᵢ/|∇gᵢ|, gᵢ ≤ ρ})`, largest | — |
 //! | `γ'` | A5' | the same over the active set (`gᵢ ≤ active_tolerance`) | — |
-//! | `c` | A0 | from the families ([`ConstraintFamily::a0_margin`]) | — |
+//! | `c` | A0 | from the families ([`ConstraintFamily::a0_margin`]); `∞` for affine ones | — |
+//! | `λ_min` | §2: `gᵢ` convex in `q` | smallest eigenvalue of `D²_q gᵢ` | must be `≥ 0` |
+//!
+//! Convexity is not one of A0–A5 but the standing assumption of the paper's section 2; when
+//! some `D²gᵢ` has a negative eigenvalue (beyond `1e-9 · max(1, |D²gᵢ|)`), the report names
+//! the constraint, the sample and the eigenvalue, and claims none of the derived constants
+//! `η`, `Θ`, `r` (they are proved for convex `gᵢ` only). A family that declares itself affine
+//! has that claim verified on its first member at the first sample.
 //!
 //! The paper uses one `β` for A1 and A2 and one `M` for A3 and A4; the report keeps each part
 //! and their maximum. The assumptions quantify over the open sets `Uᵢ(t) ⊃ Qᵢ(t)` (A1, A3, A4)
@@ -52,7 +59,9 @@ mod monitor;
 mod serde_ext;
 
 pub use hull::{coordinate_groups, hull_distance, SparseVector};
-pub use monitor::{BoundViolation, Bounds, BoundsMonitor, MonitorSettings, Policy};
+pub use monitor::{
+    BoundViolation, Bounds, BoundsMonitor, MonitorSettings, Policy, AFFINE_CLAIM, CONVEXITY,
+};
 
 use crate::constraint::{ConstraintFamily, LinearizedRow, SecondOrderData};
 use crate::error::SweepError;
@@ -152,8 +161,17 @@ pub struct AssumptionReport {
     /// The paper's `M = max(M of A3, M of A4)`.
     #[serde(with = "serde_ext::ext_opt")]
     pub m: Option<f64>,
+    /// §2: the smallest eigenvalue of `D²gᵢ` over the samples (negative: some `gᵢ` is not
+    /// convex in `q`, see [`Self::convexity_failed`]); `None` when only affine constraints
+    /// were sampled.
+    #[serde(default)]
+    pub min_curvature: Option<Witness>,
+    /// Whether some `gᵢ` was found not convex in `q` (or an affine claim false): `η`, `Θ`
+    /// and `r` are then not claimed (`None`).
+    #[serde(default)]
+    pub convexity_failed: bool,
     /// A0's margin `c` (a supremum: any smaller positive `c` works), when every family
-    /// derives it.
+    /// derives it; `∞` when every family is affine (smooth everywhere).
     #[serde(with = "serde_ext::ext_opt")]
     pub c: Option<f64>,
     /// `η = α/(Mγ')` (Prop 2.2); `∞` when `M = 0`.
@@ -226,6 +244,15 @@ impl AssumptionReport {
             "largest |∂ₜ∇gᵢ| (Euclidean): how fast the normals turn in time",
         );
         w(
+            "λ_min (§2)",
+            &self.min_curvature,
+            if self.convexity_failed {
+                "smallest eigenvalue of D²gᵢ: NEGATIVE, some gᵢ is not convex (see FAILED)"
+            } else {
+                "smallest eigenvalue of D²gᵢ: ≥ 0 as the theory needs (gᵢ convex in q)"
+            },
+        );
+        w(
             "γ (A5, ρ)",
             &self.gamma,
             "how close the near-active normals come to cancelling (1: not at all, ∞: they do)",
@@ -266,6 +293,9 @@ impl AssumptionReport {
                     "η = α/(Mγ'): Q(t) is η-prox-regular: the projection onto it is unique within distance {}",
                     fmt_num(e)
                 ),
+                None if self.convexity_failed => {
+                    "η = α/(Mγ'): not claimed, convexity fails (Prop 2.2 needs convex gᵢ)".into()
+                }
                 None => "η = α/(Mγ'): not available".into(),
             },
         );
@@ -361,25 +391,75 @@ pub fn symmetric_spectral_norm(h: &[f64], n: usize) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Norms of one evaluation: `|∇g|`, `|∂ₜg|`, `|D²g|` (spectral), `|∂ₜ∇g|`.
+/// The smallest eigenvalue of the symmetric `n × n` matrix stored row-major in `h`
+/// (symmetrized first); `0` for `n = 0`. Negative for a Hessian means `g` is not convex there.
+pub fn symmetric_min_eigenvalue(h: &[f64], n: usize) -> f64 {
+    symmetric_extremes(h, n).0
+}
+
+/// (smallest eigenvalue, largest |eigenvalue|) of a row-major symmetric matrix, one
+/// decomposition for both.
+fn symmetric_extremes(h: &[f64], n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 0.0);
+    }
+    let m = nalgebra::DMatrix::from_fn(n, n, |i, j| 0.5 * (h[i * n + j] + h[j * n + i]));
+    let eig = nalgebra::SymmetricEigen::new(m).eigenvalues;
+    (
+        eig.iter().copied().fold(f64::INFINITY, f64::min),
+        eig.iter().map(|v| v.abs()).fold(0.0, f64::max),
+    )
+}
+
+/// The relative rounding allowance of the convexity and affine checks of
+/// [`estimate_problem`]: `1e-9 · max(1, |D²g|)` (autodiff Hessians are exact up to rounding).
+pub const CONVEXITY_TOLERANCE: f64 = 1e-9;
+
+/// Whether the smallest eigenvalue `min_eig` of a Hessian of spectral norm `norm` is negative
+/// beyond rounding (`relative_tolerance · max(1, norm)`): `g` is then not convex there.
+pub(crate) fn concave_direction(min_eig: f64, norm: f64, relative_tolerance: f64) -> bool {
+    min_eig < -relative_tolerance * norm.max(1.0)
+}
+
+/// What a failed convexity check means, for messages.
+pub(crate) const CONVEXITY_MEANING: &str = "g is not convex in q there (section 2 of the paper \
+    requires it), so the linearized set is not an inner approximation of Q(t): steps may end \
+    outside Q(t) and the order-1/2 guarantee does not hold. Write a convex region as an \
+    intersection of convex constraints (affine sides <n, q> - d >= 0, or \"outside a ball\" \
+    |q - c| - r >= 0); otherwise expect violations of order h²·|D²g|·|velocity|² per step";
+
+/// The support coordinates of an evaluation, for messages: `q[0] = 2, q[1] = 0.1`.
+pub(crate) fn describe_point(columns: &[usize], q: &[f64]) -> String {
+    columns
+        .iter()
+        .map(|&c| format!("q[{c}] = {}", crate::stepper::display_number(q[c])))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Norms of one evaluation: `|∇g|`, `|∂ₜg|`, `|D²g|` (spectral), `|∂ₜ∇g|`, and the smallest
+/// eigenvalue of `D²g`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Norms {
     pub grad: f64,
     pub dt: f64,
     pub hess: f64,
     pub dt_grad: f64,
+    pub min_eig: f64,
 }
 
 pub(crate) fn second_order_norms(fam: &dyn ConstraintFamily, so: &SecondOrderData) -> Norms {
     let n = so.columns.len();
+    let (min_eig, hess) = if fam.is_affine() {
+        (0.0, 0.0)
+    } else {
+        symmetric_extremes(&so.hessian, n)
+    };
     Norms {
         grad: so.gradient.iter().map(|v| v * v).sum::<f64>().sqrt(),
         dt: so.dt.abs(),
-        hess: if fam.is_affine() {
-            0.0
-        } else {
-            symmetric_spectral_norm(&so.hessian, n)
-        },
+        hess,
+        min_eig,
         dt_grad: if fam.is_time_dependent() {
             so.dt_gradient.iter().map(|v| v * v).sum::<f64>().sqrt()
         } else {
@@ -496,7 +576,7 @@ fn gamma_of(
 /// use sweeping::assumptions::{estimate_problem, EstimateSettings};
 /// use sweeping::crowd::{DiskPairs, Population};
 /// use sweeping::problem::{NoPerturbation, Problem};
-/// use sweeping_api::conformance::ReferenceProjector;
+/// use sweeping::api::conformance::ReferenceProjector;
 ///
 /// // Two people of radius 0.5 in contact.
 /// let pop = Population::new(vec![0.5, 0.5]).shared();
@@ -580,6 +660,9 @@ pub fn estimate_problem(
     let mut gamma = Tracker::new(true);
     let mut gamma_prime = Tracker::new(true);
     let mut gamma_group = Tracker::new(true);
+    let mut curvature = Tracker::new(false);
+    let mut concave_reported = 0usize;
+    let mut affine_claims_false = 0usize;
     let mut failures: Vec<String> = Vec::new();
     let mut notes: Vec<String> = Vec::new();
     let mut evaluations = 0usize;
@@ -590,6 +673,32 @@ pub fn estimate_problem(
     let mut infeasible_reported = 0usize;
     let mut a1_reported = 0usize;
     let mut dependent_reported = (0usize, 0usize);
+
+    // A family that declares itself affine skips the Hessian everywhere: verify the claim
+    // once, on its first member at the first sample.
+    if let Some((t, q)) = samples.first() {
+        for fam in problem.families() {
+            if !fam.is_affine() || fam.count() == 0 {
+                continue;
+            }
+            if let Some(h) = fam.affine_check(0, *t, q) {
+                let n = (h.len() as f64).sqrt().round() as usize;
+                let norm = symmetric_spectral_norm(&h, n);
+                if monitor::not_within(norm, CONVEXITY_TOLERANCE) {
+                    affine_claims_false += 1;
+                    let v = monitor::affine_claim_violation(0, *t, fam.describe(0), norm);
+                    failures.push(format!(
+                        "{}: {} at t = {} (sample 0): |D²g| = {} ≠ 0: {}",
+                        AFFINE_CLAIM,
+                        v.constraint,
+                        crate::stepper::display_number(*t),
+                        fmt_num(norm),
+                        v.note
+                    ));
+                }
+            }
+        }
+    }
 
     for (k, (t, q)) in samples.iter().enumerate() {
         let t = *t;
@@ -620,9 +729,35 @@ pub fn estimate_problem(
                     let sp = fam.second_order(idx, t, &probe_q);
                     evals.push((second_order_norms(fam.as_ref(), &sp), sp.value));
                 }
-                for (nm, _) in &evals {
+                for (e, (nm, value)) in evals.iter().enumerate() {
                     evaluations += 1;
                     let name = || fam.describe(idx);
+                    if !fam.is_affine() {
+                        curvature.see(nm.min_eig, t, k, name);
+                        if concave_direction(nm.min_eig, nm.hess, CONVEXITY_TOLERANCE) {
+                            concave_reported += 1;
+                            if concave_reported <= 10 {
+                                let point = if e == 0 {
+                                    describe_point(&so.columns, q)
+                                } else {
+                                    describe_point(&so.columns, &probe_q)
+                                };
+                                failures.push(format!(
+                                    "{CONVEXITY}: the smallest eigenvalue of D²g is {} < 0 for {} \
+                                     at t = {} (sample {k}), at {point}, g = {}{}",
+                                    fmt_num(nm.min_eig),
+                                    fam.describe(idx),
+                                    crate::stepper::display_number(t),
+                                    fmt_num(*value),
+                                    if concave_reported == 1 {
+                                        format!(": {CONVEXITY_MEANING}")
+                                    } else {
+                                        String::new()
+                                    }
+                                ));
+                            }
+                        }
+                    }
                     alpha.see(nm.grad, t, k, name);
                     beta_grad.see(nm.grad, t, k, name);
                     beta_dt.see(nm.dt, t, k, name);
@@ -657,8 +792,15 @@ pub fn estimate_problem(
             infeasible_reported += 1;
             if infeasible_reported <= 10 {
                 failures.push(format!(
-                    "sample {k} (t = {t}) is not in Q(t): {name} = {} (A5 is stated on Q(t))",
-                    fmt_num(v)
+                    "sample {k} (t = {}) is not in Q(t): {name} = {} (A5 is stated on Q(t)){}",
+                    crate::stepper::display_number(t),
+                    fmt_num(v),
+                    if concave_reported > 0 {
+                        "; expected here: a constraint is not convex (above), so its \
+                         linearization lets computed states end outside Q(t)"
+                    } else {
+                        ""
+                    }
                 ));
             }
         }
@@ -690,12 +832,22 @@ pub fn estimate_problem(
             dependent_reported.1
         ));
     }
+    if concave_reported > 10 {
+        failures.push(format!(
+            "{CONVEXITY}: … {concave_reported} evaluations with a negative eigenvalue in all"
+        ));
+    }
     if a1_reported > 10 {
         failures.push(format!("A1: … {a1_reported} vanishing gradients in all"));
     }
     if infeasible_reported > 10 {
         failures.push(format!(
-            "… {infeasible_reported} samples outside Q(t) in all"
+            "… {infeasible_reported} samples outside Q(t) in all{}",
+            if concave_reported > 0 {
+                " (a constraint is not convex: see above)"
+            } else {
+                ""
+            }
         ));
     }
     if let Some(g) = &gamma.best {
@@ -711,10 +863,13 @@ pub fn estimate_problem(
         }
     }
 
-    // A0: every family must derive its margin.
+    // A0: every family must derive its margin; an affine family is smooth everywhere (c = ∞).
     let mut c: Option<f64> = Some(f64::INFINITY);
     for fam in problem.families() {
-        match fam.a0_margin() {
+        let margin = fam
+            .a0_margin()
+            .or_else(|| fam.is_affine().then_some(f64::INFINITY));
+        match margin {
             Some(m) => c = c.map(|v| v.min(m)),
             None => {
                 c = None;
@@ -725,7 +880,7 @@ pub fn estimate_problem(
             }
         }
     }
-    let c = c.filter(|v| v.is_finite());
+
     // A static problem has Q(t) = Q(0) for all t: d_H(Q(t), Q(s)) = 0, so K_L = 0 and the
     // well-posedness bound h < c/K_L holds for every h. With moving constraints the paper
     // asserts K_L exists (Prop 2.3) without a formula, and we do not invent one.
@@ -791,6 +946,17 @@ pub fn estimate_problem(
         }
         _ => None,
     };
+    let convexity_failed = concave_reported > 0 || affine_claims_false > 0;
+    let (eta, theta, r) = if convexity_failed {
+        notes.push(
+            "η, Θ and r are not claimed: Prop 2.2 and Theorem 4.1 are proved for gᵢ convex in q, \
+             and convexity fails here (see FAILED)"
+                .into(),
+        );
+        (None, None, None)
+    } else {
+        (eta, theta, r)
+    };
     Ok(AssumptionReport {
         samples: samples.len(),
         evaluations,
@@ -804,6 +970,8 @@ pub fn estimate_problem(
         gamma: gamma.best,
         gamma_prime: gamma_prime.best,
         gamma_group: gamma_group.best,
+        min_curvature: curvature.best,
+        convexity_failed,
         beta,
         m,
         c,

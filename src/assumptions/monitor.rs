@@ -6,13 +6,20 @@
 //! one assembly of the near-active rows), and compares `|∇g|` with `α` and `β` (A1) and
 //! `|∂ₜg|` with `β` (A2). Every [`MonitorSettings::second_order_every`] steps it also computes
 //! `D²g` and `∂ₜ∇g` of the [`MonitorSettings::second_order_max`] most active of them and
-//! compares their norms (spectral, Euclidean) with `M` (A4, A3), so that cost stays bounded.
+//! compares their norms (spectral, Euclidean) with `M` (A4, A3), so that cost stays bounded,
+//! and — unless [`MonitorSettings::convexity`] is off — checks that `D²g` has no negative
+//! eigenvalue (section 2 of the paper: each `gᵢ` convex in `q`). At the start, every member of
+//! a family that does not cull (user constraints) is checked however far from contact, and a
+//! family that declares itself affine has that claim verified once (`D²g = 0`).
 //!
 //! An observer was chosen over a hook inside the stepper: the stepper stays unchanged but for
 //! one additive method, [`Observer::take_error`], through which the monitor hands the run its
 //! typed [`SweepError::AssumptionViolated`] instead of the generic observer error.
 
-use super::{second_order_norms, AssumptionReport};
+use super::{
+    concave_direction, describe_point, second_order_norms, symmetric_spectral_norm,
+    AssumptionReport, CONVEXITY_MEANING,
+};
 use crate::constraint::LinearizedRow;
 use crate::error::SweepError;
 use crate::problem::Problem;
@@ -53,6 +60,42 @@ pub struct Bounds {
 }
 
 impl Bounds {
+    /// Checks that each declared bound is a finite number of the right sign: `α > 0`,
+    /// `β > 0`, `M ≥ 0`, and `α ≤ β` when both are given.
+    ///
+    /// # Errors
+    /// [`SweepError::InvalidInput`] naming the bound and its value.
+    pub fn validate(&self) -> Result<(), SweepError> {
+        let bad = |name: &str, v: f64, rule: &str| {
+            Err(SweepError::InvalidInput(format!(
+                "declared bound {name} = {v} must be {rule}"
+            )))
+        };
+        if let Some(a) = self.alpha {
+            if !(a.is_finite() && a > 0.0) {
+                return bad("α (A1)", a, "finite and > 0");
+            }
+        }
+        if let Some(b) = self.beta {
+            if !(b.is_finite() && b > 0.0) {
+                return bad("β (A1, A2)", b, "finite and > 0");
+            }
+        }
+        if let Some(m) = self.m {
+            if !(m.is_finite() && m >= 0.0) {
+                return bad("M (A3, A4)", m, "finite and ≥ 0");
+            }
+        }
+        if let (Some(a), Some(b)) = (self.alpha, self.beta) {
+            if a > b {
+                return Err(SweepError::InvalidInput(format!(
+                    "declared bounds α = {a} > β = {b}: A1 asks α ≤ |∇gᵢ| ≤ β"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// The bounds measured by [`super::estimate_problem`], widened by the relative `slack`
     /// (`α/(1 + slack)`, `β(1 + slack)`, `M(1 + slack)`).
     pub fn from_report(report: &AssumptionReport, slack: f64) -> Self {
@@ -85,6 +128,35 @@ pub struct MonitorSettings {
     pub second_order_max: usize,
     /// At most this many warnings are kept (all are counted). Default `100`.
     pub max_warnings: usize,
+    /// Check that each `gᵢ` is convex in `q` (no negative eigenvalue of `D²gᵢ` beyond
+    /// `relative_tolerance · max(1, |D²gᵢ|)`) on the second-order schedule, whether or not `M`
+    /// is declared. Default `true`.
+    pub convexity: bool,
+    /// Under [`Policy::Warn`], also print a kept warning on standard error as it is found,
+    /// the first of each assumption and constraint only. Default `false` (read them all from
+    /// [`BoundsMonitor::warnings`]).
+    pub print_warnings: bool,
+}
+
+impl MonitorSettings {
+    /// Checks the bounds ([`Bounds::validate`]) and the numeric settings.
+    ///
+    /// # Errors
+    /// [`SweepError::InvalidInput`] naming the setting.
+    pub fn validate(&self) -> Result<(), SweepError> {
+        self.bounds.validate()?;
+        for (name, v) in [
+            ("neighbourhood", self.neighbourhood),
+            ("relative_tolerance", self.relative_tolerance),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SweepError::InvalidInput(format!(
+                    "monitor setting {name} = {v} must be finite and ≥ 0"
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Default for MonitorSettings {
@@ -97,6 +169,8 @@ impl Default for MonitorSettings {
             second_order_every: 10,
             second_order_max: 16,
             max_warnings: 100,
+            convexity: true,
+            print_warnings: false,
         }
     }
 }
@@ -120,19 +194,34 @@ pub struct BoundViolation {
     pub bound: f64,
     /// The value seen.
     pub value: f64,
+    /// Where (the coordinates the constraint reads) and what the violation means, when the
+    /// bare numbers do not say it (convexity, a false affine claim); empty otherwise.
+    #[serde(default)]
+    pub note: String,
 }
 
 impl BoundViolation {
     fn detail(&self) -> String {
-        let rel = if self.quantity.starts_with("|∇g|") && self.bound_name.starts_with('α') {
-            "is below"
+        let mut out = if self.assumption == CONVEXITY {
+            format!("{} = {:.6e} < 0", self.quantity, self.value)
+        } else if self.assumption == AFFINE_CLAIM {
+            format!("{} = {:.6e} ≠ 0", self.quantity, self.value)
         } else {
-            "exceeds"
+            let rel = if self.bound_name.starts_with('α') {
+                "is below"
+            } else {
+                "exceeds"
+            };
+            format!(
+                "{} = {:.6e} {rel} the declared bound {} = {:.6e}",
+                self.quantity, self.value, self.bound_name, self.bound
+            )
         };
-        format!(
-            "{} = {:.6e} {rel} the declared bound {} = {:.6e}",
-            self.quantity, self.value, self.bound_name, self.bound
-        )
+        if !self.note.is_empty() {
+            out.push_str(": ");
+            out.push_str(&self.note);
+        }
+        out
     }
 
     /// The error this violation stops a run with.
@@ -153,7 +242,7 @@ impl std::fmt::Display for BoundViolation {
             f,
             "step {}, t = {}: assumption {} violated by {}: {}",
             self.step,
-            self.t,
+            crate::stepper::display_number(self.t),
             self.assumption,
             self.constraint,
             self.detail()
@@ -161,18 +250,23 @@ impl std::fmt::Display for BoundViolation {
     }
 }
 
-/// Checks declared bounds at every step of a run (module docs).
+/// The assumption name of a failed convexity check.
+pub const CONVEXITY: &str = "convexity (g convex in q)";
+/// The assumption name of a false `is_affine` claim.
+pub const AFFINE_CLAIM: &str = "affine claim (D²g = 0)";
+
+/// Checks declared bounds and convexity at every step of a run (module docs).
 ///
 /// ```
 /// use sweeping::assumptions::{Bounds, BoundsMonitor, MonitorSettings, Policy};
 /// use sweeping::prelude::*;
-/// use sweeping_api::conformance::ReferenceProjector;
+/// use sweeping::api::conformance::ReferenceProjector;
 ///
 /// /// A floor that rises at speed 2: g = x − 2t, so |∂ₜg| = 2.
 /// struct RisingFloor;
 /// impl ConstraintKernel<1> for RisingFloor {
 ///     type Params = ();
-///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), t: D, z: [D; 1]) -> D {
+///     fn value<D: Scalar>(&self, _: &(), t: D, z: [D; 1]) -> D {
 ///         z[0] - t * 2.0
 ///     }
 ///     fn is_affine(&self) -> bool { true }
@@ -201,17 +295,26 @@ pub struct BoundsMonitor<'p> {
     second_order_checks: usize,
     states_seen: usize,
     pending: Option<SweepError>,
+    invalid: Option<SweepError>,
+    convexity_explained: bool,
+    printed: std::collections::HashSet<(String, String)>,
     cands: Vec<usize>,
     row: LinearizedRow,
     near: Vec<(f64, usize, usize)>,
 }
 
 impl<'p> BoundsMonitor<'p> {
-    /// A monitor of `problem`'s constraints.
+    /// A monitor of `problem`'s constraints. Invalid settings (a NaN or negative bound…) are
+    /// reported when the run starts, as [`SweepError::InvalidInput`] whatever the policy
+    /// (except `Off`); [`try_new`](Self::try_new) reports them at once.
     pub fn new(problem: &'p Problem, settings: MonitorSettings) -> Self {
+        let invalid = settings.validate().err();
         Self {
             problem,
             settings,
+            invalid,
+            convexity_explained: false,
+            printed: std::collections::HashSet::new(),
             warnings: Vec::new(),
             violations: 0,
             checks: 0,
@@ -222,6 +325,15 @@ impl<'p> BoundsMonitor<'p> {
             row: LinearizedRow::default(),
             near: Vec::new(),
         }
+    }
+
+    /// A monitor of `problem`'s constraints, with its settings checked first.
+    ///
+    /// # Errors
+    /// [`SweepError::InvalidInput`] from [`MonitorSettings::validate`].
+    pub fn try_new(problem: &'p Problem, settings: MonitorSettings) -> Result<Self, SweepError> {
+        settings.validate()?;
+        Ok(Self::new(problem, settings))
     }
 
     /// The violations kept under [`Policy::Warn`] (at most `max_warnings`).
@@ -250,34 +362,55 @@ impl<'p> BoundsMonitor<'p> {
 
     /// Checks the state `(t, q)`; `step` is reported with violations (the stepper's index:
     /// `0` for the start, `k` for the step that computed `q_{k+1}`). The second-order
-    /// schedule counts the calls: the first call, then every `second_order_every`-th.
+    /// schedule counts the calls: the first call, then every `second_order_every`-th. The
+    /// first call is the start: every member of a non-culling family is checked there, and
+    /// affine claims are verified. Does nothing when the settings are invalid (see
+    /// [`new`](Self::new)).
     ///
     /// # Errors
-    /// Under [`Policy::Error`], the first bound exceeded.
+    /// Under [`Policy::Error`], the first bound exceeded (or convexity failed).
     pub fn check(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), Box<BoundViolation>> {
-        if self.settings.policy == Policy::Off {
+        if self.settings.policy == Policy::Off || self.invalid.is_some() {
             return Ok(());
         }
         let b = self.settings.bounds;
-        if b.alpha.is_none() && b.beta.is_none() && b.m.is_none() {
+        let first_order = b.alpha.is_some() || b.beta.is_some();
+        let wants_second = b.m.is_some() || self.settings.convexity;
+        if !first_order && !wants_second {
             return Ok(());
         }
         let state = self.states_seen;
         self.states_seen += 1;
-        let second = b.m.is_some()
+        let start = state == 0;
+        let second = wants_second
             && self.settings.second_order_every > 0
             && state.is_multiple_of(self.settings.second_order_every);
+        if !first_order && !second {
+            return Ok(());
+        }
         let mut found: Vec<BoundViolation> = Vec::new();
-        self.near.clear();
         let problem = self.problem;
+        if start && wants_second {
+            self.verify_affine_claims(step, t, q, &mut found);
+        }
+        self.near.clear();
         for (fi, fam) in problem.families().iter().enumerate() {
             self.cands.clear();
-            fam.candidates(t, q, self.settings.neighbourhood, &mut self.cands);
+            // At the start, a family that does not cull (user constraints) is checked whole,
+            // however far from contact: a constraint that is wrong everywhere is caught before
+            // the state gets near it.
+            let whole = start && !fam.culls();
+            let cutoff = if whole {
+                f64::INFINITY
+            } else {
+                self.settings.neighbourhood
+            };
+            fam.candidates(t, q, cutoff, &mut self.cands);
             let want_dt = b.beta.is_some() && fam.is_time_dependent();
             for ci in 0..self.cands.len() {
                 let idx = self.cands[ci];
                 fam.linearize(idx, t, q, want_dt, &mut self.row);
-                if not_within(self.row.value, self.settings.neighbourhood) {
+                if !whole && not_within(self.row.value, self.settings.neighbourhood) {
                     continue;
                 }
                 self.checks += 1;
@@ -293,6 +426,7 @@ impl<'p> BoundsMonitor<'p> {
                         bound_name: bound_name.into(),
                         bound,
                         value,
+                        note: String::new(),
                     }
                 };
                 if let Some(a) = b.alpha {
@@ -314,17 +448,21 @@ impl<'p> BoundsMonitor<'p> {
             }
         }
         if second {
-            if let Some(m) = b.m {
-                self.near.sort_by(|x, y| x.0.total_cmp(&y.0));
+            self.near.sort_by(|x, y| x.0.total_cmp(&y.0));
+            if !start {
                 self.near.truncate(self.settings.second_order_max);
-                for &(_, fi, idx) in &self.near {
-                    let fam = &problem.families()[fi];
-                    if fam.is_affine() && !fam.is_time_dependent() {
-                        continue;
-                    }
-                    self.second_order_checks += 1;
-                    let so = fam.second_order(idx, t, q);
-                    let n = second_order_norms(fam.as_ref(), &so);
+            }
+            for &(_, fi, idx) in &self.near {
+                let fam = &problem.families()[fi];
+                if fam.is_affine() && !fam.is_time_dependent() {
+                    // D²g = 0 and ∂ₜ∇g = 0: nothing to bound (the affine claim itself is
+                    // verified at the start).
+                    continue;
+                }
+                self.second_order_checks += 1;
+                let so = fam.second_order(idx, t, q);
+                let n = second_order_norms(fam.as_ref(), &so);
+                if let Some(m) = b.m {
                     for (assumption, quantity, value) in [
                         ("A4", "|D²g| (spectral)", n.hess),
                         ("A3", "|∂ₜ∇g|", n.dt_grad),
@@ -339,9 +477,37 @@ impl<'p> BoundsMonitor<'p> {
                                 bound_name: "M".into(),
                                 bound: m,
                                 value,
+                                note: String::new(),
                             });
                         }
                     }
+                }
+                if self.settings.convexity
+                    && !fam.is_affine()
+                    && concave_direction(n.min_eig, n.hess, self.settings.relative_tolerance)
+                {
+                    found.push(BoundViolation {
+                        step,
+                        t,
+                        assumption: CONVEXITY.into(),
+                        constraint: fam.describe(idx),
+                        quantity: "the smallest eigenvalue of D²g".into(),
+                        bound_name: "0".into(),
+                        bound: 0.0,
+                        value: n.min_eig,
+                        note: format!(
+                            "at {}, g = {:.3e}{}",
+                            describe_point(&so.columns, q),
+                            so.value,
+                            if self.convexity_explained {
+                                String::new()
+                            } else {
+                                format!(": {CONVEXITY_MEANING}")
+                            }
+                        ),
+                    });
+                    // The meaning is said once; later messages give the where and the value.
+                    self.convexity_explained = true;
                 }
             }
         }
@@ -356,13 +522,55 @@ impl<'p> BoundsMonitor<'p> {
                     .settings
                     .max_warnings
                     .saturating_sub(self.warnings.len());
-                self.warnings.extend(found.into_iter().take(room));
+                for v in found.into_iter().take(room) {
+                    // Printed once per assumption and constraint; all are kept.
+                    if self.settings.print_warnings
+                        && self
+                            .printed
+                            .insert((v.assumption.clone(), v.constraint.clone()))
+                    {
+                        eprintln!("warning: {v}");
+                    }
+                    self.warnings.push(v);
+                }
                 Ok(())
             }
         }
     }
 
+    /// Verifies, once, that each family declaring itself affine has `D²g = 0` (on its first
+    /// member at the start state): a false claim would skip the A4 and convexity checks.
+    fn verify_affine_claims(
+        &mut self,
+        step: usize,
+        t: f64,
+        q: &[f64],
+        found: &mut Vec<BoundViolation>,
+    ) {
+        for fam in self.problem.families() {
+            if !fam.is_affine() || fam.count() == 0 {
+                continue;
+            }
+            let Some(h) = fam.affine_check(0, t, q) else {
+                continue;
+            };
+            self.second_order_checks += 1;
+            let n = (h.len() as f64).sqrt().round() as usize;
+            let norm = symmetric_spectral_norm(&h, n);
+            if not_within(norm, self.settings.relative_tolerance) {
+                found.push(affine_claim_violation(step, t, fam.describe(0), norm));
+            }
+        }
+    }
+
     fn observe(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), String> {
+        if self.settings.policy != Policy::Off {
+            if let Some(e) = self.invalid.take() {
+                let message = e.to_string();
+                self.pending = Some(e);
+                return Err(message);
+            }
+        }
         self.check(step, t, q).map_err(|v| {
             let message = v.to_string();
             self.pending = Some(v.to_error());
@@ -386,5 +594,28 @@ impl Observer for BoundsMonitor<'_> {
 
     fn take_error(&mut self) -> Option<SweepError> {
         self.pending.take()
+    }
+}
+
+/// The violation reported for a family that declares itself affine but has `|D²g| = norm`.
+pub(crate) fn affine_claim_violation(
+    step: usize,
+    t: f64,
+    constraint: String,
+    norm: f64,
+) -> BoundViolation {
+    BoundViolation {
+        step,
+        t,
+        assumption: AFFINE_CLAIM.into(),
+        constraint,
+        quantity: "|D²g| (spectral)".into(),
+        bound_name: "0".into(),
+        bound: 0.0,
+        value: norm,
+        note: "the kernel says `is_affine() == true` but its Hessian is not zero: the \
+               curvature (A4) and convexity checks were skipped on a false premise; return \
+               false from `is_affine`"
+            .into(),
     }
 }

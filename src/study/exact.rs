@@ -378,7 +378,7 @@ pub fn sup_error(case: &dyn ExactCase, trajectory: &[(f64, Vec<f64>)]) -> f64 {
 /// ```
 /// use sweeping::prelude::*;
 /// use sweeping::study::exact::{true_error_study, PointAroundDisk};
-/// use sweeping_api::conformance::ReferenceProjector;
+/// use sweeping::api::conformance::ReferenceProjector;
 /// let proj = || -> Result<Box<dyn Projector>, sweeping::study::BoxError> {
 ///     Ok(Box::new(ReferenceProjector::default()))
 /// };

@@ -821,12 +821,12 @@ pub(crate) fn map_runs<T: Sync, R: Send>(
 /// ```
 /// use sweeping::prelude::*;
 /// use sweeping::study::{converge, ConvergenceSettings};
-/// use sweeping_api::conformance::ReferenceProjector;
+/// use sweeping::api::conformance::ReferenceProjector;
 ///
 /// struct Floor;
 /// impl ConstraintKernel<1> for Floor {
 ///     type Params = ();
-///     fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), _t: D, z: [D; 1]) -> D { z[0] }
+///     fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D { z[0] }
 ///     fn is_time_dependent(&self) -> bool { false }
 /// }
 /// // x' = −x − 1 above the floor x ≥ 0: explicit Euler until contact.

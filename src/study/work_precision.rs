@@ -70,7 +70,7 @@ impl std::str::FromStr for SolverSetting {
 /// runs both backends at their defaults).
 pub fn projector_for(setting: &SolverSetting) -> Result<Box<dyn Projector>, String> {
     let Some(tol) = setting.tolerance else {
-        return crate::backends::make_projector(setting.backend);
+        return crate::backends::make_projector(setting.backend).map_err(|e| e.to_string());
     };
     match setting.backend {
         BackendChoice::Reference => Ok(Box::new(sweeping_api::conformance::ReferenceProjector {
@@ -98,7 +98,7 @@ pub fn projector_for(setting: &SolverSetting) -> Result<Box<dyn Projector>, Stri
             Err("the cross-check runs both backends at their defaults; give it no tolerance".into())
         }
         #[allow(unreachable_patterns)]
-        other => crate::backends::make_projector(other),
+        other => crate::backends::make_projector(other).map_err(|e| e.to_string()),
     }
 }
 

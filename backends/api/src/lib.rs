@@ -22,6 +22,10 @@
 //! [`conformance`] module runs the checks every backend must pass (closed forms, degenerate and
 //! infeasible sets, KKT on random instances, idempotence), and [`CrossCheck`] runs two backends
 //! on the same problem and fails loudly when they disagree.
+//!
+//! From a crate that depends on `sweeping` (and not on this crate directly), these names are
+//! `sweeping::api::…`, and the ones a backend needs are in `sweeping::prelude`: the examples
+//! below write `sweeping_api::…` because they are compiled as this crate's own tests.
 #![deny(missing_docs)]
 
 pub mod conformance;

@@ -33,7 +33,7 @@
 //! [`OsqpSettings`] are tight, `eps_abs = eps_rel = 1e-9`: on random instances the answer is
 //! then within ~2·10⁻⁷ of an exact projection (at `1e-8` it was up to 2·10⁻⁶ off, the error
 //! growing with the multipliers), and the KKT residuals are below
-//! [`Projector::tolerance`] (`1e-6`). [`OsqpSettings::preset_loose`] restores OSQP's own
+//! [`Projector::tolerance`] (`1e-6`). [`OsqpSettings::loose`] restores OSQP's own
 //! settings for work–precision studies. ADMM converges linearly, so tight tolerances cost
 //! iterations, the more so on jammed crowds.
 //!
@@ -85,7 +85,7 @@ const NAME: &str = "osqp";
 /// Settings of [`OsqpProjector`]: a plain, serialisable value.
 ///
 /// The defaults are tight enough for cross-validation against an interior-point backend; they
-/// differ from the C library's (see [`OsqpSettings::preset_loose`]). Missing fields take their
+/// differ from the C library's (see [`OsqpSettings::loose`]). Missing fields take their
 /// default when deserialising. Integer knobs use `0` for "off"/"automatic" where OSQP uses
 /// `None`, so that every setting can be written in a configuration file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -172,7 +172,7 @@ impl OsqpSettings {
     /// fields that are ours ([`accept_inaccurate`](Self::accept_inaccurate),
     /// [`warm_start`](Self::warm_start), [`verbose`](Self::verbose),
     /// [`time_limit`](Self::time_limit)) keep their defaults.
-    pub fn preset_loose() -> Self {
+    pub fn loose() -> Self {
         Self {
             eps_abs: 1e-3,
             eps_rel: 1e-3,
@@ -180,6 +180,16 @@ impl OsqpSettings {
             max_iter: 4000,
             ..Self::default()
         }
+    }
+
+    /// The former name of [`loose`](Self::loose) (the same spelling as
+    /// `ClarabelSettings::loose`).
+    #[deprecated(
+        since = "0.1.0",
+        note = "renamed `OsqpSettings::loose`, as for Clarabel"
+    )]
+    pub fn preset_loose() -> Self {
+        Self::loose()
     }
 
     /// Checks the settings before they reach the C library (which, for instance, accepts a

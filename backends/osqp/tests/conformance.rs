@@ -302,7 +302,7 @@ fn invalid_settings_are_errors_not_panics() {
         ));
     }
     assert!(OsqpSettings::default().validate().is_ok());
-    assert!(OsqpSettings::preset_loose().validate().is_ok());
+    assert!(OsqpSettings::loose().validate().is_ok());
 }
 
 #[test]
@@ -352,7 +352,7 @@ fn settings_are_plain_serialisable_values() {
     let s = OsqpSettings {
         time_limit: Some(0.5),
         polish: true,
-        ..OsqpSettings::preset_loose()
+        ..OsqpSettings::loose()
     };
     let json = serde_json::to_string(&s).unwrap();
     let back: OsqpSettings = serde_json::from_str(&json).unwrap();
@@ -367,7 +367,7 @@ fn settings_are_plain_serialisable_values() {
         }
     );
     assert!(serde_json::from_str::<OsqpSettings>(r#"{ "eps": 1e-6 }"#).is_err());
-    let loose = OsqpSettings::preset_loose();
+    let loose = OsqpSettings::loose();
     assert_eq!(
         (loose.eps_abs, loose.eps_rel, loose.max_iter),
         (1e-3, 1e-3, 4000)
@@ -376,8 +376,14 @@ fn settings_are_plain_serialisable_values() {
 }
 
 #[test]
+#[allow(deprecated)]
+fn deprecated_preset_loose_is_loose() {
+    assert_eq!(OsqpSettings::preset_loose(), OsqpSettings::loose());
+}
+
+#[test]
 fn loose_preset_is_fast_and_roughly_right() {
-    let mut loose = OsqpProjector::new(OsqpSettings::preset_loose());
+    let mut loose = OsqpProjector::new(OsqpSettings::loose());
     let mut tight = OsqpProjector::default();
     for seed in 0..10 {
         let p = random_instance(300 + seed, 20, 30);

@@ -95,7 +95,7 @@ pub fn main(args: RunArgs) -> Result<()> {
     let mut projector = match make_projector(built.backend) {
         Ok(p) => p,
         Err(e) => {
-            summary.mark_failed(&e);
+            summary.mark_failed(&e.to_string());
             let _ = summary.write_json(&summary_path);
             anyhow::bail!("{e}");
         }
