@@ -556,3 +556,57 @@ fn sweep_run_format_sqlite_writes_only_the_sqlite_trajectory() {
     assert!(err.contains("file/sub") || err.contains("file"), "{err}");
     assert!(!err.contains("running `"), "failed before the run: {err}");
 }
+
+#[test]
+fn every_shipped_scene_has_a_walkable_area() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/scenes");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let b = Scene::from_file(&path)
+            .unwrap()
+            .build(&Overrides {
+                t_end: Some(0.1),
+                ..Default::default()
+            })
+            .unwrap();
+        let w = WalkableArea::of_scene(&b.geometry, &b.population)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        // The room's area, plus an apron of exit width × largest radius per exit, minus the
+        // static obstacles' holes (each smaller than the room).
+        let room = shoelace(
+            &b.geometry
+                .room
+                .iter()
+                .chain(b.geometry.room.first())
+                .copied()
+                .collect::<Vec<_>>(),
+        )
+        .abs();
+        let aprons: f64 = b
+            .geometry
+            .exits
+            .iter()
+            .map(|e| (e.b[0] - e.a[0]).hypot(e.b[1] - e.a[1]) * b.population.max_radius())
+            .sum();
+        let holes: f64 = w
+            .holes
+            .iter()
+            .map(|h| shoelace(&h.iter().chain(h.first()).copied().collect::<Vec<_>>()).abs())
+            .sum();
+        assert!(
+            (w.area() - (room + aprons - holes)).abs() < 1e-9 * room,
+            "{}: {} vs {}",
+            path.display(),
+            w.area(),
+            room + aprons - holes
+        );
+        let rings = parse_wkt_polygon(&w.to_wkt());
+        assert_eq!(rings.len(), 1 + w.holes.len());
+        checked += 1;
+    }
+    assert!(checked >= 5);
+}
