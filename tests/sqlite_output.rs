@@ -367,6 +367,21 @@ fn frames_ids_and_positions_match_the_run_and_people_who_left_are_not_written() 
 }
 
 #[test]
+fn an_old_file_and_its_stale_journal_are_replaced() {
+    let b = built();
+    let dir = temp_dir("replace");
+    let path = dir.join("t.sqlite");
+    std::fs::write(&path, "not a database").unwrap();
+    let journal = dir.join("t.sqlite-journal");
+    std::fs::write(&journal, "left by a killed run").unwrap();
+    let mut w = writer(&b, &path);
+    assert!(!journal.exists());
+    w.on_finish(None).unwrap();
+    let conn = Connection::open(&path).unwrap();
+    assert_eq!(metadata(&conn, "version").as_deref(), Some("2"));
+}
+
+#[test]
 fn a_failed_run_leaves_a_valid_file_up_to_its_last_frame() {
     let b = built();
     let dir = temp_dir("failed");

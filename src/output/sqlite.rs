@@ -116,11 +116,18 @@ impl SqliteTrajectoryWriter {
         }
         let every = (ratio.round() as usize).max(1);
         let fps = 1.0 / (every as f64 * h);
-        if path.exists() {
-            std::fs::remove_file(&path).map_err(|e| OutputError::Io {
-                path: path.clone(),
-                message: format!("cannot replace the old file: {e}"),
-            })?;
+        // A new file, not tables dropped in an old one. A journal left beside the old file by
+        // a killed run goes too: SQLite would take it for the new file's own hot journal and
+        // "roll back" pages of another database into it.
+        let mut journal = path.clone().into_os_string();
+        journal.push("-journal");
+        for old in [path.clone(), PathBuf::from(journal)] {
+            if old.exists() {
+                std::fs::remove_file(&old).map_err(|e| OutputError::Io {
+                    path: old.clone(),
+                    message: format!("cannot replace the old file: {e}"),
+                })?;
+            }
         }
         let sql = |e: rusqlite::Error| OutputError::Sqlite {
             path: path.clone(),
