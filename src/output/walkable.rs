@@ -17,8 +17,10 @@
 //!   geometries, in which a moving hole would vanish anyway.
 //!
 //! A hole that touches the shell or another hole would make an invalid polygon (OGC simple
-//! features); there is no polygon clipping here, so such a scene is refused with an error
-//! naming the obstacle rather than written wrong.
+//! features) and there is no polygon clipping here: a thin wall that touches is left out (it
+//! has no area, so the area stays exact) and said so in [`WalkableArea::notes`]; a disk or
+//! polygon that touches is refused with an error naming the obstacle rather than written
+//! wrong.
 
 use super::OutputError;
 use crate::crowd::{segment_distance, Motion, Population, Room};
@@ -35,6 +37,9 @@ pub struct WalkableArea {
     pub shell: Vec<[f64; 2]>,
     /// Inner boundaries, clockwise, not closed.
     pub holes: Vec<Vec<[f64; 2]>>,
+    /// Obstacles left out, and why (moving ones; thin walls that touch the boundary or
+    /// another obstacle), for the user to be told.
+    pub notes: Vec<String>,
 }
 
 /// Twice the signed area of a ring (positive when counter-clockwise).
@@ -179,10 +184,23 @@ impl WalkableArea {
 
         let half_width = (0.5 * r_min).min(0.01);
         let mut holes: Vec<(usize, Vec<[f64; 2]>)> = Vec::new();
-        for (k, obstacle) in geometry.obstacles.iter().enumerate() {
+        let mut notes = Vec::new();
+        // Areas first, thin walls last: a thin wall that touches something is left out (it
+        // has no area, so the area stays exact; only a Voronoi cell could then reach across
+        // it), while an obstacle with an area that touches something is an error.
+        let mut order: Vec<usize> = (0..geometry.obstacles.len()).collect();
+        order
+            .sort_by_key(|&k| matches!(geometry.obstacles[k].shape, ObstacleShape::Segment { .. }));
+        for k in order {
+            let obstacle = &geometry.obstacles[k];
             if !matches!(obstacle.motion, Motion::Static) {
+                notes.push(format!(
+                    "obstacle #{} moves: left out of the walkable area",
+                    k + 1
+                ));
                 continue;
             }
+            let thin = matches!(obstacle.shape, ObstacleShape::Segment { .. });
             let ring = match &obstacle.shape {
                 ObstacleShape::Disk { center, radius } => (0..DISK_VERTICES)
                     .map(|j| {
@@ -211,33 +229,52 @@ impl WalkableArea {
                 vertices: shell.clone(),
             };
             if !ring.iter().all(|&p| room_poly.contains(p)) || rings_touch(&ring, &shell, tol) {
+                if thin {
+                    notes.push(format!(
+                        "obstacle #{} (a thin wall) touches the room's boundary: left out of \
+                         the walkable area",
+                        k + 1
+                    ));
+                    continue;
+                }
                 return Err(OutputError::WalkableArea(format!(
                     "obstacle #{} touches or crosses the room's boundary; the walkable area \
                      would not be a polygon with holes (write the trajectory as csv instead)",
                     k + 1
                 )));
             }
-            for (j, other) in &holes {
-                let inside = |x: &[[f64; 2]], y: &[[f64; 2]]| {
-                    Room {
-                        vertices: y.to_vec(),
-                    }
-                    .contains(x[0])
-                };
-                if rings_touch(&ring, other, tol) || inside(&ring, other) || inside(other, &ring) {
-                    return Err(OutputError::WalkableArea(format!(
-                        "obstacles #{} and #{} touch or overlap; the walkable area would not \
-                         be a polygon with holes (write the trajectory as csv instead)",
-                        j + 1,
-                        k + 1
-                    )));
+            let inside = |x: &[[f64; 2]], y: &[[f64; 2]]| {
+                Room {
+                    vertices: y.to_vec(),
                 }
+                .contains(x[0])
+            };
+            let touched = holes.iter().find(|(_, other)| {
+                rings_touch(&ring, other, tol) || inside(&ring, other) || inside(other, &ring)
+            });
+            if let Some((j, _)) = touched {
+                if thin {
+                    notes.push(format!(
+                        "obstacle #{} (a thin wall) touches obstacle #{}: left out of the \
+                         walkable area",
+                        k + 1,
+                        j + 1
+                    ));
+                    continue;
+                }
+                let (first, second) = ((*j).min(k) + 1, (*j).max(k) + 1);
+                return Err(OutputError::WalkableArea(format!(
+                    "obstacles #{first} and #{second} touch or overlap; the walkable area would \
+                     not be a polygon with holes (write the trajectory as csv instead)"
+                )));
             }
             holes.push((k, ring));
         }
+        holes.sort_by_key(|(k, _)| *k);
         Ok(WalkableArea {
             shell,
             holes: holes.into_iter().map(|(_, h)| h).collect(),
+            notes,
         })
     }
 
@@ -402,14 +439,39 @@ mod tests {
     }
 
     #[test]
-    fn an_obstacle_against_a_wall_is_refused_with_its_number() {
-        let err = area_of(&format!(
+    fn a_thin_wall_against_a_wall_is_left_out_and_a_pillar_against_one_refused() {
+        let w = area_of(&format!(
             "{ROOM}
             [[obstacles]]
             segment = {{ from = [0.0, 8.0], to = [3.0, 8.0] }}
+            [[obstacles]]
+            disk = {{ center = [6.0, 7.0], radius = 0.5 }}
+            [[obstacles]]
+            segment = {{ from = [6.0, 7.5], to = [6.0, 9.0] }}
+            "
+        ))
+        .unwrap();
+        assert_eq!(w.holes.len(), 1, "only the disk");
+        assert_eq!(w.notes.len(), 2, "{:?}", w.notes);
+        assert!(w.notes[0].contains("obstacle #1") && w.notes[0].contains("boundary"));
+        assert!(w.notes[1].contains("obstacle #3") && w.notes[1].contains("obstacle #2"));
+        let err = area_of(&format!(
+            "{ROOM}
+            [[obstacles]]
+            polygon = [[0.0, 8.0], [1.0, 8.0], [1.0, 9.0]]
             "
         ))
         .unwrap_err();
         assert!(err.to_string().contains("obstacle #1"), "{err}");
+        let err = area_of(&format!(
+            "{ROOM}
+            [[obstacles]]
+            disk = {{ center = [6.0, 7.0], radius = 0.5 }}
+            [[obstacles]]
+            polygon = [[6.0, 7.0], [7.0, 7.0], [7.0, 8.0]]
+            "
+        ))
+        .unwrap_err();
+        assert!(err.to_string().contains("#1 and #2"), "{err}");
     }
 }

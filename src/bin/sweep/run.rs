@@ -107,7 +107,10 @@ pub fn main(args: RunArgs) -> Result<()> {
         )
     });
     let mut sqlite = if formats.contains(&TrajectoryFormat::Sqlite) {
-        Some(sqlite_writer(&built, &out)?)
+        Some(
+            sqlite_writer(&built, &out)
+                .with_context(|| format!("{} (--format sqlite)", args.scene.display()))?,
+        )
     } else {
         None
     };
@@ -201,6 +204,9 @@ fn sqlite_writer(
     out: &std::path::Path,
 ) -> Result<sweeping::output::SqliteTrajectoryWriter> {
     let walkable = sweeping::output::WalkableArea::of_scene(&built.geometry, &built.population)?;
+    for note in &walkable.notes {
+        eprintln!("note: trajectory.sqlite: {note}");
+    }
     Ok(sweeping::output::SqliteTrajectoryWriter::create(
         out.join(TrajectoryFormat::Sqlite.file_name()),
         &walkable,
