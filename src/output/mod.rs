@@ -1,8 +1,11 @@
-//! What a crowd run leaves behind: a trajectory CSV, a JSON summary, SVG snapshots and a
-//! self-contained HTML animation. Each is an [`Observer`], so a run
-//! writes them as it goes and a failed run still leaves what it computed.
+//! What a crowd run leaves behind: the trajectory (CSV, or JuPedSim's SQLite trajectory file
+//! for PedPy), a JSON summary, SVG snapshots and a self-contained HTML animation. Each is an
+//! [`Observer`], so a run writes them as it goes and a failed run still leaves what it
+//! computed.
 //!
 //! * [`TrajectoryWriter`] — `t,id,x,y,present`, buffered, flushed at the end even on failure;
+//! * `SqliteTrajectoryWriter` (cargo feature `sqlite`, on by default) — JuPedSim's trajectory
+//!   schema with the [`WalkableArea`] as WKT, streamed in transactions;
 //! * [`SummaryCollector`] — evacuation time, people out over time, steps, time per stage,
 //!   solver iterations, largest overlap and wall penetration, status; [`RunSummary`] is the
 //!   JSON;
@@ -11,10 +14,16 @@
 //!   (play/pause, time slider, speed).
 
 mod html;
+#[cfg(feature = "sqlite")]
+mod sqlite;
 mod svg;
+mod walkable;
 
 pub use html::AnimationWriter;
+#[cfg(feature = "sqlite")]
+pub use sqlite::{SqliteTrajectoryWriter, DEFAULT_FRAMES_PER_COMMIT, JUPEDSIM_DATABASE_VERSION};
 pub use svg::{render_svg, SnapshotWriter};
+pub use walkable::WalkableArea;
 
 use crate::constraint::LinearizedRow;
 use crate::crowd::Population;
@@ -25,6 +34,101 @@ use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+
+/// Why an output could not be set up.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum OutputError {
+    /// A file or directory could not be created or written.
+    #[error("{}: {message}", path.display())]
+    Io {
+        /// The path.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+    /// The SQLite library refused an operation.
+    #[error("{}: SQLite: {message}", path.display())]
+    Sqlite {
+        /// The database file.
+        path: PathBuf,
+        /// SQLite's message.
+        message: String,
+    },
+    /// Frames at a fixed rate need `trajectory_every` to be a whole number of steps.
+    #[error("[output] trajectory_every = {trajectory_every} is not a whole number of steps h = {h}: the SQLite trajectory's frames must be evenly spaced at the rate asked for")]
+    FrameInterval {
+        /// Seconds asked for between frames.
+        trajectory_every: f64,
+        /// The time step.
+        h: f64,
+    },
+    /// The scene's walkable area cannot be written as one polygon with holes.
+    #[error("walkable area: {0}")]
+    WalkableArea(String),
+    /// The format was left out of this build.
+    #[error("the `{0}` trajectory format needs the cargo feature `{0}`, which this build lacks")]
+    Unavailable(&'static str),
+}
+
+/// A trajectory file format (`[output] formats`, `sweep run --format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TrajectoryFormat {
+    /// `trajectory.csv`: `t,id,x,y,present` (see [`TrajectoryWriter`]).
+    Csv,
+    /// `trajectory.sqlite`: JuPedSim's SQLite trajectory schema, for PedPy and JuPedSim's
+    /// viewer.
+    Sqlite,
+}
+
+impl TrajectoryFormat {
+    /// The file name it writes in the output directory.
+    pub fn file_name(self) -> &'static str {
+        match self {
+            TrajectoryFormat::Csv => "trajectory.csv",
+            TrajectoryFormat::Sqlite => "trajectory.sqlite",
+        }
+    }
+}
+
+impl std::str::FromStr for TrajectoryFormat {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "csv" => Ok(TrajectoryFormat::Csv),
+            "sqlite" => Ok(TrajectoryFormat::Sqlite),
+            other => Err(format!(
+                "unknown trajectory format `{other}` (expected csv or sqlite)"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for TrajectoryFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TrajectoryFormat::Csv => "csv",
+            TrajectoryFormat::Sqlite => "sqlite",
+        })
+    }
+}
+
+/// Creates the output directory if needed and checks that files can be written in it, so that
+/// a run does not compute for minutes and then fail to write its results.
+///
+/// # Errors
+/// [`OutputError::Io`] naming the directory and what failed.
+pub fn prepare_output_dir(dir: &Path) -> Result<(), OutputError> {
+    let io = |what: &str, e: std::io::Error| OutputError::Io {
+        path: dir.to_path_buf(),
+        message: format!("{what}: {e}"),
+    };
+    std::fs::create_dir_all(dir).map_err(|e| io("cannot create the output directory", e))?;
+    let probe = dir.join(format!(".sweep-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(|e| io("cannot write in the output directory", e))?;
+    std::fs::remove_file(&probe).map_err(|e| io("cannot remove a file in the output directory", e))
+}
 
 /// Writes `t,id,x,y,present` rows every `every` steps (and the first and last states) to a
 /// CSV file. `present` is 1 while the person is in the room, 0 once they have left.

@@ -159,6 +159,8 @@ pub struct OutputSettings {
     pub snapshot_every: f64,
     /// Most frames in the HTML animation.
     pub animation_frames: usize,
+    /// Trajectory formats to write (at least one, no repeats).
+    pub formats: Vec<crate::output::TrajectoryFormat>,
 }
 
 /// A scene ready to run.
@@ -1050,6 +1052,19 @@ impl Scene {
         if animation_frames < 2 {
             return Err(cx.err(out_line, "[output] animation_frames", "must be at least 2"));
         }
+        let mut formats = out_spec
+            .as_ref()
+            .and_then(|o| o.formats.clone())
+            .unwrap_or_else(|| vec![crate::output::TrajectoryFormat::Csv]);
+        if formats.is_empty() {
+            return Err(cx.err(
+                out_line,
+                "[output] formats",
+                "needs at least one trajectory format (csv, sqlite)",
+            ));
+        }
+        let mut seen = std::collections::HashSet::new();
+        formats.retain(|f| seen.insert(*f));
 
         let margin = 2.0 * population.max_radius() + 0.05 * scale;
         // A moving obstacle pushes people who may not want to move: the prediction's drift
@@ -1090,6 +1105,7 @@ impl Scene {
                 trajectory_every,
                 snapshot_every,
                 animation_frames,
+                formats,
             },
             geometry: SceneGeometry {
                 room: room_vertices,

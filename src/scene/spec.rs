@@ -242,4 +242,7 @@ pub struct OutputSpec {
     pub snapshot_every: Option<f64>,
     /// Most frames in the HTML animation. Default `400`.
     pub animation_frames: Option<usize>,
+    /// Trajectory files to write: `"csv"` (`trajectory.csv`), `"sqlite"` (`trajectory.sqlite`,
+    /// JuPedSim's trajectory format, for PedPy). Default `["csv"]`.
+    pub formats: Option<Vec<crate::output::TrajectoryFormat>>,
 }

@@ -1,4 +1,5 @@
-//! `sweep run`: run a scene and write its trajectory, summary, snapshots and animation.
+//! `sweep run`: run a scene and write its trajectory (CSV and/or JuPedSim's SQLite format),
+//! summary, snapshots and animation.
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -7,7 +8,8 @@ use std::path::PathBuf;
 use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::error::SweepError;
 use sweeping::output::{
-    steps_between, AnimationWriter, RunSummary, SnapshotWriter, SummaryCollector, TrajectoryWriter,
+    prepare_output_dir, steps_between, AnimationWriter, RunSummary, SnapshotWriter,
+    SummaryCollector, TrajectoryFormat, TrajectoryWriter,
 };
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::{Observer, StepReport};
@@ -32,6 +34,10 @@ pub struct RunArgs {
     /// Seed of the random placements (default: the scene's).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Trajectory formats, comma-separated: csv (trajectory.csv), sqlite (trajectory.sqlite,
+    /// JuPedSim's format, read by PedPy). Default: the scene's `[output] formats`, else csv.
+    #[arg(long = "format", value_delimiter = ',')]
+    pub formats: Vec<TrajectoryFormat>,
 }
 
 /// A progress bar on stderr, hidden when stderr is not a terminal.
@@ -73,15 +79,41 @@ pub fn main(args: RunArgs) -> Result<()> {
         backend: args.backend,
         all_pairs: false,
     };
-    let built = scene.build(&overrides)?;
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(&built.name));
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    // Before any work: a directory that cannot be written is an error now, not after the run.
+    prepare_output_dir(&out)?;
+    let built = scene.build(&overrides)?;
+    let mut formats = if args.formats.is_empty() {
+        built.output.formats.clone()
+    } else {
+        args.formats.clone()
+    };
+    let mut seen = std::collections::HashSet::new();
+    formats.retain(|f| seen.insert(*f));
     let h = built.settings.h;
     let t_end = built.settings.t_end;
     let backend_name = built.backend.to_string();
+
+    // The trajectory writers, created before the run so that their errors come first (the
+    // SQLite file gets its schema and walkable area now).
+    let mut csv = formats.contains(&TrajectoryFormat::Csv).then(|| {
+        TrajectoryWriter::new(
+            out.join(TrajectoryFormat::Csv.file_name()),
+            built.population.clone(),
+            steps_between(built.output.trajectory_every, h),
+        )
+    });
+    let mut sqlite = if formats.contains(&TrajectoryFormat::Sqlite) {
+        Some(
+            sqlite_writer(&built, &out)
+                .with_context(|| format!("{} (--format sqlite)", args.scene.display()))?,
+        )
+    } else {
+        None
+    };
 
     let mut summary = SummaryCollector::new(
         &built.name,
@@ -100,11 +132,6 @@ pub fn main(args: RunArgs) -> Result<()> {
             anyhow::bail!("{e}");
         }
     };
-    let mut trajectory = TrajectoryWriter::new(
-        out.join("trajectory.csv"),
-        built.population.clone(),
-        steps_between(built.output.trajectory_every, h),
-    );
     let mut snapshots = SnapshotWriter::new(
         out.join("snapshots"),
         built.geometry.clone(),
@@ -144,20 +171,24 @@ pub fn main(args: RunArgs) -> Result<()> {
         built.population.len(),
         out.display()
     );
-    let result = built.run(
-        projector.as_mut(),
-        &mut [
-            &mut trajectory,
-            &mut summary,
-            &mut snapshots,
-            &mut animation,
-            &mut progress,
-        ],
-    );
+    let mut observers: Vec<&mut dyn Observer> = Vec::new();
+    if let Some(w) = csv.as_mut() {
+        observers.push(w);
+    }
+    if let Some(w) = sqlite.as_mut() {
+        observers.push(w);
+    }
+    observers.extend([
+        &mut summary as &mut dyn Observer,
+        &mut snapshots,
+        &mut animation,
+        &mut progress,
+    ]);
+    let result = built.run(projector.as_mut(), &mut observers);
     summary
         .write_json(&summary_path)
         .with_context(|| format!("writing {}", summary_path.display()))?;
-    print_summary(summary.summary(), &out);
+    print_summary(summary.summary(), &out, &formats);
     match result {
         Ok(_) => Ok(()),
         Err(failure) => Err(anyhow::anyhow!(
@@ -167,7 +198,34 @@ pub fn main(args: RunArgs) -> Result<()> {
     }
 }
 
-fn print_summary(s: &RunSummary, out: &std::path::Path) {
+#[cfg(feature = "sqlite")]
+fn sqlite_writer(
+    built: &sweeping::scene::BuiltScene,
+    out: &std::path::Path,
+) -> Result<sweeping::output::SqliteTrajectoryWriter> {
+    let walkable = sweeping::output::WalkableArea::of_scene(&built.geometry, &built.population)?;
+    for note in &walkable.notes {
+        eprintln!("note: trajectory.sqlite: {note}");
+    }
+    Ok(sweeping::output::SqliteTrajectoryWriter::create(
+        out.join(TrajectoryFormat::Sqlite.file_name()),
+        &walkable,
+        built.population.clone(),
+        built.problem.t0(),
+        built.settings.h,
+        built.output.trajectory_every,
+        &built.name,
+    )?)
+}
+
+/// Without the `sqlite` feature there is no SQLite writer: asking for one is an error before
+/// the run. (The observer type only has to exist; it is never built.)
+#[cfg(not(feature = "sqlite"))]
+fn sqlite_writer(_: &sweeping::scene::BuiltScene, _: &std::path::Path) -> Result<()> {
+    Err(sweeping::output::OutputError::Unavailable("sqlite").into())
+}
+
+fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFormat]) {
     println!("scene `{}` ({}, backend {})", s.scene, s.status, s.backend);
     println!(
         "  people: {}, left: {}, remaining: {}",
@@ -213,8 +271,10 @@ fn print_summary(s: &RunSummary, out: &std::path::Path) {
     if let Some(e) = &s.error {
         println!("  error: {e}");
     }
+    let files: Vec<&str> = formats.iter().map(|f| f.file_name()).collect();
     println!(
-        "  outputs: {}/{{trajectory.csv, summary.json, snapshots/, animation.html}}",
-        out.display()
+        "  outputs: {}/{{{}, summary.json, snapshots/, animation.html}}",
+        out.display(),
+        files.join(", ")
     );
 }

@@ -1,0 +1,343 @@
+//! The trajectory in JuPedSim's SQLite trajectory format, which PedPy
+//! (`load_trajectory_from_jupedsim_sqlite`, `load_walkable_area_from_jupedsim_sqlite`) and
+//! JuPedSim's viewer read.
+//!
+//! The schema, as JuPedSim's `SqliteTrajectoryWriter`
+//! (`python_modules/jupedsim/jupedsim/sqlite_serialization.py`) creates it for database
+//! **version 2**:
+//!
+//! ```sql
+//! CREATE TABLE trajectory_data (frame INTEGER NOT NULL, id INTEGER NOT NULL,
+//!     pos_x REAL NOT NULL, pos_y REAL NOT NULL, ori_x REAL NOT NULL, ori_y REAL NOT NULL)
+//! CREATE TABLE metadata(key TEXT NOT NULL UNIQUE PRIMARY KEY, value TEXT NOT NULL)
+//!     -- keys: version, fps, and xmin, xmax, ymin, ymax (the geometry's bounds)
+//! CREATE TABLE geometry(hash INTEGER NOT NULL, wkt TEXT NOT NULL)
+//! CREATE UNIQUE INDEX geometry_hash on geometry(hash)
+//! CREATE TABLE frame_data(frame INTEGER NOT NULL, geometry_hash INTEGER NOT NULL)
+//! CREATE INDEX frame_id_idx ON trajectory_data(frame, id)
+//! ```
+//!
+//! Why version 2 and not JuPedSim's current 3 (which only drops `ori_x`, `ori_y`): PedPy 1.5.1
+//! (`pedpy/io/jupedsim_loader.py`) loads the walkable area of versions 1 and 2 only ("Supported
+//! are versions: 1, 2"), while JuPedSim upgrades a version-2 file to 3 in place when it opens
+//! it (`convert_database_v2_to_v3` only changes the version number). Version 2 is the one both
+//! read.
+//!
+//! What we write in it:
+//!
+//! * `frame` = step / `every`, so frame `n` is the state at `t₀ + n·every·h`, and
+//!   `fps = 1 / (every·h)`; a run's last state, when it is not on that grid, is not written
+//!   (the CSV has it);
+//! * `id` = the person's index (the same as in `trajectory.csv`), positions in metres;
+//! * `ori_x, ori_y` = the unit direction of the person's displacement since the previous frame,
+//!   `(0, 0)` at the first frame and for someone who did not move;
+//! * only people **present** in the room (their disk not wholly outside): JuPedSim removes an
+//!   agent that reaches its exit and writes no more rows for it, and so do we;
+//! * one `frame_data` row per frame (also when nobody is left), pointing at the single
+//!   geometry row: the [`WalkableArea`] as WKT, whose hash is a 64-bit FNV-1a of the text
+//!   (JuPedSim uses Python's `hash`, which is only an identifier);
+//! * a few metadata keys of our own (`generator`, `scene`, `h`), which readers ignore.
+//!
+//! Streaming: the schema and the geometry are committed when the writer is created (so a path
+//! that cannot be written fails before the run), then frames go in transactions of
+//! `frames_per_commit` frames; nothing is held in memory but the open transaction's pages and
+//! the previous frame's positions. A run that fails is committed up to its last frame in
+//! `on_finish`; a process that dies mid-transaction leaves the file as of the last commit
+//! (SQLite rolls the open transaction back), still valid.
+
+use super::{OutputError, WalkableArea};
+use crate::crowd::Population;
+use crate::error::SweepError;
+use crate::stepper::{Observer, StepReport};
+use rusqlite::{params, Connection};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The JuPedSim trajectory database version written (see the module's documentation).
+pub const JUPEDSIM_DATABASE_VERSION: u32 = 2;
+
+/// Frames per transaction unless [`SqliteTrajectoryWriter::with_frames_per_commit`] says
+/// otherwise.
+pub const DEFAULT_FRAMES_PER_COMMIT: usize = 10;
+
+/// 64-bit FNV-1a of the WKT, as the geometry's hash.
+fn fnv1a(text: &str) -> i64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h as i64
+}
+
+/// Writes the trajectory into a JuPedSim SQLite trajectory file as the run goes.
+pub struct SqliteTrajectoryWriter {
+    path: PathBuf,
+    conn: Option<Connection>,
+    population: Arc<Population>,
+    every: usize,
+    t0: f64,
+    h: f64,
+    frames_per_commit: usize,
+    frames_in_transaction: usize,
+    geometry_hash: i64,
+    previous: Vec<f64>,
+    frames: usize,
+    rows: u64,
+}
+
+impl SqliteTrajectoryWriter {
+    /// Creates (or replaces) the file at `path` with the schema, the metadata and the walkable
+    /// area, for a run of step `h` from `t0` writing a frame every `trajectory_every`
+    /// seconds.
+    ///
+    /// # Errors
+    /// [`OutputError::FrameInterval`] when `trajectory_every` is not a whole number of steps
+    /// (the frames would not be at the rate asked for), [`OutputError::Io`] or
+    /// [`OutputError::Sqlite`] when the file cannot be created or written.
+    pub fn create(
+        path: impl Into<PathBuf>,
+        walkable: &WalkableArea,
+        population: Arc<Population>,
+        t0: f64,
+        h: f64,
+        trajectory_every: f64,
+        scene: &str,
+    ) -> Result<Self, OutputError> {
+        let path = path.into();
+        let ratio = trajectory_every / h;
+        if !(h > 0.0 && ratio.is_finite() && ratio >= 1.0 - 1e-9)
+            || (ratio - ratio.round()).abs() > 1e-6 * ratio
+        {
+            return Err(OutputError::FrameInterval {
+                trajectory_every,
+                h,
+            });
+        }
+        let every = (ratio.round() as usize).max(1);
+        let fps = 1.0 / (every as f64 * h);
+        // A new file, not tables dropped in an old one. A journal left beside the old file by
+        // a killed run goes too: SQLite would take it for the new file's own hot journal and
+        // "roll back" pages of another database into it.
+        let mut journal = path.clone().into_os_string();
+        journal.push("-journal");
+        for old in [path.clone(), PathBuf::from(journal)] {
+            if old.exists() {
+                std::fs::remove_file(&old).map_err(|e| OutputError::Io {
+                    path: old.clone(),
+                    message: format!("cannot replace the old file: {e}"),
+                })?;
+            }
+        }
+        let sql = |e: rusqlite::Error| OutputError::Sqlite {
+            path: path.clone(),
+            message: e.to_string(),
+        };
+        let conn = Connection::open(&path).map_err(sql)?;
+        // The default rollback journal: a commit is atomic, so the file is valid after any
+        // crash; `synchronous = NORMAL` skips the fsyncs that only matter on power loss.
+        conn.execute_batch("PRAGMA synchronous = NORMAL;")
+            .map_err(sql)?;
+        let wkt = walkable.to_wkt();
+        let geometry_hash = fnv1a(&wkt);
+        let [xmin, ymin, xmax, ymax] = walkable.bounds();
+        let fmt = crate::stepper::display_number;
+        conn.execute_batch(
+            "BEGIN;
+             CREATE TABLE trajectory_data (frame INTEGER NOT NULL, id INTEGER NOT NULL, \
+                 pos_x REAL NOT NULL, pos_y REAL NOT NULL, ori_x REAL NOT NULL, \
+                 ori_y REAL NOT NULL);
+             CREATE TABLE metadata(key TEXT NOT NULL UNIQUE PRIMARY KEY, value TEXT NOT NULL);
+             CREATE TABLE geometry(hash INTEGER NOT NULL, wkt TEXT NOT NULL);
+             CREATE UNIQUE INDEX geometry_hash on geometry(hash);
+             CREATE TABLE frame_data(frame INTEGER NOT NULL, geometry_hash INTEGER NOT NULL);
+             CREATE INDEX frame_id_idx ON trajectory_data(frame, id);",
+        )
+        .map_err(sql)?;
+        {
+            let mut meta = conn
+                .prepare("INSERT INTO metadata VALUES(?1, ?2)")
+                .map_err(sql)?;
+            for (k, v) in [
+                ("version", JUPEDSIM_DATABASE_VERSION.to_string()),
+                ("fps", format!("{fps:?}")),
+                ("xmin", format!("{xmin:?}")),
+                ("xmax", format!("{xmax:?}")),
+                ("ymin", format!("{ymin:?}")),
+                ("ymax", format!("{ymax:?}")),
+                (
+                    "generator",
+                    format!("sweeping {}", env!("CARGO_PKG_VERSION")),
+                ),
+                ("scene", scene.to_string()),
+                ("h", fmt(h)),
+            ] {
+                meta.execute(params![k, v]).map_err(sql)?;
+            }
+        }
+        conn.execute(
+            "INSERT INTO geometry VALUES(?1, ?2)",
+            params![geometry_hash, wkt],
+        )
+        .map_err(sql)?;
+        conn.execute_batch("COMMIT;").map_err(sql)?;
+        Ok(Self {
+            path,
+            conn: Some(conn),
+            population,
+            every,
+            t0,
+            h,
+            frames_per_commit: DEFAULT_FRAMES_PER_COMMIT,
+            frames_in_transaction: 0,
+            geometry_hash,
+            previous: Vec::new(),
+            frames: 0,
+            rows: 0,
+        })
+    }
+
+    /// Commits every `n` frames (at least 1; default [`DEFAULT_FRAMES_PER_COMMIT`]).
+    #[must_use]
+    pub fn with_frames_per_commit(mut self, n: usize) -> Self {
+        self.frames_per_commit = n.max(1);
+        self
+    }
+
+    /// Where it writes.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Steps between frames.
+    pub fn steps_per_frame(&self) -> usize {
+        self.every
+    }
+
+    /// Frames written so far.
+    pub fn frames_written(&self) -> usize {
+        self.frames
+    }
+
+    /// Trajectory rows written so far.
+    pub fn rows_written(&self) -> u64 {
+        self.rows
+    }
+
+    fn err(&self, e: impl std::fmt::Display) -> String {
+        format!("{}: {e}", self.path.display())
+    }
+
+    fn write_frame(&mut self, frame: usize, q: &[f64]) -> Result<(), String> {
+        let Some(conn) = self.conn.as_ref() else {
+            return Ok(());
+        };
+        if self.frames_in_transaction == 0 {
+            conn.execute_batch("BEGIN;").map_err(|e| self.err(e))?;
+        }
+        // A frame goes in whole or not at all: a write that fails half-way is rolled back to
+        // this savepoint, and the frames before it are still committed in `on_finish`.
+        conn.execute_batch("SAVEPOINT frame;")
+            .map_err(|e| self.err(e))?;
+        match self.insert_frame(conn, frame, q) {
+            Ok(rows) => {
+                conn.execute_batch("RELEASE frame;")
+                    .map_err(|e| self.err(e))?;
+                self.rows += rows;
+            }
+            Err(e) => {
+                let _ = conn.execute_batch("ROLLBACK TO frame; RELEASE frame;");
+                return Err(e);
+            }
+        }
+        self.previous.clear();
+        self.previous.extend_from_slice(q);
+        self.frames += 1;
+        self.frames_in_transaction += 1;
+        if self.frames_in_transaction >= self.frames_per_commit {
+            self.commit()?;
+        }
+        Ok(())
+    }
+
+    fn insert_frame(&self, conn: &Connection, frame: usize, q: &[f64]) -> Result<u64, String> {
+        let pop = &self.population;
+        let first = self.previous.is_empty();
+        let mut rows = 0u64;
+        let mut insert = conn
+            .prepare_cached("INSERT INTO trajectory_data VALUES(?1, ?2, ?3, ?4, ?5, ?6)")
+            .map_err(|e| self.err(e))?;
+        for i in 0..pop.len() {
+            if !pop.is_present(q, i) {
+                continue;
+            }
+            let (x, y) = (q[2 * i], q[2 * i + 1]);
+            let (ox, oy) = if first {
+                (0.0, 0.0)
+            } else {
+                let (dx, dy) = (x - self.previous[2 * i], y - self.previous[2 * i + 1]);
+                let n = dx.hypot(dy);
+                if n > 1e-12 {
+                    (dx / n, dy / n)
+                } else {
+                    (0.0, 0.0)
+                }
+            };
+            insert
+                .execute(params![frame as i64, i as i64, x, y, ox, oy])
+                .map_err(|e| self.err(format!("frame {frame}, person {i}: {e}")))?;
+            rows += 1;
+        }
+        conn.execute(
+            "INSERT INTO frame_data VALUES(?1, ?2)",
+            params![frame as i64, self.geometry_hash],
+        )
+        .map_err(|e| self.err(format!("frame {frame}: {e}")))?;
+        Ok(rows)
+    }
+
+    fn commit(&mut self) -> Result<(), String> {
+        if self.frames_in_transaction == 0 {
+            return Ok(());
+        }
+        if let Some(conn) = self.conn.as_ref() {
+            conn.execute_batch("COMMIT;").map_err(|e| self.err(e))?;
+        }
+        self.frames_in_transaction = 0;
+        Ok(())
+    }
+}
+
+impl Observer for SqliteTrajectoryWriter {
+    fn name(&self) -> &str {
+        "sqlite trajectory writer"
+    }
+
+    fn on_start(&mut self, _t: f64, q: &[f64]) -> Result<(), String> {
+        self.write_frame(0, q)?;
+        // The first frame on disk at once: a run that dies early still leaves a loadable file.
+        self.commit()
+    }
+
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+        let k = report.step + 1;
+        if !k.is_multiple_of(self.every) {
+            return Ok(());
+        }
+        // The last step of a horizon that is not a whole number of steps is shorter: its state
+        // is not on the frame grid.
+        let on_grid = self.t0 + k as f64 * self.h;
+        if (report.t - on_grid).abs() > 1e-9 * on_grid.abs().max(1.0) {
+            return Ok(());
+        }
+        self.write_frame(k / self.every, q)
+    }
+
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+        self.commit()?;
+        if let Some(conn) = self.conn.take() {
+            conn.close().map_err(|(_, e)| self.err(e))?;
+        }
+        Ok(())
+    }
+}
