@@ -313,9 +313,15 @@ fn concave_constraint_under_the_monitor_error_and_warn_and_off() {
         msg.contains("D²g = -2.000000e0 < 0: at q[0] = 0.3, q[1] = 0.1"),
         "{msg}"
     );
-    // Warn: the run completes; the check ran at the start and on the schedule near contact.
+    // Warn: the run completes (with the run-time violation guard switched off, which would
+    // otherwise stop it at the first step that ends outside the disk: the next test); the
+    // check ran at the start and on the schedule near contact.
     let mut monitor = BoundsMonitor::new(&problem, MonitorSettings::default());
-    let run = Stepper::new(&problem, settings(0.1, 2.0))
+    let unguarded = StepperSettings {
+        violation_tolerance: f64::INFINITY,
+        ..settings(0.1, 2.0)
+    };
+    let run = Stepper::new(&problem, unguarded.clone())
         .unwrap()
         .run(&mut ReferenceProjector::default(), &mut [&mut monitor])
         .unwrap();
@@ -340,7 +346,7 @@ fn concave_constraint_under_the_monitor_error_and_warn_and_off() {
         },
     ] {
         let mut monitor = BoundsMonitor::new(&problem, settings_off);
-        Stepper::new(&problem, settings(0.1, 2.0))
+        Stepper::new(&problem, unguarded.clone())
             .unwrap()
             .run(&mut ReferenceProjector::default(), &mut [&mut monitor])
             .unwrap();
@@ -468,15 +474,30 @@ fn second_order_of_an_affine_kernel_skips_the_hessian_that_the_check_computes() 
 }
 
 #[test]
-fn solve_runs_with_the_default_backend_and_a_concave_constraint_only_warns() {
+fn solve_warns_of_a_concave_constraint_and_stops_at_the_first_real_violation() {
     let problem = Problem::new(vec![0.3, 0.1], pushed([1.0, 0.5])).with_constraint(
         "inside disk",
         InsideDisk,
         [0, 1],
     );
-    let run = problem.solve(settings(0.1, 2.0)).unwrap();
-    assert_eq!(run.stats.steps, 20);
-    let report = estimate(&problem, &samples_from_trajectory(&run.trajectory));
+    // The convexity warning is printed at the start; the outer linearization then lets the
+    // point leave the disk, which the run-time guard refuses, naming the constraint.
+    let failure = problem.solve(settings(0.1, 2.0)).unwrap_err();
+    match &failure.error {
+        SweepError::ViolationTooLarge {
+            constraint,
+            violation,
+            ..
+        } => {
+            assert!(constraint.contains("inside disk"), "{constraint}");
+            assert!(*violation > 1e-6);
+        }
+        other => panic!("expected ViolationTooLarge, got {other}"),
+    }
+    let report = estimate(
+        &problem,
+        &samples_from_trajectory(&failure.partial.trajectory),
+    );
     assert!(report.convexity_failed);
 }
 

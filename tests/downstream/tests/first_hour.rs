@@ -71,9 +71,13 @@ fn under_warn_the_run_completes_and_ends_outside_the_ellipse() {
     let problem = ellipse_problem();
     let mut monitor = BoundsMonitor::new(&problem, MonitorSettings::default());
     let mut backend = make_projector(BackendChoice::default()).unwrap();
+    // The run-time guard would stop the run at the first step that ends outside the ellipse
+    // (ViolationTooLarge); switched off here to see the outer approximation the warning
+    // announces.
     let settings = StepperSettings {
         h: 0.1,
         t_end: 4.0,
+        violation_tolerance: f64::INFINITY,
         ..Default::default()
     };
     let run = Stepper::new(&problem, settings.clone())
@@ -108,6 +112,7 @@ fn estimate_problem_reports_failed_convexity_instead_of_prox_regularity() {
         .solve(StepperSettings {
             h: 0.1,
             t_end: 4.0,
+            violation_tolerance: f64::INFINITY,
             ..Default::default()
         })
         .unwrap();
@@ -184,9 +189,13 @@ fn the_same_region_from_affine_pieces_passes_every_check_and_stays_inside() {
         },
     );
     let mut backend = make_projector(BackendChoice::default()).unwrap();
+    // The run-time guard would stop the run at the first step that ends outside the ellipse
+    // (ViolationTooLarge); switched off here to see the outer approximation the warning
+    // announces.
     let settings = StepperSettings {
         h: 0.1,
         t_end: 4.0,
+        violation_tolerance: f64::INFINITY,
         ..Default::default()
     };
     let run = Stepper::new(&problem, settings.clone())
