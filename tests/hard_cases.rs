@@ -489,3 +489,49 @@ fn departures_are_reset_between_runs() {
     // Left through the exit at x = 2 and walked on along its normal, into the right arm: gone.
     assert!(second.q_final[0] > 2.2, "{:?}", second.q_final);
 }
+
+/// The shipped paper evacuation and moving wall, whole runs, judged by the independent checker
+/// (long: `scripts/stress`, or `cargo test --release --test hard_cases -- --ignored`).
+#[test]
+#[ignore = "long: whole runs of shipped scenes"]
+fn shipped_scenes_pass_the_independent_checker() {
+    let read = |name: &str| {
+        std::fs::read_to_string(format!(
+            "{}/examples/scenes/{name}.toml",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap()
+    };
+    let run = sweep_run("shipped-paper", &read("paper-evacuation"), &[]);
+    assert!(run.success, "{}", run.output);
+    let g = Geometry {
+        room: vec![[0., 0.], [10., 0.], [10., 10.], [0., 10.]],
+        exits: vec![([10., 4.4], [10., 5.6])],
+        obstacles: vec![],
+        radii: vec![0.2; 150],
+    };
+    let f = assert_clean("paper", &run.out.join("trajectory.csv"), &g);
+    assert_eq!(f.present_at_end, 0, "everybody left");
+    eprintln!(
+        "paper: {} times, max overlap {:.2e}, max penetration {:.2e}",
+        f.times, f.max_overlap, f.max_penetration
+    );
+
+    let run = sweep_run("shipped-wall", &read("moving-wall"), &[]);
+    assert!(run.success, "{}", run.output);
+    let g = Geometry {
+        room: vec![[0., 0.], [6., 0.], [6., 3.], [0., 3.]],
+        exits: vec![],
+        obstacles: vec![Obstacle::Segment(
+            [0.3, 0.05],
+            [0.3, 2.95],
+            Box::new(|t: f64| [0.4 * t.min(8.0), 0.0]),
+        )],
+        radii: vec![0.2; 40],
+    };
+    let f = assert_clean("moving wall", &run.out.join("trajectory.csv"), &g);
+    eprintln!(
+        "moving wall: {} times, max overlap {:.2e}, max penetration {:.2e}",
+        f.times, f.max_overlap, f.max_penetration
+    );
+}
