@@ -535,3 +535,49 @@ fn shipped_scenes_pass_the_independent_checker() {
         f.times, f.max_overlap, f.max_penetration
     );
 }
+
+/// The run-time checks judge a solver asked for a loose tolerance at its own accuracy in a
+/// work–precision study: `osqp@1e-3` on a crowd must give a row, not a failed run.
+#[test]
+fn work_precision_keeps_loose_solvers() {
+    use sweeping::backends::BackendChoice;
+    use sweeping::scene::{Overrides, Scene};
+    use sweeping::study::work_precision::{work_precision, SolverSetting, WorkPrecisionSettings};
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/paper-evacuation.toml"
+    );
+    let make = || -> Result<sweeping::problem::Problem, sweeping::study::BoxError> {
+        Ok(Scene::from_file(path)?
+            .build(&Overrides::default())?
+            .problem)
+    };
+    let base = Scene::from_file(path)
+        .unwrap()
+        .build(&Overrides::default())
+        .unwrap()
+        .settings;
+    let settings = WorkPrecisionSettings {
+        h_min: 0.05,
+        reference: SolverSetting {
+            backend: BackendChoice::Clarabel,
+            tolerance: None,
+        },
+        hs: vec![0.1],
+        solvers: vec![SolverSetting {
+            backend: BackendChoice::Osqp,
+            tolerance: Some(1e-3),
+        }],
+        t_end: 0.5,
+        samples: 2,
+        parallel: false,
+    };
+    let report = work_precision("paper", &make, &base, &settings).unwrap();
+    assert_eq!(report.rows.len(), 1);
+    assert!(
+        report.rows[0].failure.is_none(),
+        "{:?}",
+        report.rows[0].failure
+    );
+    assert!(report.rows[0].error.is_finite());
+}
