@@ -600,10 +600,10 @@ impl<'p> Stepper<'p> {
 
     /// A failed solve of a far prediction, retried once on the same QP written relative to
     /// `q_k` and scaled by `s = ‖y − q_k‖∞`: `min ½‖u − (y − q_k)/s‖²` s.t.
-    /// `A u ≥ (b − A q_k)/s`, then `x = q_k + s u`, `λ = s μ`. The set is never empty (`q_k`
-    /// satisfies every row: `gᵢ(t, q_k) + 0 ≥ …` is the row at `x = q_k` up to the previous
-    /// step's accuracy), so an "infeasible" answer at speed 1e8 is the solver's scaling, not
-    /// the problem's. The answer is then KKT-checked on the original QP like any other; when
+    /// `A u ≥ (b − A q_k)/s`, then `x = q_k + s u`, `λ = s μ`. Done only when `q_k` satisfies
+    /// every row (the row at `x = q_k` reads `gᵢ(t_{k+1}, q_k) ≥ 0`, true for constraints that
+    /// do not move): the set is then not empty, so an "infeasible" answer at speed 1e8 is the
+    /// solver's scaling, not the problem's. The answer is then KKT-checked on the original QP like any other; when
     /// the retry fails too, the error says that the prediction is too far to be resolved.
     fn rescaled_projection(
         &self,
@@ -624,7 +624,11 @@ impl<'p> Stepper<'p> {
             .zip(&self.q)
             .map(|(y, q)| (y - q).abs())
             .fold(0.0, f64::max);
-        if !(far > 1.0 && far.is_finite())
+        // Only when q_k satisfies every row is the set known to be non-empty (with a moving
+        // constraint g(t_{k+1}, q_k) may be negative, and a squeezed person makes it empty).
+        let b_scale = qp.b().iter().fold(1f64, |m, b| m.max(b.abs()));
+        let q_in_set = qp.max_violation(&self.q) <= 1e-9 * b_scale;
+        if !(far > 1.0 && far.is_finite() && q_in_set)
             || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
         {
             return Err(fail(first));

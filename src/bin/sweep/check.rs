@@ -70,6 +70,9 @@ pub fn main(args: CheckArgs) -> Result<()> {
             }
         }
     }
+    // The samples are measured one by one, each from its own configuration: departures
+    // latched at the end of the sampling run must not hide people at earlier samples.
+    built.population.reset_departures();
     let settings = EstimateSettings {
         rho: args.rho,
         ..Default::default()
