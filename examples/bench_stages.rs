@@ -32,6 +32,7 @@ fn main() -> anyhow::Result<()> {
         for n in [150usize, 1000, 5000] {
             let problem = crowd::crowd(n, dense, 7);
             for backend in [
+                BackendChoice::Native,
                 BackendChoice::Clarabel,
                 BackendChoice::Osqp,
                 BackendChoice::Reference,

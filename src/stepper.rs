@@ -152,6 +152,10 @@ pub struct StepReport {
     pub solves: usize,
     /// Solver iterations, summed over the solves.
     pub iterations: u32,
+    /// Sub-problems the backend could not certify and handed to its fallback, summed over the
+    /// solves (see [`sweeping_api::SolveStats::fallbacks`]).
+    #[serde(default)]
+    pub fallbacks: u32,
     /// Seconds per stage.
     pub times: StageTimes,
     /// `max(0, −minᵢ gᵢ(t_{k+1}, q_{k+1}))`: how far the new configuration is outside the true
@@ -175,6 +179,9 @@ pub struct RunStats {
     pub times: StageTimes,
     /// Solver iterations, summed.
     pub iterations: u64,
+    /// Backend fallbacks, summed.
+    #[serde(default)]
+    pub fallbacks: u64,
     /// Solves, summed (more than `steps` when culling proofs failed).
     pub solves: u64,
     /// Rows assembled, summed over steps.
@@ -194,6 +201,7 @@ impl RunStats {
         self.steps += 1;
         self.times.add(&r.times);
         self.iterations += u64::from(r.iterations);
+        self.fallbacks += u64::from(r.fallbacks);
         self.solves += r.solves as u64;
         self.rows += r.rows as u64;
         self.max_rows = self.max_rows.max(r.rows);
@@ -593,6 +601,7 @@ impl<'p> Stepper<'p> {
 
         let mut solves = 0usize;
         let mut iterations = 0u32;
+        let mut fallbacks = 0u32;
         let solution: Projection = loop {
             self.assemble(t_next, &mut times)?;
             let tp = Instant::now();
@@ -612,6 +621,7 @@ impl<'p> Stepper<'p> {
             times.projection += tp.elapsed().as_secs_f64();
             solves += 1;
             iterations += sol.stats.iterations;
+            fallbacks += sol.stats.fallbacks;
             if let Some(i) = sol.x.iter().position(|v| !v.is_finite()) {
                 return Err(SweepError::NonFinite {
                     step: self.k,
@@ -671,6 +681,7 @@ impl<'p> Stepper<'p> {
             active: solution.active_count(self.settings.active_threshold),
             solves,
             iterations,
+            fallbacks,
             times,
             max_violation,
             worst_constraint,
