@@ -6,10 +6,10 @@ use sweeping_api::{CrossCheck, Projector};
 
 #[cfg(feature = "clarabel")]
 pub use sweeping_clarabel::{ClarabelProjector, ClarabelSettings};
-#[cfg(feature = "osqp")]
-pub use sweeping_osqp::{OsqpProjector, OsqpSettings};
 #[cfg(feature = "native")]
 pub use sweeping_native::{NativeProjector, NativeSettings};
+#[cfg(feature = "osqp")]
+pub use sweeping_osqp::{OsqpProjector, OsqpSettings};
 
 /// A backend chosen by name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]

@@ -34,7 +34,7 @@ use crate::error::SweepError;
 use crate::problem::Problem;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
-use sweeping_api::{Projection, ProjectionProblem, Projector, SolveStats, SparseRows};
+use sweeping_api::{Projection, ProjectionProblem, Projector, RowKey, SolveStats, SparseRows};
 
 /// A time or coordinate for messages: rounded to 1e-9 so that `t = k·h` prints as `3.78`, not
 /// `3.7800000000000002`.
@@ -605,7 +605,18 @@ impl<'p> Stepper<'p> {
         let solution: Projection = loop {
             self.assemble(t_next, &mut times)?;
             let tp = Instant::now();
+            // Each row keyed by its constraint (family, candidate index), stable across steps,
+            // so that backends can warm-start from the previous step's active rows.
+            let keys = self
+                .row_origin
+                .iter()
+                .map(|&(fi, idx)| RowKey {
+                    family: fi as u32,
+                    member: idx as u64,
+                })
+                .collect();
             let qp = ProjectionProblem::new(self.y.clone(), self.rows.clone(), self.b.clone())
+                .and_then(|p| p.with_row_keys(keys))
                 .map_err(|e| SweepError::Projection {
                     step: self.k,
                     t: t_next,

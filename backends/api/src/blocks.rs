@@ -114,7 +114,11 @@ impl Blocks {
                 }
                 let mut sub = SparseRows::new(cols.len());
                 for &r in &rows {
-                    sub.push_row(a.row(r).filter(|&(_, v)| v != 0.0).map(|(c, v)| (local[c], v)));
+                    sub.push_row(
+                        a.row(r)
+                            .filter(|&(_, v)| v != 0.0)
+                            .map(|(c, v)| (local[c], v)),
+                    );
                 }
                 let y = cols.iter().map(|&c| problem.y()[c]).collect();
                 let b = rows.iter().map(|&r| problem.b()[r]).collect();
@@ -176,7 +180,11 @@ impl Blocks {
         };
         for (block, answer) in self.blocks.iter().zip(answers) {
             assert_eq!(answer.x.len(), block.cols.len(), "block answer dimension");
-            assert_eq!(answer.multipliers.len(), block.rows.len(), "block multipliers");
+            assert_eq!(
+                answer.multipliers.len(),
+                block.rows.len(),
+                "block multipliers"
+            );
             for (&c, v) in block.cols.iter().zip(&answer.x) {
                 x[c] = *v;
             }
@@ -318,7 +326,10 @@ mod tests {
         for seed in 0..10 {
             let p = two_copies(seed);
             let blocks = Blocks::split(&p);
-            assert!(blocks.blocks().len() >= 2, "seed {seed}: two copies at least");
+            assert!(
+                blocks.blocks().len() >= 2,
+                "seed {seed}: two copies at least"
+            );
             // Every row in exactly one block; keys follow their rows.
             let mut seen = vec![0; p.n_rows()];
             for b in blocks.blocks() {
@@ -336,12 +347,11 @@ mod tests {
             let (Ok(s1), Ok(s2)) = (whole.project(&p), split.project(&p)) else {
                 continue;
             };
-            let gap = s1
-                .x
-                .iter()
-                .zip(&s2.x)
-                .map(|(u, v)| (u - v).abs())
-                .fold(0.0, f64::max);
+            let gap =
+                s1.x.iter()
+                    .zip(&s2.x)
+                    .map(|(u, v)| (u - v).abs())
+                    .fold(0.0, f64::max);
             assert!(gap <= 1e-8, "seed {seed}: gap {gap:.3e}");
             assert!(p.kkt_residuals(&s2.x, &s2.multipliers).max() <= 1e-9);
             let n = 10;

@@ -56,9 +56,7 @@ pub struct ProjectionProblem {
 /// Rows appear, vanish and are reordered from one step to the next (contacts form and break);
 /// a key lets a backend find the row that linearizes the same constraint in the previous
 /// step's problem, and start from its multiplier (warm start).
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct RowKey {
     /// The constraint family (e.g. disk–disk contacts, disk–wall contacts).
     pub family: u32,

@@ -40,8 +40,11 @@
 
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
+use std::collections::HashMap;
 use sweeping_api::ProjectionProblem;
 
+/// How often the same working set may be factored before the method is declared cycling.
+const REPEATS: u32 = 3;
 /// Regularization of the lower-right block, removed again by iterative refinement.
 const DELTA: f64 = 1e-9;
 /// Most refinement steps per factorization.
@@ -82,6 +85,9 @@ pub(crate) enum Failure {
     Numerical(&'static str),
     /// The cap on factorizations was reached.
     Cap(u32),
+    /// A working set came back [`REPEATS`] times: rounding on degenerate, dependent rows
+    /// made the method cycle (in exact arithmetic the dual objective decreases strictly).
+    Cycling(u32),
     /// A checked Farkas certificate: rows `support` with weights `e ≥ 0`, `A_Pᵀe ≈ 0`,
     /// `eᵀr_P > 0`.
     Infeasible {
@@ -128,8 +134,58 @@ struct Refined {
 }
 
 impl ActiveSystem {
-    /// Factors `K_δ` for the rows `active`; `None` when the factorization fails.
-    fn new(problem: &ProjectionProblem, active: &[usize]) -> Option<Self> {
+    /// Factors `K_δ` for the rows `active` (increasing); `None` when the factorization fails.
+    /// `order`, when given, is a fill-reducing ordering of the matrix with *every* row of the
+    /// problem; the ordering of `K_δ` is its restriction to the unknowns and `active`.
+    fn new(problem: &ProjectionProblem, active: &[usize], order: Option<&[usize]>) -> Option<Self> {
+        let n = problem.dim();
+        let k = active.len();
+        let (rows, kkt) = kkt_matrix(problem, active);
+        let signs: Vec<i8> = (0..n + k).map(|i| if i < n { 1 } else { -1 }).collect();
+        let mut builder = QDLDLSettingsBuilder::default();
+        builder.Dsigns(signs);
+        if let Some(order) = order {
+            // Position of each row of the problem in `active`, then the restriction.
+            let mut slot = vec![usize::MAX; problem.n_rows()];
+            for (t, &i) in active.iter().enumerate() {
+                slot[i] = t;
+            }
+            let perm: Vec<usize> = order
+                .iter()
+                .filter_map(|&v| {
+                    if v < n {
+                        Some(v)
+                    } else {
+                        let t = slot[v - n];
+                        (t != usize::MAX).then(|| n + t)
+                    }
+                })
+                .collect();
+            builder.perm(perm);
+        }
+        let settings = builder.build().ok()?;
+        let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
+        Some(Self { n, rows, ldl })
+    }
+}
+
+/// A fill-reducing (AMD) ordering of `K_δ` with every row of the problem, computed once per
+/// block so that each working set's factorization skips its own ordering (the restriction of
+/// an elimination order to a subset of the vertices fills no more than the whole).
+pub(crate) fn full_ordering(problem: &ProjectionProblem) -> Option<Vec<usize>> {
+    let all: Vec<usize> = (0..problem.n_rows()).collect();
+    let (_, kkt) = kkt_matrix(problem, &all);
+    let settings = QDLDLSettingsBuilder::default().logical(true).build().ok()?;
+    let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
+    Some(ldl.perm.clone())
+}
+
+/// The rows `active` (sorted, repeats summed) and the upper triangle of their `K_δ`, by columns.
+fn kkt_matrix(
+    problem: &ProjectionProblem,
+    active: &[usize],
+) -> (Vec<Vec<(usize, f64)>>, CscMatrix<f64>) {
+    {
         let n = problem.dim();
         let k = active.len();
         let rows = active_rows(problem, active);
@@ -154,12 +210,11 @@ impl ActiveSystem {
             colptr.push(rowval.len());
         }
         let kkt = CscMatrix::new(n + k, n + k, colptr, rowval, nzval);
-        let signs: Vec<i8> = (0..n + k).map(|i| if i < n { 1 } else { -1 }).collect();
-        let settings = QDLDLSettingsBuilder::default().Dsigns(signs).build().ok()?;
-        let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
-        Some(Self { n, rows, ldl })
+        (rows, kkt)
     }
+}
 
+impl ActiveSystem {
     /// `out = K₀ v`.
     fn apply(&self, v: &[f64], out: &mut [f64]) {
         let n = self.n;
@@ -256,6 +311,12 @@ pub(crate) fn solve(
     start: Start,
     cap: u32,
 ) -> Result<Outcome, Failure> {
+    // Small blocks are ordered per factorization; larger ones once.
+    let order = if problem.n_rows() > 8 {
+        full_ordering(problem)
+    } else {
+        None
+    };
     let (m, n) = (problem.n_rows(), problem.dim());
     // r = b − A y.
     let mut r = vec![0.0; m];
@@ -281,11 +342,17 @@ pub(crate) fn solve(
         }
     }
     let mut aggressive = true;
+    let mut visits: HashMap<Vec<usize>, u32> = HashMap::new();
     let mut in_support = vec![false; m];
     let mut ad = vec![0.0; m];
     for factorizations in 1..=cap {
-        let mut system =
-            ActiveSystem::new(problem, &support).ok_or(Failure::Numerical("factorization"))?;
+        let count = visits.entry(support.clone()).or_insert(0);
+        *count += 1;
+        if *count >= REPEATS {
+            return Err(Failure::Cycling(factorizations));
+        }
+        let mut system = ActiveSystem::new(problem, &support, order.as_deref())
+            .ok_or(Failure::Numerical("factorization"))?;
         let k = support.len();
         let rhs: Vec<f64> = std::iter::repeat_n(0.0, n)
             .chain(support.iter().map(|&i| r[i]))
@@ -378,7 +445,11 @@ pub(crate) fn solve(
         // cycle with adding them back.
         aggressive = false;
         let mut joined: Vec<(usize, f64)> = support.iter().copied().zip(lambda).collect();
-        joined.extend(violated.iter().map(|&i| (i, join[i].max(f64::MIN_POSITIVE))));
+        joined.extend(
+            violated
+                .iter()
+                .map(|&i| (i, join[i].max(f64::MIN_POSITIVE))),
+        );
         joined.sort_unstable_by_key(|&(i, _)| i);
         (support, lambda) = joined.into_iter().unzip();
         debug_assert!(support.len() > k);

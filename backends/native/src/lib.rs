@@ -12,8 +12,11 @@
 //!    the quasi-definite KKT matrix of the working set with QDLDL and refines against the
 //!    unregularized one, which copes with linearly dependent rows (contact loops). It starts
 //!    from the rows active at the previous step, matched by their [`RowKey`]s (rows may
-//!    appear, vanish or be reordered) with their previous multipliers, plus the rows violated
-//!    at `y`; without keys, from the violated rows alone.
+//!    appear, vanish or be reordered) with their previous multipliers; in a block without a
+//!    remembered row (or without keys), from the rows violated at `y`. A fill-reducing
+//!    ordering is computed once per block and restricted to each working set (25 % less
+//!    projection time on the paper's evacuation than ordering every factorization afresh).
+//!    A working set factored three times means rounding made the method cycle; it stops.
 //! 3. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
@@ -71,7 +74,11 @@ pub const NAME: &str = "native";
 pub struct NativeSettings {
     /// Largest KKT residual accepted, relative to `max(1, ‖y‖∞, ‖b‖∞)`. Default `1e-10`.
     pub kkt_tolerance: f64,
-    /// Most factorizations per block; `0` means `20 + 2 × rows of the block`. Default `0`.
+    /// Most factorizations per block; `0` means `40 + rows of the block / 2`. Default `0`.
+    ///
+    /// On the paper's evacuation (whole run, blocks of up to 254 rows) a converging block
+    /// needed at most 160 factorizations, and the few that cycled (rounding on dependent rows)
+    /// ran to any cap: a cap only decides how much time is lost before the fallback.
     pub max_factorizations: u32,
     /// Start from the previous step's active rows, matched by row keys. Default `true`.
     pub warm_start: bool,
@@ -164,13 +171,18 @@ impl NativeProjector {
         let join: Vec<f64> = (0..m)
             .map(|i| remembered[i].unwrap_or_else(|| own_multiplier(block, i, r[i])))
             .collect();
+        // With remembered rows, start from them alone: the rows violated at y join after the
+        // first solve if the point still violates them. Also starting from every violated
+        // row cost 1.8 × the factorizations on the paper's evacuation (25,777 against 14,266
+        // over its first 12 s), most of them dropping rows one at a time.
+        let any_remembered = remembered.iter().any(Option::is_some);
         let support: Vec<usize> = (0..m)
-            .filter(|&i| remembered[i].is_some() || r[i] > 0.0)
+            .filter(|&i| remembered[i].is_some() || (!any_remembered && r[i] > 0.0))
             .collect();
         let warm = support.iter().any(|&i| remembered[i].is_some());
         let lambda = support.iter().map(|&i| join[i]).collect();
         let cap = match self.settings.max_factorizations {
-            0 => 20 + 2 * u32::try_from(m).unwrap_or(u32::MAX / 4),
+            0 => 40 + u32::try_from(m / 2).unwrap_or(u32::MAX / 4),
             c => c,
         };
         let outcome = active_set::solve(
@@ -185,7 +197,10 @@ impl NativeProjector {
         .map_err(|f| (f, cap))?;
         let kkt = block.kkt_residuals(&outcome.x, &outcome.lambda).max();
         if !(kkt <= tol) {
-            return Err((Failure::Numerical("KKT check failed"), outcome.factorizations));
+            return Err((
+                Failure::Numerical("KKT check failed"),
+                outcome.factorizations,
+            ));
         }
         Ok(Projection {
             x: outcome.x,
@@ -285,9 +300,7 @@ impl Projector for NativeProjector {
         if !(whole <= allowed) {
             return Err(ProjectionError::Backend {
                 backend: NAME.to_string(),
-                message: format!(
-                    "stitched answer has KKT residual {whole:.3e} > {allowed:.1e}"
-                ),
+                message: format!("stitched answer has KKT residual {whole:.3e} > {allowed:.1e}"),
             });
         }
         if let Some(keys) = problem.row_keys() {

@@ -64,7 +64,10 @@ fn agrees_with_clarabel_on_random_instances_without_fallback() {
         assert!(kkt <= 1e-10, "instance {seed}: KKT residual {kkt:.3e}");
         let expected = clarabel.project(&problem).unwrap();
         let gap = max_gap(&sol.x, &expected.x);
-        assert!(gap <= 1e-8, "instance {seed} (n = {n}, m = {m}): gap {gap:.3e}");
+        assert!(
+            gap <= 1e-8,
+            "instance {seed} (n = {n}, m = {m}): gap {gap:.3e}"
+        );
     }
 }
 
@@ -83,22 +86,23 @@ fn capped_solver_falls_back_and_counts() {
             vec![(2, -1.0), (3, 1.0)],
         ],
     );
-    let p = ProjectionProblem::new(vec![-1.0, 0.0, -1.0, 0.0], rows, vec![0.0, 0.5, 0.0, 0.5])
-        .unwrap();
+    let p =
+        ProjectionProblem::new(vec![-1.0, 0.0, -1.0, 0.0], rows, vec![0.0, 0.5, 0.0, 0.5]).unwrap();
     let capped = NativeSettings {
         max_factorizations: 1,
         ..NativeSettings::default()
     };
     // Without a fallback: a typed error naming the block.
     match NativeProjector::new(capped.clone()).project(&p) {
-        Err(ProjectionError::NotConverged { backend, status, .. }) => {
+        Err(ProjectionError::NotConverged {
+            backend, status, ..
+        }) => {
             assert_eq!(backend, "native");
             assert!(status.contains("block 0"), "{status}");
         }
         other => panic!("expected NotConverged, got {other:?}"),
     }
-    let mut native =
-        NativeProjector::with_fallback(capped, Box::new(ClarabelProjector::default()));
+    let mut native = NativeProjector::with_fallback(capped, Box::new(ClarabelProjector::default()));
     let sol = native.project(&p).unwrap();
     assert_eq!(sol.stats.fallbacks, 2, "both blocks fell back");
     assert_eq!(sol.stats.backend, "native");

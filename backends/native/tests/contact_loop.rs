@@ -12,8 +12,8 @@
 //! `x − y = A_Tᵀλ` with `λ ≥ 0` found by a dense non-negative least-squares solve.
 
 use nalgebra::{DMatrix, DVector};
-use sweeping_api::{ProjectionProblem, Projector};
 use sweeping_api::RowKey;
+use sweeping_api::{ProjectionProblem, Projector};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::NativeProjector;
 
@@ -136,7 +136,10 @@ fn reference(problem: &ProjectionProblem, guess: &[f64]) -> (Vec<f64>, f64, f64)
 
 fn check_against_reference(problem: &ProjectionProblem, x: &[f64], what: &str) {
     let (x_ref, violation, cone_residual) = reference(problem, x);
-    assert!(violation <= 1e-9, "{what}: reference violates a row by {violation:.3e}");
+    assert!(
+        violation <= 1e-9,
+        "{what}: reference violates a row by {violation:.3e}"
+    );
     assert!(
         cone_residual <= 1e-9,
         "{what}: reference is not certified: NNLS residual {cone_residual:.3e}"
@@ -155,7 +158,9 @@ fn contact_loop_is_solved_exactly_without_fallback() {
     let problem = load();
     assert_eq!((problem.n_rows(), problem.dim()), (142, 300));
     let mut native = NativeProjector::default();
-    let sol = native.project(&problem).expect("native solves the contact loop");
+    let sol = native
+        .project(&problem)
+        .expect("native solves the contact loop");
     assert_eq!(sol.stats.fallbacks, 0);
     let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
     assert!(kkt <= 1e-10, "KKT residual {kkt:.3e}");
@@ -172,7 +177,12 @@ fn contact_loop_is_solved_exactly_without_fallback() {
     // Warm: the same problem with keys, solved twice (the second starts from the first's
     // active set, reordered).
     let m = problem.n_rows() as u64;
-    let keys: Vec<RowKey> = (0..m).map(|i| RowKey { family: 0, member: i }).collect();
+    let keys: Vec<RowKey> = (0..m)
+        .map(|i| RowKey {
+            family: 0,
+            member: i,
+        })
+        .collect();
     let keyed = problem.clone().with_row_keys(keys).unwrap();
     let mut warm = NativeProjector::default();
     let first = warm.project(&keyed).unwrap();

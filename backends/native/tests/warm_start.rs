@@ -54,19 +54,27 @@ fn reordered_appearing_and_vanishing_rows_match_a_cold_start() {
             for i in (1..order.len()).rev() {
                 order.swap(i, rng.gen_range(0..=i));
             }
-            let dy: Vec<f64> = (0..base.dim()).map(|_| rng.gen_range(-0.05..0.05)).collect();
+            let dy: Vec<f64> = (0..base.dim())
+                .map(|_| rng.gen_range(-0.05..0.05))
+                .collect();
             let p = reshuffled(&base, &order, &dy);
             let w = warm.project(&p).unwrap();
             let c = NativeProjector::default().project(&p).unwrap();
             warm_starts += usize::from(w.stats.warm_started);
             assert_eq!(w.stats.fallbacks, 0);
             let gap = max_gap(&w.x, &c.x);
-            assert!(gap <= 1e-9, "seed {seed}, step {step}: warm and cold differ by {gap:.3e}");
+            assert!(
+                gap <= 1e-9,
+                "seed {seed}, step {step}: warm and cold differ by {gap:.3e}"
+            );
             let kkt = p.kkt_residuals(&w.x, &w.multipliers).max();
             assert!(kkt <= 1e-10, "seed {seed}, step {step}: KKT {kkt:.3e}");
         }
     }
-    assert!(warm_starts >= 100, "only {warm_starts} of 200 solves were warm-started");
+    assert!(
+        warm_starts >= 100,
+        "only {warm_starts} of 200 solves were warm-started"
+    );
 }
 
 #[test]

@@ -400,7 +400,10 @@ fn keyed_warm_start_survives_a_changed_pattern() {
     let base = random_instance(31, 15, 20);
     let rows: Vec<Vec<(usize, f64)>> = (0..20).map(|r| base.a().row(r).collect()).collect();
     let build = |order: &[usize], shift: f64| {
-        let a = SparseRows::from_rows(15, &order.iter().map(|&r| rows[r].clone()).collect::<Vec<_>>());
+        let a = SparseRows::from_rows(
+            15,
+            &order.iter().map(|&r| rows[r].clone()).collect::<Vec<_>>(),
+        );
         let b = order.iter().map(|&r| base.b()[r]).collect();
         let y = base.y().iter().map(|v| v + shift).collect();
         ProjectionProblem::new(y, a, b)
