@@ -11,12 +11,12 @@ pub use sweeping_native::{NativeProjector, NativeSettings};
 #[cfg(feature = "osqp")]
 pub use sweeping_osqp::{OsqpProjector, OsqpSettings};
 
-/// A backend chosen by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+/// A backend chosen by name. The default is `native` when its feature is compiled in (the
+/// fastest backend whose every answer is certified: README, "Performance"), else `clarabel`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BackendChoice {
     /// Clarabel (interior point), tight settings.
-    #[default]
     Clarabel,
     /// OSQP (ADMM), tight settings.
     Osqp,
@@ -30,6 +30,16 @@ pub enum BackendChoice {
     /// Native and Clarabel on every step, failing when they disagree by more than
     /// [`NATIVE_CROSS_TOLERANCE`].
     CrossNative,
+}
+
+impl Default for BackendChoice {
+    fn default() -> Self {
+        if cfg!(feature = "native") {
+            Self::Native
+        } else {
+            Self::Clarabel
+        }
+    }
 }
 
 impl std::str::FromStr for BackendChoice {

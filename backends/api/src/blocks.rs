@@ -26,6 +26,14 @@ pub struct Block {
 
 /// A projection problem split into independent [`Block`]s.
 ///
+/// The projection separates: an unknown touched by no row keeps `xⱼ = yⱼ`, and two groups of
+/// rows that share no unknown can be projected separately (the cost is a sum over coordinates
+/// and each row only constrains its own). On a crowd most people touch nobody and contacts
+/// form small clusters, so a step splits into many small problems, each far cheaper to factor
+/// than the whole. [`Blocks::split`] finds the connected components of the graph "rows sharing
+/// an unknown", [`Blocks::stitch`] puts the answers back together, and [`Blocked`] wraps any
+/// [`Projector`] so that it only ever sees blocks.
+///
 /// ```
 /// use sweeping_api::{Blocks, ProjectionProblem, SparseRows};
 /// // Rows 0 and 2 share unknown 1; row 1 touches only unknown 3; unknown 2 is free.
@@ -217,7 +225,7 @@ fn weaker(a: SolveStatus, b: SolveStatus) -> SolveStatus {
     }
 }
 
-/// Any [`Projector`] run block by block (see the [module documentation](self)): unknowns
+/// Any [`Projector`] run block by block (see [`Blocks`]): unknowns
 /// touched by no row never reach it, and each connected component of the rows is a separate
 /// call. Reports the inner backend's name and tolerance.
 ///
