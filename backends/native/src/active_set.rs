@@ -468,3 +468,60 @@ fn shrink(support: &[usize], lambda: &[f64], blocking: usize) -> (Vec<usize>, Ve
         .map(|(_, (&i, &l))| (i, l))
         .unzip()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sweeping_api::SparseRows;
+
+    /// `x₀ + x₁ ≥ 1`, `−x₀ ≥ 0`, `−x₁ ≥ 0` (empty) and `x₀ ≥ 0.5` (feasible on its own).
+    fn problem() -> (ProjectionProblem, Vec<f64>) {
+        let a = SparseRows::from_rows(
+            2,
+            &[
+                vec![(0, 1.0), (1, 1.0)],
+                vec![(0, -1.0)],
+                vec![(1, -1.0)],
+                vec![(0, 1.0)],
+            ],
+        );
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 0.0, 0.0, 0.5]).unwrap();
+        // r = b − A y with y = 0.
+        let r = p.b().to_vec();
+        (p, r)
+    }
+
+    #[test]
+    fn farkas_accepts_a_certificate() {
+        let (p, r) = problem();
+        assert!(farkas(&p, &[0, 1, 2], &[1.0, 1.0, 1.0], &r));
+        // Scaled, and with rounding-size negative entries.
+        assert!(farkas(&p, &[0, 1, 2], &[3.0, 3.0, 3.0 - 1e-15], &r));
+    }
+
+    #[test]
+    fn farkas_rejects_what_is_not_a_certificate() {
+        let (p, r) = problem();
+        // Aᵀe ≠ 0.
+        assert!(!farkas(&p, &[0, 1, 2], &[1.0, 1.0, 0.5], &r));
+        // A clearly negative weight.
+        assert!(!farkas(&p, &[0, 1, 2], &[1.0, -1.0, 1.0], &r));
+        // Zero, non-finite.
+        assert!(!farkas(&p, &[0, 1, 2], &[0.0, 0.0, 0.0], &r));
+        assert!(!farkas(&p, &[0, 1, 2], &[f64::NAN, 1.0, 1.0], &r));
+        assert!(!farkas(&p, &[0, 1, 2], &[f64::INFINITY, 1.0, 1.0], &r));
+        // Aᵀe = 0 but eᵀr < 0: rows −x₀ ≥ 0 and x₀ ≥ −1 (r = b − A·0 = (0, −1)) can both
+        // hold.
+        let r2 = vec![1.0, 0.0, 0.0, -1.0];
+        assert!(!farkas(&p, &[1, 3], &[1.0, 1.0], &r2));
+    }
+
+    #[test]
+    fn shrink_drops_the_blocking_row_and_non_positive_ones() {
+        let (support, lambda) = shrink(&[4, 7, 9, 12], &[0.5, 0.0, 2.0, -1e-300], 2);
+        assert_eq!(support, vec![4]);
+        assert_eq!(lambda, vec![0.5]);
+        let (support, lambda) = shrink(&[1, 2], &[1.0, 3.0], 0);
+        assert_eq!((support, lambda), (vec![2], vec![3.0]));
+    }
+}
