@@ -85,8 +85,8 @@ pub(crate) enum Failure {
     Numerical(&'static str),
     /// The cap on factorizations was reached.
     Cap(u32),
-    /// A working set came back [`REPEATS`] times: rounding on degenerate, dependent rows
-    /// made the method cycle (in exact arithmetic the dual objective decreases strictly).
+    /// A working set came back [`REPEATS`] times even after the restart as Lawson–Hanson
+    /// proper: rounding on degenerate, dependent rows made the method cycle.
     Cycling(u32),
     /// A checked Farkas certificate: rows `support` with weights `e ≥ 0`, `A_Pᵀe ≈ 0`,
     /// `eᵀr_P > 0`.
@@ -342,6 +342,9 @@ pub(crate) fn solve(
         }
     }
     let mut aggressive = true;
+    // Set when the method restarted as Lawson–Hanson proper: from an empty support, one row
+    // (the steepest) joining at a time, starting at a zero multiplier.
+    let mut proper = false;
     let mut visits: HashMap<Vec<usize>, u32> = HashMap::new();
     let mut in_support = vec![false; m];
     let mut ad = vec![0.0; m];
@@ -349,7 +352,17 @@ pub(crate) fn solve(
         let count = visits.entry(support.clone()).or_insert(0);
         *count += 1;
         if *count >= REPEATS {
-            return Err(Failure::Cycling(factorizations));
+            if proper {
+                return Err(Failure::Cycling(factorizations));
+            }
+            // The warm, many-rows-at-once variant cycled (heavily dependent rows): restart
+            // as Lawson–Hanson proper, which terminates finitely in exact arithmetic.
+            proper = true;
+            aggressive = false;
+            visits.clear();
+            support.clear();
+            lambda.clear();
+            d.iter_mut().for_each(|v| *v = 0.0);
         }
         let mut system = ActiveSystem::new(problem, &support, order.as_deref())
             .ok_or(Failure::Numerical("factorization"))?;
@@ -445,11 +458,21 @@ pub(crate) fn solve(
         // cycle with adding them back.
         aggressive = false;
         let mut joined: Vec<(usize, f64)> = support.iter().copied().zip(lambda).collect();
-        joined.extend(
-            violated
+        if proper {
+            // The steepest descent direction of the dual: the largest r_i − a_i·d.
+            let steepest = violated
                 .iter()
-                .map(|&i| (i, join[i].max(f64::MIN_POSITIVE))),
-        );
+                .copied()
+                .max_by(|&a, &b| (r[a] - ad[a]).total_cmp(&(r[b] - ad[b])))
+                .ok_or(Failure::Numerical("no steepest row"))?;
+            joined.push((steepest, f64::MIN_POSITIVE));
+        } else {
+            joined.extend(
+                violated
+                    .iter()
+                    .map(|&i| (i, join[i].max(f64::MIN_POSITIVE))),
+            );
+        }
         joined.sort_unstable_by_key(|&(i, _)| i);
         (support, lambda) = joined.into_iter().unzip();
         debug_assert!(support.len() > k);

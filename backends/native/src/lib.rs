@@ -16,7 +16,9 @@
 //!    remembered row (or without keys), from the rows violated at `y`. A fill-reducing
 //!    ordering is computed once per block and restricted to each working set (25 % less
 //!    projection time on the paper's evacuation than ordering every factorization afresh).
-//!    A working set factored three times means rounding made the method cycle; it stops.
+//!    A working set factored three times means rounding on dependent rows made this
+//!    many-rows-at-once variant cycle: the block restarts as Lawson–Hanson proper (empty
+//!    support, the steepest violated row joining one at a time), and a second cycle stops it.
 //! 3. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
