@@ -18,6 +18,7 @@ fn one_step(c: &mut Criterion) {
                 .problem()
                 .expect("a synthetic crowd");
             for backend in [
+                BackendChoice::Native,
                 BackendChoice::Clarabel,
                 BackendChoice::Osqp,
                 BackendChoice::Reference,

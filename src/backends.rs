@@ -1,4 +1,4 @@
-//! The projection backends compiled in (cargo features `clarabel` and `osqp`), and a
+//! The projection backends compiled in (cargo features `clarabel`, `osqp` and `native`), and a
 //! constructor by name for command lines and scene files.
 
 use serde::{Deserialize, Serialize};
@@ -6,15 +6,17 @@ use sweeping_api::{CrossCheck, Projector};
 
 #[cfg(feature = "clarabel")]
 pub use sweeping_clarabel::{ClarabelProjector, ClarabelSettings};
+#[cfg(feature = "native")]
+pub use sweeping_native::{NativeProjector, NativeSettings};
 #[cfg(feature = "osqp")]
 pub use sweeping_osqp::{OsqpProjector, OsqpSettings};
 
-/// A backend chosen by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+/// A backend chosen by name. The default is `native` when its feature is compiled in (the
+/// fastest backend whose every answer is certified: README, "Performance"), else `clarabel`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BackendChoice {
     /// Clarabel (interior point), tight settings.
-    #[default]
     Clarabel,
     /// OSQP (ADMM), tight settings.
     Osqp,
@@ -22,17 +24,34 @@ pub enum BackendChoice {
     Cross,
     /// The dependency-free reference (Hildreth); small problems only.
     Reference,
+    /// The native active-set backend, certified by its KKT residuals, falling back to
+    /// Clarabel (when compiled in) on the blocks it cannot certify.
+    Native,
+    /// Native and Clarabel on every step, failing when they disagree by more than
+    /// [`NATIVE_CROSS_TOLERANCE`].
+    CrossNative,
+}
+
+impl Default for BackendChoice {
+    fn default() -> Self {
+        if cfg!(feature = "native") {
+            Self::Native
+        } else {
+            Self::Clarabel
+        }
+    }
 }
 
 impl BackendChoice {
     /// Every backend this enum can name (compiled in or not: see [`make_projector`]).
-    pub const ALL: [BackendChoice; 4] = [
+    pub const ALL: [BackendChoice; 6] = [
+        BackendChoice::Native,
         BackendChoice::Clarabel,
         BackendChoice::Osqp,
         BackendChoice::Cross,
+        BackendChoice::CrossNative,
         BackendChoice::Reference,
-    ];
-}
+    ];}
 
 impl std::str::FromStr for BackendChoice {
     type Err = String;
@@ -42,8 +61,11 @@ impl std::str::FromStr for BackendChoice {
             "osqp" => Ok(Self::Osqp),
             "cross" => Ok(Self::Cross),
             "reference" => Ok(Self::Reference),
+            "native" => Ok(Self::Native),
+            "cross-native" => Ok(Self::CrossNative),
             other => Err(format!(
-                "unknown backend `{other}` (expected clarabel, osqp, cross or reference)"
+                "unknown backend `{other}` (expected clarabel, osqp, native, cross, cross-native \
+                 or reference)"
             )),
         }
     }
@@ -56,6 +78,8 @@ impl std::fmt::Display for BackendChoice {
             Self::Osqp => "osqp",
             Self::Cross => "cross",
             Self::Reference => "reference",
+            Self::Native => "native",
+            Self::CrossNative => "cross-native",
         })
     }
 }
@@ -63,6 +87,26 @@ impl std::fmt::Display for BackendChoice {
 /// Default ∞-norm tolerance of the cross-check between Clarabel and OSQP at their tight
 /// settings: `1e-6`.
 pub const DEFAULT_CROSS_TOLERANCE: f64 = 1e-6;
+
+/// ∞-norm tolerance of the cross-check between the native backend and Clarabel: `1e-8`
+/// (both finish with an exact active-set solve).
+pub const NATIVE_CROSS_TOLERANCE: f64 = 1e-8;
+
+/// The native backend with its default settings, falling back to Clarabel when compiled in.
+#[cfg(feature = "native")]
+pub fn native_projector() -> NativeProjector {
+    #[cfg(feature = "clarabel")]
+    {
+        NativeProjector::with_fallback(
+            NativeSettings::default(),
+            Box::new(ClarabelProjector::default()),
+        )
+    }
+    #[cfg(not(feature = "clarabel"))]
+    {
+        NativeProjector::new(NativeSettings::default())
+    }
+}
 
 /// Why [`make_projector`] could not build a backend.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -97,11 +141,20 @@ pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, Backe
             OsqpProjector::default(),
             DEFAULT_CROSS_TOLERANCE,
         ))),
+        #[cfg(feature = "native")]
+        BackendChoice::Native => Ok(Box::new(native_projector())),
+        #[cfg(all(feature = "clarabel", feature = "native"))]
+        BackendChoice::CrossNative => Ok(Box::new(CrossCheck::new(
+            native_projector(),
+            ClarabelProjector::default(),
+            NATIVE_CROSS_TOLERANCE,
+        ))),
         #[allow(unreachable_patterns)]
         other => Err(BackendError::NotCompiled {
             backend: other,
             features: match other {
                 BackendChoice::Cross => "clarabel,osqp".to_string(),
+                BackendChoice::CrossNative => "clarabel,native".to_string(),
                 o => o.to_string(),
             },
         }),

@@ -107,7 +107,7 @@ impl Problem {
         self.with_family(KernelFamily::single(name, kernel, support))
     }
 
-    /// Runs the scheme with the default backend ([`BackendChoice::Clarabel`], or the first
+    /// Runs the scheme with the default backend ([`BackendChoice::default`], or the first
     /// one compiled in) and a [`BoundsMonitor`] that checks convexity of the constraints
     /// under [`Policy::Warn`], printing what it finds on standard error. For another backend,
     /// observers, declared bounds or [`Policy::Error`], use [`Stepper`] directly:
@@ -143,6 +143,7 @@ impl Problem {
             })
         };
         let mut backend = [
+            BackendChoice::default(),
             BackendChoice::Clarabel,
             BackendChoice::Osqp,
             BackendChoice::Reference,

@@ -34,7 +34,7 @@ use crate::error::SweepError;
 use crate::problem::Problem;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
-use sweeping_api::{Projection, ProjectionProblem, Projector, SolveStats, SparseRows};
+use sweeping_api::{Projection, ProjectionProblem, Projector, RowKey, SolveStats, SparseRows};
 
 /// A time or coordinate for messages: rounded to 1e-9 so that `t = k·h` prints as `3.78`, not
 /// `3.7800000000000002`.
@@ -167,6 +167,10 @@ pub struct StepReport {
     pub solves: usize,
     /// Solver iterations, summed over the solves.
     pub iterations: u32,
+    /// Sub-problems the backend could not certify and handed to its fallback, summed over the
+    /// solves (see [`sweeping_api::SolveStats::fallbacks`]).
+    #[serde(default)]
+    pub fallbacks: u32,
     /// Seconds per stage.
     pub times: StageTimes,
     /// `max(0, −minᵢ gᵢ(t_{k+1}, q_{k+1}))`: how far the new configuration is outside the true
@@ -190,6 +194,9 @@ pub struct RunStats {
     pub times: StageTimes,
     /// Solver iterations, summed.
     pub iterations: u64,
+    /// Backend fallbacks, summed.
+    #[serde(default)]
+    pub fallbacks: u64,
     /// Solves, summed (more than `steps` when culling proofs failed).
     pub solves: u64,
     /// Rows assembled, summed over steps.
@@ -209,6 +216,7 @@ impl RunStats {
         self.steps += 1;
         self.times.add(&r.times);
         self.iterations += u64::from(r.iterations);
+        self.fallbacks += u64::from(r.fallbacks);
         self.solves += r.solves as u64;
         self.rows += r.rows as u64;
         self.max_rows = self.max_rows.max(r.rows);
@@ -642,7 +650,13 @@ impl<'p> Stepper<'p> {
             .zip(&self.q)
             .map(|(y, q)| (y - q) / far)
             .collect();
-        let scaled = ProjectionProblem::new(y, qp.a().clone(), b).map_err(fail)?;
+        // The same rows, so the same keys: a warm-starting backend keeps its memory.
+        let scaled = ProjectionProblem::new(y, qp.a().clone(), b)
+            .and_then(|p| match qp.row_keys() {
+                Some(keys) => p.with_row_keys(keys.to_vec()),
+                None => Ok(p),
+            })
+            .map_err(fail)?;
         match projector.project(&scaled) {
             Ok(mut sol) => {
                 for (x, q) in sol.x.iter_mut().zip(&self.q) {
@@ -888,10 +902,22 @@ impl<'p> Stepper<'p> {
 
         let mut solves = 0usize;
         let mut iterations = 0u32;
+        let mut fallbacks = 0u32;
         let solution: Projection = loop {
             self.assemble(t_next, &mut times)?;
             let tp = Instant::now();
+            // Each row keyed by its constraint (family, candidate index), stable across steps,
+            // so that backends can warm-start from the previous step's active rows.
+            let keys = self
+                .row_origin
+                .iter()
+                .map(|&(fi, idx)| RowKey {
+                    family: fi as u32,
+                    member: idx as u64,
+                })
+                .collect();
             let qp = ProjectionProblem::new(self.y.clone(), self.rows.clone(), self.b.clone())
+                .and_then(|p| p.with_row_keys(keys))
                 .map_err(|e| SweepError::Projection {
                     step: self.k,
                     t: t_next,
@@ -905,6 +931,7 @@ impl<'p> Stepper<'p> {
             times.projection += tp.elapsed().as_secs_f64();
             solves += 1;
             iterations += sol.stats.iterations;
+            fallbacks += sol.stats.fallbacks;
             if let Some(i) = sol.x.iter().position(|v| !v.is_finite()) {
                 return Err(SweepError::NonFinite {
                     step: self.k,
@@ -975,6 +1002,7 @@ impl<'p> Stepper<'p> {
             active: solution.active_count(self.settings.active_threshold),
             solves,
             iterations,
+            fallbacks,
             times,
             max_violation,
             worst_constraint,

@@ -267,6 +267,9 @@ pub struct RunSummary {
     pub ms_per_step: MsPerStep,
     /// Solver iterations, summed.
     pub solver_iterations: u64,
+    /// Sub-problems the backend handed to its fallback (native backend), summed.
+    #[serde(default)]
+    pub fallbacks: u64,
     /// QP solves (more than steps when a culling proof needed a re-solve).
     pub solves: u64,
     /// Most rows in one QP.
@@ -405,6 +408,7 @@ impl Observer for SummaryCollector<'_> {
         s.seconds_per_stage.projection += r.times.projection;
         s.seconds_per_stage.check += r.times.check;
         s.solver_iterations += u64::from(r.iterations);
+        s.fallbacks += u64::from(r.fallbacks);
         s.solves += r.solves as u64;
         s.max_rows = s.max_rows.max(r.rows);
         s.max_active = s.max_active.max(r.active);

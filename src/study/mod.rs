@@ -964,6 +964,7 @@ mod tests {
             active: 0,
             solves: 1,
             iterations: 0,
+            fallbacks: 0,
             times: Default::default(),
             max_violation: 0.0,
             worst_constraint: String::new(),
@@ -975,6 +976,7 @@ mod tests {
                 solve_seconds: 0.0,
                 setup_seconds: 0.0,
                 warm_started: false,
+                fallbacks: 0,
             },
         };
         s.on_step(&report(0.5), &[1.0, 3.0]).unwrap();

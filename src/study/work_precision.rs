@@ -94,7 +94,13 @@ pub fn projector_for(setting: &SolverSetting) -> Result<Box<dyn Projector>, Stri
                 ..Default::default()
             },
         ))),
-        BackendChoice::Cross => {
+        #[cfg(feature = "native")]
+        BackendChoice::Native => {
+            let mut native = crate::backends::native_projector();
+            native.settings.kkt_tolerance = tol;
+            Ok(Box::new(native))
+        }
+        BackendChoice::Cross | BackendChoice::CrossNative => {
             Err("the cross-check runs both backends at their defaults; give it no tolerance".into())
         }
         #[allow(unreachable_patterns)]

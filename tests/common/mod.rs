@@ -4,7 +4,8 @@
 use sweeping::api::Projector;
 use sweeping::backends::{make_projector, BackendChoice};
 
-/// The real backends compiled in (Clarabel, OSQP, and their cross-check), each freshly built;
+/// The real backends compiled in (Clarabel, OSQP, their cross-check, native and its
+/// cross-check with Clarabel), each freshly built;
 /// the ones whose cargo feature is off are skipped (and named on stderr).
 pub fn real_backends() -> Vec<(BackendChoice, Box<dyn Projector>)> {
     let mut out = Vec::new();
@@ -12,6 +13,8 @@ pub fn real_backends() -> Vec<(BackendChoice, Box<dyn Projector>)> {
         BackendChoice::Clarabel,
         BackendChoice::Osqp,
         BackendChoice::Cross,
+        BackendChoice::Native,
+        BackendChoice::CrossNative,
     ] {
         match make_projector(c) {
             Ok(p) => out.push((c, p)),

@@ -446,6 +446,7 @@ impl Projector for ReferenceProjector {
                             solve_seconds: start.elapsed().as_secs_f64(),
                             setup_seconds: 0.0,
                             warm_started: false,
+                            fallbacks: 0,
                         },
                     });
                 }

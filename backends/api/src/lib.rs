@@ -28,10 +28,12 @@
 //! below write `sweeping_api::…` because they are compiled as this crate's own tests.
 #![deny(missing_docs)]
 
+mod blocks;
 pub mod conformance;
 mod cross;
 mod matrix;
 
+pub use blocks::{Block, Blocked, Blocks};
 pub use cross::{CrossCheck, CrossCheckStats};
 pub use matrix::SparseRows;
 
@@ -48,6 +50,22 @@ pub struct ProjectionProblem {
     y: Vec<f64>,
     a: SparseRows,
     b: Vec<f64>,
+    /// One stable identity per row, when the caller attached them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    keys: Option<Vec<RowKey>>,
+}
+
+/// Stable identity of a row across steps: which constraint (`family`, `member`) it linearizes.
+///
+/// Rows appear, vanish and are reordered from one step to the next (contacts form and break);
+/// a key lets a backend find the row that linearizes the same constraint in the previous
+/// step's problem, and start from its multiplier (warm start).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct RowKey {
+    /// The constraint family (e.g. disk–disk contacts, disk–wall contacts).
+    pub family: u32,
+    /// The member of the family (e.g. an encoded pair of agents).
+    pub member: u64,
 }
 
 impl ProjectionProblem {
@@ -84,7 +102,70 @@ impl ProjectionProblem {
                 });
             }
         }
-        Ok(Self { y, a, b })
+        Ok(Self {
+            y,
+            a,
+            b,
+            keys: None,
+        })
+    }
+
+    /// A problem whose parts are already known to be consistent (sub-problems cut out of a
+    /// validated problem).
+    pub(crate) fn from_parts_unchecked(
+        y: Vec<f64>,
+        a: SparseRows,
+        b: Vec<f64>,
+        keys: Option<Vec<RowKey>>,
+    ) -> Self {
+        debug_assert_eq!(a.n_cols(), y.len());
+        debug_assert_eq!(a.n_rows(), b.len());
+        Self { y, a, b, keys }
+    }
+
+    /// Attaches one key per row. Without keys, backends cold-start.
+    ///
+    /// # Errors
+    /// [`ProjectionError::InvalidInput`] when there are not exactly [`Self::n_rows`] keys, or
+    /// when two rows share a key (the first repeated key and both rows are named).
+    ///
+    /// ```
+    /// use sweeping_api::{ProjectionProblem, RowKey, SparseRows};
+    /// let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
+    /// let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 1.0]).unwrap();
+    /// let k = |m| RowKey { family: 0, member: m };
+    /// assert!(p.clone().with_row_keys(vec![k(1), k(1)]).is_err());
+    /// let p = p.with_row_keys(vec![k(7), k(3)]).unwrap();
+    /// assert_eq!(p.row_keys().unwrap()[1], k(3));
+    /// ```
+    pub fn with_row_keys(mut self, keys: Vec<RowKey>) -> Result<Self, ProjectionError> {
+        if keys.len() != self.n_rows() {
+            return Err(ProjectionError::InvalidInput {
+                reason: format!(
+                    "{} row keys for {} rows: one key per row is required",
+                    keys.len(),
+                    self.n_rows()
+                ),
+            });
+        }
+        let mut seen = std::collections::HashMap::with_capacity(keys.len());
+        for (i, k) in keys.iter().enumerate() {
+            if let Some(first) = seen.insert(*k, i) {
+                return Err(ProjectionError::InvalidInput {
+                    reason: format!(
+                        "rows {first} and {i} share the key (family {}, member {})",
+                        k.family, k.member
+                    ),
+                });
+            }
+        }
+        self.keys = Some(keys);
+        Ok(self)
+    }
+
+    /// The key of each row, when attached by [`Self::with_row_keys`].
+    pub fn row_keys(&self) -> Option<&[RowKey]> {
+        self.keys.as_deref()
     }
 
     /// The point to project.
@@ -210,6 +291,7 @@ impl Projection {
                 solve_seconds: 0.0,
                 setup_seconds: 0.0,
                 warm_started: false,
+                fallbacks: 0,
             },
         }
     }
@@ -248,6 +330,10 @@ pub struct SolveStats {
     pub setup_seconds: f64,
     /// Whether the solve started from a previous answer.
     pub warm_started: bool,
+    /// How many (sub-)problems the backend could not certify itself and handed to its
+    /// fallback backend (the native backend's count; `0` for the others).
+    #[serde(default)]
+    pub fallbacks: u32,
 }
 
 /// Why a projection failed.
@@ -338,7 +424,7 @@ pub enum ProjectionError {
 ///                     stats: SolveStats {
 ///                         backend: self.name().into(), status: SolveStatus::Solved,
 ///                         iterations: 0, solve_seconds: 0.0, setup_seconds: 0.0,
-///                         warm_started: false,
+///                         warm_started: false, fallbacks: 0,
 ///                     },
 ///                 })
 ///             }

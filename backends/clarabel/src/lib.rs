@@ -570,6 +570,7 @@ impl Projector for ClarabelProjector {
                 solve_seconds,
                 setup_seconds,
                 warm_started: false,
+                fallbacks: 0,
             },
         })
     }

@@ -47,7 +47,11 @@
 //! the same dimension and the same sparsity pattern of `A` ([`SparseRows::same_pattern`]), it
 //! updates the values of `A` (only if they changed) and the bounds in place and starts ADMM
 //! from the previous displacement and dual (and from the step `rho` adapted so far); otherwise
-//! it builds a new workspace, which starts from `d = 0`, i.e. `x = y`.
+//! it builds a new workspace, which starts from `d = 0`, i.e. `x = y`, unless both problems
+//! carry row keys ([`ProjectionProblem::with_row_keys`]): then the new workspace starts from
+//! the previous duals of the rows with the same key (`0` for new rows) and the displacement
+//! `d = Aᵀλ` they describe, so rows may appear, vanish or be reordered between steps. Keys
+//! also re-map the duals when the pattern is unchanged but the rows were reordered.
 //! [`SolveStats::warm_started`] tells which happened. A failed solve discards the workspace, so
 //! that the next one starts afresh. Problems without rows, or whose `y` satisfies every row,
 //! are answered without calling OSQP ([`Projection::identity`]) and leave the workspace as it
@@ -70,10 +74,12 @@
 use osqp::{CscMatrix, Problem, Settings, Status};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
+use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::{Duration, Instant};
 use sweeping_api::{
-    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus, SparseRows,
+    Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats, SolveStatus,
+    SparseRows,
 };
 
 /// The upper bound of every row: OSQP's own "infinity" (`OSQP_INFTY`), large but finite.
@@ -282,6 +288,31 @@ struct Cache {
     d: Vec<f64>,
     /// The last converged OSQP dual (`−λ`, unclamped).
     y_osqp: Vec<f64>,
+    /// The row keys of the last problem, when it had them.
+    keys: Option<Vec<RowKey>>,
+}
+
+/// OSQP's dual `−λ` for the rows of `problem`, taken from the previous problem's rows with the
+/// same key (`0` for rows without a match), and the displacement `d = Aᵀλ` it describes.
+fn keyed_start(
+    problem: &ProjectionProblem,
+    keys: &[RowKey],
+    previous_keys: &[RowKey],
+    previous_y: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
+    let by_key: HashMap<RowKey, f64> = previous_keys
+        .iter()
+        .copied()
+        .zip(previous_y.iter().copied())
+        .collect();
+    let y_osqp: Vec<f64> = keys
+        .iter()
+        .map(|k| by_key.get(k).copied().unwrap_or(0.0).min(0.0))
+        .collect();
+    let lambda: Vec<f64> = y_osqp.iter().map(|v| -v).collect();
+    let mut d = vec![0.0; problem.dim()];
+    problem.a().mul_transpose_vec(&lambda, &mut d);
+    (d, y_osqp)
 }
 
 /// How a solve ended, read out of OSQP's borrowed status.
@@ -380,8 +411,17 @@ impl OsqpProjector {
                 .cache
                 .as_ref()
                 .is_some_and(|c| c.a.same_pattern(a) && c.d.len() == problem.dim());
+        let keys = problem.row_keys();
+        // The previous problem's keys and duals, for a keyed warm start of a new workspace.
+        let mut keyed_warm = false;
         let mut cache = if reusable {
             let mut cache = self.cache.take().expect("checked above");
+            if let (Some(new), Some(old)) = (keys, cache.keys.as_deref()) {
+                if new != old {
+                    // Same pattern, other rows (reordered): start from the duals by key.
+                    (cache.d, cache.y_osqp) = keyed_start(problem, new, old, &cache.y_osqp);
+                }
+            }
             let values_changed = cache.a.values() != a.values();
             let updated = catch_unwind(AssertUnwindSafe(|| {
                 if values_changed {
@@ -407,7 +447,7 @@ impl OsqpProjector {
             }
             cache
         } else {
-            self.cache = None;
+            let previous = self.cache.take();
             let osqp_settings = settings
                 .to_osqp()
                 .map_err(|e| Self::backend_error(format!("invalid settings: {e}")))?;
@@ -444,13 +484,36 @@ impl OsqpProjector {
                 }
                 Err(_) => return Err(Self::backend_error("OSQP set-up panicked")),
             };
-            Cache {
+            let mut cache = Cache {
                 problem: problem_osqp,
                 a: a.clone(),
                 d: vec![0.0; n],
                 y_osqp: vec![0.0; m],
+                keys: None,
+            };
+            // The pattern changed (rows appeared, vanished or moved): with keys on both
+            // problems, start from the previous duals of the rows that are still there.
+            if let (true, Some(new), Some(old)) = (
+                settings.warm_start,
+                keys,
+                previous.as_ref().and_then(|c| c.keys.as_deref()),
+            ) {
+                let y_prev = &previous.as_ref().expect("has keys").y_osqp;
+                let (d0, y0) = keyed_start(problem, new, old, y_prev);
+                if y0.iter().any(|v| *v != 0.0) {
+                    let started =
+                        catch_unwind(AssertUnwindSafe(|| cache.problem.warm_start(&d0, &y0)));
+                    if started.is_err() {
+                        return Err(Self::backend_error(
+                            "warm-starting the OSQP workspace failed (see the message above)",
+                        ));
+                    }
+                    keyed_warm = true;
+                }
             }
+            cache
         };
+        cache.keys = keys.map(<[RowKey]>::to_vec);
         let setup_seconds = setup_start.elapsed().as_secs_f64();
 
         let solve_start = Instant::now();
@@ -511,7 +574,8 @@ impl OsqpProjector {
                         iterations,
                         solve_seconds,
                         setup_seconds,
-                        warm_started: reusable,
+                        warm_started: reusable || keyed_warm,
+                        fallbacks: 0,
                     },
                 })
             }

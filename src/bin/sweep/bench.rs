@@ -54,7 +54,12 @@ fn default_backends() -> Vec<BackendChoice> {
     BackendChoice::ALL
         .iter()
         .copied()
-        .filter(|b| !matches!(b, BackendChoice::Reference | BackendChoice::Cross))
+        .filter(|b| {
+            !matches!(
+                b,
+                BackendChoice::Reference | BackendChoice::Cross | BackendChoice::CrossNative
+            )
+        })
         .filter(|b| make_projector(*b).is_ok())
         .collect()
 }

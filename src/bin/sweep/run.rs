@@ -22,7 +22,7 @@ pub struct RunArgs {
     /// Output directory (default `out/<scene name>/`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Projection backend: clarabel, osqp, cross or reference (default: the scene's).
+    /// Projection backend: clarabel, osqp, native, cross, cross-native or reference (default: the scene's).
     #[arg(long)]
     pub backend: Option<BackendChoice>,
     /// Time step (default: the scene's).
@@ -247,8 +247,8 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         m.total, m.effects, m.broad_phase, m.assembly, m.projection, m.check
     );
     println!(
-        "  solver iterations: {} over {} solves (max rows {}, max active {})",
-        s.solver_iterations, s.solves, s.max_rows, s.max_active
+        "  solver iterations: {} over {} solves (max rows {}, max active {}, fallbacks {})",
+        s.solver_iterations, s.solves, s.max_rows, s.max_active, s.fallbacks
     );
     println!(
         "  max overlap: {:.3e}{}",

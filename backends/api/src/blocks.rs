@@ -1,0 +1,398 @@
+//! Independent blocks of a projection.
+//!
+//! The projection `min ½‖x − y‖² s.t. A x ≥ b` separates: an unknown touched by no row keeps
+//! `xⱼ = yⱼ`, and two groups of rows that share no unknown can be projected separately (the
+//! cost is a sum over coordinates and each row only constrains its own). On a crowd most
+//! people touch nobody and contacts form small clusters, so a step splits into many tiny
+//! problems, each far cheaper to factor than the whole. [`Blocks::split`] finds the connected
+//! components of the graph "rows sharing an unknown", [`Blocks::stitch`] puts the answers
+//! back together, and [`Blocked`] wraps any [`Projector`] so that it only ever sees blocks.
+
+use crate::{
+    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus, SparseRows,
+};
+
+/// One independent sub-problem: the rows of a connected component and the unknowns they touch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Block {
+    /// Indices, in the whole problem, of this block's rows (increasing).
+    pub rows: Vec<usize>,
+    /// Indices, in the whole problem, of this block's unknowns (increasing).
+    pub cols: Vec<usize>,
+    /// The sub-problem in local numbering: row `t` is row `rows[t]` of the whole problem,
+    /// unknown `j` is unknown `cols[j]`; it carries the rows' keys when the whole problem does.
+    pub problem: ProjectionProblem,
+}
+
+/// A projection problem split into independent [`Block`]s.
+///
+/// The projection separates: an unknown touched by no row keeps `xⱼ = yⱼ`, and two groups of
+/// rows that share no unknown can be projected separately (the cost is a sum over coordinates
+/// and each row only constrains its own). On a crowd most people touch nobody and contacts
+/// form small clusters, so a step splits into many small problems, each far cheaper to factor
+/// than the whole. [`Blocks::split`] finds the connected components of the graph "rows sharing
+/// an unknown", [`Blocks::stitch`] puts the answers back together, and [`Blocked`] wraps any
+/// [`Projector`] so that it only ever sees blocks.
+///
+/// ```
+/// use sweeping_api::{Blocks, ProjectionProblem, SparseRows};
+/// // Rows 0 and 2 share unknown 1; row 1 touches only unknown 3; unknown 2 is free.
+/// let a = SparseRows::from_rows(4, &[
+///     vec![(0, 1.0), (1, 1.0)], vec![(3, 1.0)], vec![(1, -1.0)],
+/// ]);
+/// let p = ProjectionProblem::new(vec![0.0; 4], a, vec![1.0, 2.0, -5.0]).unwrap();
+/// let blocks = Blocks::split(&p);
+/// assert_eq!(blocks.blocks().len(), 2);
+/// assert_eq!(blocks.blocks()[0].rows, vec![0, 2]);
+/// assert_eq!(blocks.blocks()[0].cols, vec![0, 1]);
+/// assert_eq!(blocks.blocks()[1].cols, vec![3]);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Blocks {
+    blocks: Vec<Block>,
+    empty_rows: Vec<usize>,
+}
+
+/// Union–find root with path halving.
+fn find(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+impl Blocks {
+    /// Splits `problem` into the connected components of its rows. Stored zeros do not
+    /// connect anything and are dropped from the sub-problems; a row without a non-zero entry
+    /// belongs to no block (see [`Blocks::empty_rows`]).
+    pub fn split(problem: &ProjectionProblem) -> Self {
+        let a = problem.a();
+        let (m, n) = (a.n_rows(), a.n_cols());
+        let mut parent: Vec<usize> = (0..n).collect();
+        let mut first_col = vec![usize::MAX; m];
+        for (r, first) in first_col.iter_mut().enumerate() {
+            for (c, v) in a.row(r) {
+                if v == 0.0 {
+                    continue;
+                }
+                if *first == usize::MAX {
+                    *first = c;
+                } else {
+                    let (ra, rb) = (find(&mut parent, *first), find(&mut parent, c));
+                    if ra != rb {
+                        parent[ra] = rb;
+                    }
+                }
+            }
+        }
+        // Blocks numbered in the order of their first row.
+        let mut block_of_root = vec![usize::MAX; n];
+        let mut rows_of: Vec<Vec<usize>> = Vec::new();
+        let mut empty_rows = Vec::new();
+        for (r, &c) in first_col.iter().enumerate() {
+            if c == usize::MAX {
+                empty_rows.push(r);
+                continue;
+            }
+            let root = find(&mut parent, c);
+            if block_of_root[root] == usize::MAX {
+                block_of_root[root] = rows_of.len();
+                rows_of.push(Vec::new());
+            }
+            rows_of[block_of_root[root]].push(r);
+        }
+        // An unknown touched by no non-zero was never united with anything: it is its own
+        // root, and no block has that root.
+        let mut cols_of: Vec<Vec<usize>> = vec![Vec::new(); rows_of.len()];
+        let mut local = vec![usize::MAX; n];
+        for c in 0..n {
+            let blk = block_of_root[find(&mut parent, c)];
+            if blk != usize::MAX {
+                cols_of[blk].push(c);
+            }
+        }
+        let keys = problem.row_keys();
+        let blocks = rows_of
+            .into_iter()
+            .zip(cols_of)
+            .map(|(rows, cols)| {
+                for (j, &c) in cols.iter().enumerate() {
+                    local[c] = j;
+                }
+                let mut sub = SparseRows::new(cols.len());
+                for &r in &rows {
+                    sub.push_row(
+                        a.row(r)
+                            .filter(|&(_, v)| v != 0.0)
+                            .map(|(c, v)| (local[c], v)),
+                    );
+                }
+                let y = cols.iter().map(|&c| problem.y()[c]).collect();
+                let b = rows.iter().map(|&r| problem.b()[r]).collect();
+                let sub_keys = keys.map(|k| rows.iter().map(|&r| k[r]).collect());
+                let problem = ProjectionProblem::from_parts_unchecked(y, sub, b, sub_keys);
+                Block {
+                    rows,
+                    cols,
+                    problem,
+                }
+            })
+            .collect();
+        Self { blocks, empty_rows }
+    }
+
+    /// The blocks, in the order of their first row.
+    pub fn blocks(&self) -> &[Block] {
+        &self.blocks
+    }
+
+    /// Rows without a non-zero entry: `0 ≥ bᵢ` holds or fails whatever `x`; their multiplier
+    /// is `0`.
+    pub fn empty_rows(&self) -> &[usize] {
+        &self.empty_rows
+    }
+
+    /// The first empty row with `bᵢ > 0`, which makes the whole problem infeasible.
+    pub fn infeasible_empty_row(&self, problem: &ProjectionProblem) -> Option<usize> {
+        self.empty_rows
+            .iter()
+            .copied()
+            .find(|&r| problem.b()[r] > 0.0)
+    }
+
+    /// The answer of the whole problem from one answer per block (in the order of
+    /// [`Blocks::blocks`]): unknowns outside every block keep `y`, rows outside every block get
+    /// multiplier `0`. Statistics are summed (iterations, seconds, fallbacks); the status is
+    /// the weakest of the blocks', `warm_started` whether any block was.
+    ///
+    /// # Panics
+    /// When the number of answers or their dimensions do not match the blocks.
+    pub fn stitch(
+        &self,
+        problem: &ProjectionProblem,
+        answers: Vec<Projection>,
+        backend: &str,
+    ) -> Projection {
+        assert_eq!(answers.len(), self.blocks.len(), "one answer per block");
+        let mut x = problem.y().to_vec();
+        let mut multipliers = vec![0.0; problem.n_rows()];
+        let mut stats = SolveStats {
+            backend: backend.to_string(),
+            status: SolveStatus::Trivial,
+            iterations: 0,
+            solve_seconds: 0.0,
+            setup_seconds: 0.0,
+            warm_started: false,
+            fallbacks: 0,
+        };
+        for (block, answer) in self.blocks.iter().zip(answers) {
+            assert_eq!(answer.x.len(), block.cols.len(), "block answer dimension");
+            assert_eq!(
+                answer.multipliers.len(),
+                block.rows.len(),
+                "block multipliers"
+            );
+            for (&c, v) in block.cols.iter().zip(&answer.x) {
+                x[c] = *v;
+            }
+            for (&r, l) in block.rows.iter().zip(&answer.multipliers) {
+                multipliers[r] = *l;
+            }
+            let s = answer.stats;
+            stats.status = weaker(stats.status, s.status);
+            stats.iterations = stats.iterations.saturating_add(s.iterations);
+            stats.solve_seconds += s.solve_seconds;
+            stats.setup_seconds += s.setup_seconds;
+            stats.warm_started |= s.warm_started;
+            stats.fallbacks = stats.fallbacks.saturating_add(s.fallbacks);
+        }
+        Projection {
+            x,
+            multipliers,
+            stats,
+        }
+    }
+}
+
+/// The status of a whole made of parts with statuses `a` and `b`.
+fn weaker(a: SolveStatus, b: SolveStatus) -> SolveStatus {
+    use SolveStatus::*;
+    match (a, b) {
+        (SolvedReducedAccuracy, _) | (_, SolvedReducedAccuracy) => SolvedReducedAccuracy,
+        (Solved, _) | (_, Solved) => Solved,
+        _ => Trivial,
+    }
+}
+
+/// Any [`Projector`] run block by block (see [`Blocks`]): unknowns
+/// touched by no row never reach it, and each connected component of the rows is a separate
+/// call. Reports the inner backend's name and tolerance.
+///
+/// ```
+/// use sweeping_api::{conformance::ReferenceProjector, Blocked, ProjectionProblem, Projector,
+///                    SparseRows};
+/// let mut blocked = Blocked::new(ReferenceProjector::default());
+/// let a = SparseRows::from_rows(3, &[vec![(0, 1.0)], vec![(2, 1.0)]]);
+/// let p = ProjectionProblem::new(vec![-1.0, 5.0, -2.0], a, vec![0.0, 0.0]).unwrap();
+/// let sol = blocked.project(&p).unwrap();
+/// assert!(sol.x[0].abs() < 1e-9 && sol.x[1] == 5.0 && sol.x[2].abs() < 1e-9);
+/// ```
+#[derive(Debug, Clone)]
+pub struct Blocked<P> {
+    inner: P,
+}
+
+impl<P: Projector> Blocked<P> {
+    /// Wraps `inner`.
+    pub fn new(inner: P) -> Self {
+        Self { inner }
+    }
+
+    /// The wrapped backend.
+    pub fn inner(&self) -> &P {
+        &self.inner
+    }
+}
+
+impl<P: Projector> Projector for Blocked<P> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn tolerance(&self) -> f64 {
+        self.inner.tolerance()
+    }
+
+    fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let blocks = Blocks::split(problem);
+        if let Some(r) = blocks.infeasible_empty_row(problem) {
+            return Err(ProjectionError::Infeasible {
+                backend: self.inner.name().to_string(),
+                detail: format!(
+                    "row {r} has no non-zero entry and b[{r}] = {} > 0",
+                    problem.b()[r]
+                ),
+            });
+        }
+        let answers = blocks
+            .blocks()
+            .iter()
+            .map(|b| self.inner.project(&b.problem))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(blocks.stitch(problem, answers, self.inner.name()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conformance::{random_instance, ReferenceProjector, Tolerances};
+    use crate::RowKey;
+
+    crate::conformance_tests!(
+        Blocked::new(ReferenceProjector {
+            tolerance: 1e-10,
+            max_sweeps: 20_000
+        }),
+        Tolerances {
+            kkt: 1e-8,
+            point: 1e-6,
+            certifies_infeasibility: false
+        }
+    );
+
+    /// Two copies of a random instance side by side, with free unknowns in between.
+    fn two_copies(seed: u64) -> ProjectionProblem {
+        let p = random_instance(seed, 10, 12);
+        let n = p.dim();
+        let mut a = SparseRows::new(2 * n + 3);
+        let mut b = Vec::new();
+        for shift in [0, n + 3] {
+            for r in 0..p.n_rows() {
+                a.push_row(p.a().row(r).map(|(c, v)| (c + shift, v)));
+                b.push(p.b()[r]);
+            }
+        }
+        let mut y = p.y().to_vec();
+        y.extend([7.0, -8.0, 9.0]);
+        y.extend(p.y().iter().map(|v| v + 0.25));
+        let keys = (0..b.len() as u64)
+            .map(|m| RowKey {
+                family: 1,
+                member: 100 + m,
+            })
+            .collect();
+        ProjectionProblem::new(y, a, b)
+            .unwrap()
+            .with_row_keys(keys)
+            .unwrap()
+    }
+
+    #[test]
+    fn split_answers_match_the_whole_and_free_unknowns_stay() {
+        for seed in 0..10 {
+            let p = two_copies(seed);
+            let blocks = Blocks::split(&p);
+            assert!(
+                blocks.blocks().len() >= 2,
+                "seed {seed}: two copies at least"
+            );
+            // Every row in exactly one block; keys follow their rows.
+            let mut seen = vec![0; p.n_rows()];
+            for b in blocks.blocks() {
+                for (t, &r) in b.rows.iter().enumerate() {
+                    seen[r] += 1;
+                    assert_eq!(b.problem.row_keys().unwrap()[t], p.row_keys().unwrap()[r]);
+                }
+            }
+            for r in blocks.empty_rows() {
+                seen[*r] += 1;
+            }
+            assert!(seen.iter().all(|&s| s == 1));
+            let mut whole = ReferenceProjector::default();
+            let mut split = Blocked::new(ReferenceProjector::default());
+            let (Ok(s1), Ok(s2)) = (whole.project(&p), split.project(&p)) else {
+                continue;
+            };
+            let gap =
+                s1.x.iter()
+                    .zip(&s2.x)
+                    .map(|(u, v)| (u - v).abs())
+                    .fold(0.0, f64::max);
+            assert!(gap <= 1e-8, "seed {seed}: gap {gap:.3e}");
+            assert!(p.kkt_residuals(&s2.x, &s2.multipliers).max() <= 1e-9);
+            let n = 10;
+            assert_eq!(&s2.x[n..n + 3], &[7.0, -8.0, 9.0], "free unknowns keep y");
+        }
+    }
+
+    #[test]
+    fn zero_entries_do_not_connect_and_empty_rows_are_checked() {
+        let a = SparseRows::from_rows(
+            3,
+            &[vec![(0, 1.0), (1, 0.0)], vec![(1, 1.0)], vec![(2, 0.0)]],
+        );
+        let p = ProjectionProblem::new(vec![0.0; 3], a.clone(), vec![1.0, 1.0, 0.0]).unwrap();
+        let blocks = Blocks::split(&p);
+        assert_eq!(blocks.blocks().len(), 2);
+        assert_eq!(blocks.blocks()[0].cols, vec![0]);
+        assert_eq!(blocks.blocks()[1].cols, vec![1]);
+        assert_eq!(blocks.empty_rows(), &[2]);
+        assert_eq!(blocks.infeasible_empty_row(&p), None);
+        let sol = Blocked::new(ReferenceProjector::default())
+            .project(&p)
+            .unwrap();
+        assert!((sol.x[0] - 1.0).abs() < 1e-9 && (sol.x[1] - 1.0).abs() < 1e-9);
+        assert_eq!(sol.x[2], 0.0);
+        assert_eq!(sol.multipliers[2], 0.0);
+
+        let bad = ProjectionProblem::new(vec![0.0; 3], a, vec![1.0, 1.0, 0.5]).unwrap();
+        match Blocked::new(ReferenceProjector::default()).project(&bad) {
+            Err(ProjectionError::Infeasible { detail, .. }) => {
+                assert!(detail.contains("row 2"), "{detail}")
+            }
+            other => panic!("expected Infeasible, got {other:?}"),
+        }
+    }
+}
