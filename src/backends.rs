@@ -51,7 +51,8 @@ impl BackendChoice {
         BackendChoice::Cross,
         BackendChoice::CrossNative,
         BackendChoice::Reference,
-    ];}
+    ];
+}
 
 impl std::str::FromStr for BackendChoice {
     type Err = String;

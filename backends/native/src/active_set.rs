@@ -120,7 +120,66 @@ fn active_rows(problem: &ProjectionProblem, active: &[usize]) -> Vec<Vec<(usize,
 struct ActiveSystem {
     n: usize,
     rows: Vec<Vec<(usize, f64)>>,
-    ldl: QDLDLFactorisation<f64>,
+    factor: Factor,
+}
+
+/// Supports of at most this many rows are factored densely, by the Schur complement
+/// `A_P A_Pᵀ + δI` (`k × k`): a contact cluster of a few people costs a few microseconds that
+/// way, where the sparse path pays for building, ordering and analysing a matrix of size
+/// `n + k` every time.
+const DENSE_MAX: usize = 24;
+
+/// Relative size of the smallest Cholesky pivot accepted on the dense path.
+const DENSE_PIVOT: f64 = 1e-6;
+
+/// The factors of `K_δ = [I A_Pᵀ; A_P −δI]`.
+enum Factor {
+    /// Sparse `LDLᵀ` of `K_δ` itself.
+    Sparse(QDLDLFactorisation<f64>),
+    /// Dense Cholesky factor `L` (row-major, lower triangle) of `S = A_P A_Pᵀ + δI`.
+    Dense(Vec<f64>),
+}
+
+/// The dense Cholesky factor (row-major `k × k`, lower triangle) of `A_P A_Pᵀ + δI`, the rows
+/// given with sorted columns; `None` when a row is nearly a combination of the ones before
+/// it (its pivot below [`DENSE_PIVOT`] times its diagonal entry). Such rows (a contact loop)
+/// make `S` as ill-conditioned as `1/δ`, and the sparse `LDLᵀ` of `K_δ` is used instead.
+fn schur_cholesky(rows: &[Vec<(usize, f64)>]) -> Option<Vec<f64>> {
+    let k = rows.len();
+    let dot = |a: &[(usize, f64)], b: &[(usize, f64)]| {
+        let (mut i, mut j, mut sum) = (0, 0, 0.0);
+        while i < a.len() && j < b.len() {
+            match a[i].0.cmp(&b[j].0) {
+                std::cmp::Ordering::Less => i += 1,
+                std::cmp::Ordering::Greater => j += 1,
+                std::cmp::Ordering::Equal => {
+                    sum += a[i].1 * b[j].1;
+                    i += 1;
+                    j += 1;
+                }
+            }
+        }
+        sum
+    };
+    let mut l = vec![0.0; k * k];
+    for i in 0..k {
+        for j in 0..=i {
+            let diagonal = dot(&rows[i], &rows[j]) + if i == j { DELTA } else { 0.0 };
+            let mut v = diagonal;
+            for p in 0..j {
+                v -= l[i * k + p] * l[j * k + p];
+            }
+            if i == j {
+                if v.is_nan() || v <= DENSE_PIVOT * diagonal {
+                    return None;
+                }
+                l[i * k + i] = v.sqrt();
+            } else {
+                l[i * k + j] = v / l[j * k + j];
+            }
+        }
+    }
+    Some(l)
 }
 
 /// Where iterative refinement stopped.
@@ -140,6 +199,16 @@ impl ActiveSystem {
     fn new(problem: &ProjectionProblem, active: &[usize], order: Option<&[usize]>) -> Option<Self> {
         let n = problem.dim();
         let k = active.len();
+        if k <= DENSE_MAX {
+            let rows = active_rows(problem, active);
+            if let Some(l) = schur_cholesky(&rows) {
+                return Some(Self {
+                    n,
+                    rows,
+                    factor: Factor::Dense(l),
+                });
+            }
+        }
         let (rows, kkt) = kkt_matrix(problem, active);
         let signs: Vec<i8> = (0..n + k).map(|i| if i < n { 1 } else { -1 }).collect();
         let mut builder = QDLDLSettingsBuilder::default();
@@ -165,7 +234,46 @@ impl ActiveSystem {
         }
         let settings = builder.build().ok()?;
         let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
-        Some(Self { n, rows, ldl })
+        Some(Self {
+            n,
+            rows,
+            factor: Factor::Sparse(ldl),
+        })
+    }
+
+    /// `v ← K_δ⁻¹ v`. Densely: `[u; w]` with `u + A_Pᵀw = f`, `A_P u − δw = g` gives
+    /// `(A_P A_Pᵀ + δI) w = A_P f − g` and `u = f − A_Pᵀw`.
+    fn solve_in_place(&mut self, v: &mut [f64]) {
+        match &mut self.factor {
+            Factor::Sparse(ldl) => ldl.solve(v),
+            Factor::Dense(l) => {
+                let (n, k) = (self.n, self.rows.len());
+                let (f, g) = v.split_at_mut(n);
+                // w ← A f − g, then the two triangular solves with L and Lᵀ.
+                for (t, row) in self.rows.iter().enumerate() {
+                    g[t] = row.iter().map(|&(c, a)| a * f[c]).sum::<f64>() - g[t];
+                }
+                for i in 0..k {
+                    let mut s = g[i];
+                    for p in 0..i {
+                        s -= l[i * k + p] * g[p];
+                    }
+                    g[i] = s / l[i * k + i];
+                }
+                for i in (0..k).rev() {
+                    let mut s = g[i];
+                    for p in i + 1..k {
+                        s -= l[p * k + i] * g[p];
+                    }
+                    g[i] = s / l[i * k + i];
+                }
+                for (t, row) in self.rows.iter().enumerate() {
+                    for &(c, a) in row {
+                        f[c] -= a * g[t];
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -265,7 +373,7 @@ impl ActiveSystem {
                     residual: step[n..].to_vec(),
                 });
             }
-            self.ldl.solve(&mut step);
+            self.solve_in_place(&mut step);
             let moved = step[..n].iter().fold(0.0, |acc: f64, s| acc.max(s.abs()));
             v.iter_mut().zip(&step).for_each(|(vi, si)| *vi += si);
             steps += 1;
