@@ -135,7 +135,7 @@ const DENSE_PIVOT: f64 = 1e-6;
 /// The factors of `K_δ = [I A_Pᵀ; A_P −δI]`.
 enum Factor {
     /// Sparse `LDLᵀ` of `K_δ` itself.
-    Sparse(QDLDLFactorisation<f64>),
+    Sparse(Box<QDLDLFactorisation<f64>>),
     /// Dense Cholesky factor `L` (row-major, lower triangle) of `S = A_P A_Pᵀ + δI`.
     Dense(Vec<f64>),
 }
@@ -237,7 +237,7 @@ impl ActiveSystem {
         Some(Self {
             n,
             rows,
-            factor: Factor::Sparse(ldl),
+            factor: Factor::Sparse(Box::new(ldl)),
         })
     }
 
