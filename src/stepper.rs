@@ -29,7 +29,8 @@
 //! fails, the cutoff grows to `2δ` and the step is assembled and solved again, so the result
 //! is always the projection onto every row.
 
-use crate::constraint::{ConstraintFamily, LinearizedRow};
+use crate::constraint::LinearizedRow;
+pub use crate::error::ObserverError;
 use crate::error::SweepError;
 use crate::problem::Problem;
 use serde::{Deserialize, Serialize};
@@ -285,12 +286,12 @@ impl std::error::Error for RunFailure {
 /// implements only what it needs; `()` is the observer that does nothing.
 ///
 /// ```
-/// use sweeping::stepper::{Observer, StepReport};
+/// use sweeping::stepper::{Observer, ObserverError, StepReport};
 /// /// Counts steps whose projection had an active constraint.
 /// #[derive(Default)]
 /// struct ContactSteps(usize);
 /// impl Observer for ContactSteps {
-///     fn on_step(&mut self, report: &StepReport, _q: &[f64]) -> Result<(), String> {
+///     fn on_step(&mut self, report: &StepReport, _q: &[f64]) -> Result<(), ObserverError> {
 ///         if report.active > 0 { self.0 += 1; }
 ///         Ok(())
 ///     }
@@ -304,16 +305,17 @@ pub trait Observer {
     /// Called once before the first step with `(t₀, q₀)`.
     ///
     /// # Errors
-    /// A message; the run stops with [`SweepError::Observer`].
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    /// An [`ObserverError`]; the run stops with it (see
+    /// [`ObserverError::into_sweep_error`]).
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         let _ = (t, q);
         Ok(())
     }
     /// Called after every step with its report and `q_{k+1}`.
     ///
     /// # Errors
-    /// A message; the run stops with [`SweepError::Observer`].
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    /// An [`ObserverError`]; the run stops with it.
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let _ = (report, q);
         Ok(())
     }
@@ -321,18 +323,10 @@ pub trait Observer {
     /// writers can flush what they have).
     ///
     /// # Errors
-    /// A message; reported if the run had not already failed.
-    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+    /// An [`ObserverError`]; reported if the run had not already failed.
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let _ = error;
         Ok(())
-    }
-    /// The typed error behind the `Err` that [`on_start`](Self::on_start) or
-    /// [`on_step`](Self::on_step) just returned, if the observer has one; the run then stops
-    /// with it instead of [`SweepError::Observer`]. The run-time assumption monitor
-    /// ([`crate::assumptions::BoundsMonitor`]) reports [`SweepError::AssumptionViolated`] this
-    /// way. Default `None`.
-    fn take_error(&mut self) -> Option<SweepError> {
-        None
     }
 }
 
@@ -498,11 +492,6 @@ impl<'p> Stepper<'p> {
         } else {
             self.problem.t0() + k as f64 * self.settings.h
         }
-    }
-
-    /// The last assembled QP (after a step: the one whose solution is the current state).
-    pub fn last_projection_problem(&self) -> Option<ProjectionProblem> {
-        ProjectionProblem::new(self.y.clone(), self.rows.clone(), self.b.clone()).ok()
     }
 
     /// The prediction `y = q_k + h f(t_k, q_k)` (or its averaged form) into `self.y`.
@@ -933,11 +922,11 @@ impl<'p> Stepper<'p> {
                 break sol;
             }
             if solves > self.settings.max_cull_retries {
-                return Err(SweepError::InvalidInput(format!(
-                    "step {}, t = {t_next}: the culling proof still failed after {solves} solves; \
-                     a family's drift bound grows faster than its cutoff",
-                    self.k
-                )));
+                return Err(SweepError::CullingFailed {
+                    step: self.k,
+                    t: t_next,
+                    solves,
+                });
             }
         };
 
@@ -1027,13 +1016,8 @@ impl<'p> Stepper<'p> {
             })
         };
         for o in observers.iter_mut() {
-            if let Err(message) = o.on_start(self.t, &self.q) {
-                let e = o.take_error().unwrap_or_else(|| SweepError::Observer {
-                    step: 0,
-                    t: self.t,
-                    observer: o.name().to_string(),
-                    message,
-                });
+            if let Err(e) = o.on_start(self.t, &self.q) {
+                let e = e.into_sweep_error(o.name(), 0, self.t);
                 return Err(fail(run, e, observers));
             }
         }
@@ -1052,13 +1036,8 @@ impl<'p> Stepper<'p> {
                 run.trajectory.states.push(self.q.clone());
             }
             for o in observers.iter_mut() {
-                if let Err(message) = o.on_step(&report, &self.q) {
-                    let e = o.take_error().unwrap_or_else(|| SweepError::Observer {
-                        step: report.step,
-                        t: report.t,
-                        observer: o.name().to_string(),
-                        message,
-                    });
+                if let Err(e) = o.on_step(&report, &self.q) {
+                    let e = e.into_sweep_error(o.name(), report.step, report.t);
                     return Err(fail(run, e, observers));
                 }
             }
@@ -1067,15 +1046,10 @@ impl<'p> Stepper<'p> {
             }
         }
         for o in observers.iter_mut() {
-            if let Err(message) = o.on_finish(None) {
-                let e = SweepError::Observer {
-                    step: self.k,
-                    t: self.t,
-                    observer: o.name().to_string(),
-                    message,
-                };
+            if let Err(e) = o.on_finish(None) {
+                let error = e.into_sweep_error(o.name(), self.k, self.t);
                 return Err(Box::new(RunFailure {
-                    error: e,
+                    error,
                     partial: run,
                 }));
             }
@@ -1110,19 +1084,6 @@ fn gauss_legendre(points: usize) -> (Vec<f64>, Vec<f64>) {
             let wb = (322.0 - 13.0 * 70f64.sqrt()) / 900.0;
             (vec![-b, -a, 0.0, a, b], vec![wb, wa, 128.0 / 225.0, wa, wb])
         }
-    }
-}
-
-/// Which family and member produced each row of the last assembled QP.
-impl Stepper<'_> {
-    /// `(family index, member index)` for every row of the last QP.
-    pub fn row_origins(&self) -> &[(usize, usize)] {
-        &self.row_origin
-    }
-
-    /// The families of the problem.
-    pub fn families(&self) -> &[Box<dyn ConstraintFamily>] {
-        self.problem.families()
     }
 }
 

@@ -80,13 +80,13 @@ impl Observer for Recorder {
     fn name(&self) -> &str {
         &self.name
     }
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.log.borrow_mut().push(format!("{}:start", self.name));
         self.states.push(q.to_vec());
         assert!(t.abs() < 1e-300);
         Ok(())
     }
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.log
             .borrow_mut()
             .push(format!("{}:{}", self.name, report.step));
@@ -97,7 +97,7 @@ impl Observer for Recorder {
         }
         Ok(())
     }
-    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         self.log.borrow_mut().push(format!("{}:finish", self.name));
         self.finished_with = Some(error.cloned());
         Ok(())

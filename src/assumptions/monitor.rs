@@ -12,9 +12,9 @@
 //! a family that does not cull (user constraints) is checked however far from contact, and a
 //! family that declares itself affine has that claim verified once (`D²g = 0`).
 //!
-//! An observer was chosen over a hook inside the stepper: the stepper stays unchanged but for
-//! one additive method, [`Observer::take_error`], through which the monitor hands the run its
-//! typed [`SweepError::AssumptionViolated`] instead of the generic observer error.
+//! An observer was chosen over a hook inside the stepper: the stepper stays unchanged, and the
+//! monitor stops the run with its typed [`SweepError::AssumptionViolated`] through
+//! [`ObserverError::Stop`].
 
 use super::{
     concave_direction, describe_point, second_order_norms, symmetric_spectral_norm,
@@ -23,7 +23,7 @@ use super::{
 use crate::constraint::LinearizedRow;
 use crate::error::SweepError;
 use crate::problem::Problem;
-use crate::stepper::{Observer, StepReport};
+use crate::stepper::{Observer, ObserverError, StepReport};
 use serde::{Deserialize, Serialize};
 
 /// `true` unless `a ≤ b` (so a NaN is never within a bound).
@@ -294,7 +294,6 @@ pub struct BoundsMonitor<'p> {
     checks: usize,
     second_order_checks: usize,
     states_seen: usize,
-    pending: Option<SweepError>,
     invalid: Option<SweepError>,
     convexity_explained: bool,
     printed: std::collections::HashSet<(String, String)>,
@@ -320,7 +319,6 @@ impl<'p> BoundsMonitor<'p> {
             checks: 0,
             second_order_checks: 0,
             states_seen: 0,
-            pending: None,
             cands: Vec::new(),
             row: LinearizedRow::default(),
             near: Vec::new(),
@@ -563,19 +561,13 @@ impl<'p> BoundsMonitor<'p> {
         }
     }
 
-    fn observe(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), String> {
+    fn observe(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         if self.settings.policy != Policy::Off {
             if let Some(e) = self.invalid.take() {
-                let message = e.to_string();
-                self.pending = Some(e);
-                return Err(message);
+                return Err(e.into());
             }
         }
-        self.check(step, t, q).map_err(|v| {
-            let message = v.to_string();
-            self.pending = Some(v.to_error());
-            message
-        })
+        self.check(step, t, q).map_err(|v| v.to_error().into())
     }
 }
 
@@ -584,16 +576,12 @@ impl Observer for BoundsMonitor<'_> {
         "assumption monitor"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.observe(0, t, q)
     }
 
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.observe(report.step, report.t, q)
-    }
-
-    fn take_error(&mut self) -> Option<SweepError> {
-        self.pending.take()
     }
 }
 

@@ -29,7 +29,7 @@ use crate::constraint::LinearizedRow;
 use crate::crowd::Population;
 use crate::error::SweepError;
 use crate::problem::Problem;
-use crate::stepper::{Observer, StageTimes, StepReport};
+use crate::stepper::{Observer, ObserverError, StageTimes, StepReport};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -184,16 +184,16 @@ impl Observer for TrajectoryWriter {
         "trajectory writer"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         let file = std::fs::File::create(&self.path)
             .map_err(|e| format!("{}: {e}", self.path.display()))?;
         let mut out = std::io::BufWriter::new(file);
         writeln!(out, "t,id,x,y,present").map_err(|e| format!("{}: {e}", self.path.display()))?;
         self.out = Some(out);
-        self.write_state(t, q)
+        Ok(self.write_state(t, q)?)
     }
 
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let k = report.step + 1;
         if k.is_multiple_of(self.every) {
             self.write_state(report.t, q)?;
@@ -205,7 +205,7 @@ impl Observer for TrajectoryWriter {
         Ok(())
     }
 
-    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
         if let Some((t, q)) = self.last.take() {
             self.write_state(t, &q)?;
         }
@@ -391,12 +391,12 @@ impl Observer for SummaryCollector<'_> {
         "summary"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.record(t, q);
         Ok(())
     }
 
-    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let s = &mut self.summary;
         s.steps += 1;
         s.seconds_per_stage.effects += r.times.effects;
@@ -412,7 +412,7 @@ impl Observer for SummaryCollector<'_> {
         Ok(())
     }
 
-    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let s = &mut self.summary;
         let per = |v: f64| {
             if s.steps > 0 {

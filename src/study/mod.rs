@@ -50,7 +50,7 @@ pub mod work_precision;
 
 use crate::error::SweepError;
 use crate::problem::Problem;
-use crate::stepper::{Observer, RunStats, StepReport, Stepper, StepperSettings};
+use crate::stepper::{Observer, ObserverError, RunStats, StepReport, Stepper, StepperSettings};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -338,10 +338,10 @@ impl Observer for Sampler {
         "sampler"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         if let Some(&s) = self.times.first() {
             if s < t - 1e-9 * t.abs().max(1.0) {
-                return Err(format!("sample time {s} is before the start t₀ = {t}"));
+                return Err(format!("sample time {s} is before the start t₀ = {t}").into());
             }
         }
         self.t_prev = t;
@@ -349,7 +349,7 @@ impl Observer for Sampler {
         Ok(())
     }
 
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.take_up_to(report.t, q);
         Ok(())
     }
@@ -376,11 +376,11 @@ pub struct SampledRun {
 struct Recorder(Vec<(f64, Vec<f64>)>);
 
 impl Observer for Recorder {
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.0.push((t, q.to_vec()));
         Ok(())
     }
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.0.push((report.t, q.to_vec()));
         Ok(())
     }
