@@ -234,13 +234,43 @@ pub struct MsPerStep {
     pub total: f64,
 }
 
+/// Where a run stands, written to `summary.json` as `"running"`, `"completed"`,
+/// `"everybody left"` or `"failed"`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RunStatus {
+    /// Not finished yet.
+    #[default]
+    #[serde(rename = "running")]
+    Running,
+    /// Reached `T` (or stopped with people still in the room).
+    #[serde(rename = "completed")]
+    Completed,
+    /// Stopped early: everybody has left.
+    #[serde(rename = "everybody left")]
+    EverybodyLeft,
+    /// Stopped by an error (see [`RunSummary::error`]).
+    #[serde(rename = "failed")]
+    Failed,
+}
+
+impl std::fmt::Display for RunStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Running => "running",
+            Self::Completed => "completed",
+            Self::EverybodyLeft => "everybody left",
+            Self::Failed => "failed",
+        })
+    }
+}
+
 /// The JSON summary of a run.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct RunSummary {
     /// Scene name.
     pub scene: String,
-    /// `"completed"` (reached `T`), `"everybody left"` (stopped early) or `"failed"`.
-    pub status: String,
+    /// Where the run stands.
+    pub status: RunStatus,
     /// The error, when the run failed.
     pub error: Option<String>,
     /// Backend.
@@ -307,7 +337,6 @@ impl<'a> SummaryCollector<'a> {
             problem,
             summary: RunSummary {
                 scene: scene.to_string(),
-                status: "running".into(),
                 backend: backend.to_string(),
                 people: population.len(),
                 h,
@@ -329,7 +358,7 @@ impl<'a> SummaryCollector<'a> {
     /// Marks the summary as failed with `message` (for errors the stepper never saw, such as
     /// a backend that could not be built).
     pub fn mark_failed(&mut self, message: &str) {
-        self.summary.status = "failed".into();
+        self.summary.status = RunStatus::Failed;
         self.summary.error = Some(message.to_string());
     }
 
@@ -432,15 +461,15 @@ impl Observer for SummaryCollector<'_> {
         };
         match error {
             Some(e) => {
-                s.status = "failed".into();
+                s.status = RunStatus::Failed;
                 s.error = Some(e.to_string());
             }
             None => {
                 let reached_end = s.t_final >= s.t_end - 1e-9 * s.t_end.abs().max(1.0);
                 s.status = if reached_end || s.people_remaining > 0 {
-                    "completed".into()
+                    RunStatus::Completed
                 } else {
-                    "everybody left".into()
+                    RunStatus::EverybodyLeft
                 };
             }
         }
@@ -475,6 +504,26 @@ pub fn steps_between(interval: f64, h: f64) -> usize {
     } else {
         // `as` saturates: 1e300 becomes usize::MAX, not a wrapped value.
         (steps as usize).max(1)
+    }
+}
+
+#[cfg(test)]
+mod status_tests {
+    use super::RunStatus;
+
+    #[test]
+    fn run_status_serializes_to_the_strings_of_summary_json() {
+        for (status, text) in [
+            (RunStatus::Running, "running"),
+            (RunStatus::Completed, "completed"),
+            (RunStatus::EverybodyLeft, "everybody left"),
+            (RunStatus::Failed, "failed"),
+        ] {
+            assert_eq!(serde_json::to_string(&status).unwrap(), format!("\"{text}\""));
+            assert_eq!(status.to_string(), text);
+            let back: RunStatus = serde_json::from_str(&format!("\"{text}\"")).unwrap();
+            assert_eq!(back, status);
+        }
     }
 }
 
