@@ -3,7 +3,9 @@
 
 use crate::assumptions::{BoundsMonitor, MonitorSettings, Policy};
 use crate::backends::{make_projector, BackendChoice};
-use crate::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily, LinearizedRow};
+use crate::constraint::{
+    ConstraintFamily, ConstraintId, ConstraintKernel, KernelFamily, LinearizedRow,
+};
 use crate::error::{SweepError, Violation};
 use crate::stepper::{Run, RunFailure, Stepper, StepperSettings};
 
@@ -191,6 +193,15 @@ impl Problem {
     /// The constraint families.
     pub fn families(&self) -> &[Box<dyn ConstraintFamily>] {
         &self.families
+    }
+
+    /// A constraint named for people: its family's description of the member (for a crowd,
+    /// "no overlap of people 3 and 17").
+    ///
+    /// # Panics
+    /// When `id.family` is not a family of this problem.
+    pub fn describe(&self, id: ConstraintId) -> String {
+        self.families[id.family].describe(id.member)
     }
 
     /// The perturbation.

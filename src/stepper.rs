@@ -29,7 +29,7 @@
 //! fails, the cutoff grows to `2δ` and the step is assembled and solved again, so the result
 //! is always the projection onto every row.
 
-use crate::constraint::LinearizedRow;
+use crate::constraint::{ConstraintId, LinearizedRow};
 pub use crate::error::ObserverError;
 use crate::error::SweepError;
 use crate::problem::Problem;
@@ -174,8 +174,9 @@ pub struct StepReport {
     /// `Q(t_{k+1})` (the linearization is an inner approximation for convex `gᵢ`, so this is of
     /// the order of the solver's tolerance).
     pub max_violation: f64,
-    /// The constraint achieving `max_violation` (empty when none is violated).
-    pub worst_constraint: String,
+    /// The constraint achieving `max_violation` (`None` when none is violated); named by
+    /// [`Problem::describe`].
+    pub worst_constraint: Option<ConstraintId>,
     /// `‖q_{k+1} − q_k‖∞`.
     pub max_displacement: f64,
     /// Statistics of the final solve.
@@ -201,8 +202,10 @@ pub struct RunStats {
     pub max_active: usize,
     /// Largest violation of the true constraints after any step.
     pub max_violation: f64,
-    /// The constraint and time of that violation.
-    pub worst_constraint: String,
+    /// The constraint of that violation (named by [`Problem::describe`]).
+    pub worst_constraint: Option<ConstraintId>,
+    /// The time of that violation.
+    pub worst_time: f64,
 }
 
 impl RunStats {
@@ -216,8 +219,8 @@ impl RunStats {
         self.max_active = self.max_active.max(r.active);
         if r.max_violation > self.max_violation {
             self.max_violation = r.max_violation;
-            self.worst_constraint =
-                format!("{} at t = {}", r.worst_constraint, display_number(r.t));
+            self.worst_constraint = r.worst_constraint;
+            self.worst_time = r.t;
         }
     }
 }
@@ -803,7 +806,7 @@ impl<'p> Stepper<'p> {
     /// `gᵢ(t, q) + ⟨∇gᵢ, x − q⟩ ≥ 0` by the culling proof, and `gᵢ` is convex in `q`, so
     /// `gᵢ(t, x) ≥ gᵢ(t, q) + ⟨∇gᵢ, x − q⟩ ≥ 0`. That makes the check `O(rows)` instead of a
     /// second broad phase. Families that do not cull are checked member by member.
-    fn true_violation(&mut self, t: f64, x: &[f64]) -> (f64, String) {
+    fn true_violation(&mut self, t: f64, x: &[f64]) -> (f64, Option<ConstraintId>) {
         let families = self.problem.families();
         // (value, family, member) of the smallest value seen; a NaN wins over everything.
         let mut worst: Option<(f64, usize, usize)> = None;
@@ -833,10 +836,11 @@ impl<'p> Stepper<'p> {
                 consider(self.lin.value, fi, idx);
             }
         }
+        let id = |family, member| Some(ConstraintId { family, member });
         match worst {
-            Some((v, fi, idx)) if v.is_nan() => (f64::NAN, families[fi].describe(idx)),
-            Some((v, fi, idx)) if v < 0.0 => (-v, families[fi].describe(idx)),
-            _ => (0.0, String::new()),
+            Some((v, fi, idx)) if v.is_nan() => (f64::NAN, id(fi, idx)),
+            Some((v, fi, idx)) if v < 0.0 => (-v, id(fi, idx)),
+            _ => (0.0, None),
         }
     }
 
@@ -946,7 +950,9 @@ impl<'p> Stepper<'p> {
             return Err(SweepError::ViolationTooLarge {
                 step: self.k,
                 t: t_next,
-                constraint: worst_constraint,
+                constraint: worst_constraint
+                    .map(|id| self.problem.describe(id))
+                    .unwrap_or_default(),
                 violation: max_violation,
                 tolerance: self.settings.violation_tolerance,
             });

@@ -170,7 +170,7 @@ fn step_reports_carry_what_the_step_did() {
         }
         assert!(t.total() >= t.projection);
         assert!(r.max_violation >= 0.0 && r.max_violation <= 1e-12);
-        assert!(r.max_violation > 0.0 || r.worst_constraint.is_empty());
+        assert!(r.max_violation > 0.0 || r.worst_constraint.is_none());
         assert_eq!(r.solve.backend, "reference");
         iterations += u64::from(r.iterations);
         rows += r.rows as u64;

@@ -25,7 +25,7 @@ pub use sqlite::{SqliteTrajectoryWriter, DEFAULT_FRAMES_PER_COMMIT, JUPEDSIM_DAT
 pub use svg::{render_svg, SnapshotWriter};
 pub use walkable::WalkableArea;
 
-use crate::constraint::LinearizedRow;
+use crate::constraint::{FamilyKind, LinearizedRow};
 use crate::crowd::Population;
 use crate::error::SweepError;
 use crate::problem::Problem;
@@ -376,7 +376,7 @@ impl<'a> SummaryCollector<'a> {
     fn violations(&mut self, t: f64, q: &[f64]) -> [(f64, String); 2] {
         let mut worst = [(0.0, String::new()), (0.0, String::new())];
         for fam in self.problem.families() {
-            let slot = usize::from(fam.name() != "pairs of people");
+            let slot = usize::from(fam.kind() != FamilyKind::Pairs);
             self.cands.clear();
             fam.candidates(t, q, 0.0, &mut self.cands);
             for &i in &self.cands {

@@ -966,7 +966,7 @@ mod tests {
             iterations: 0,
             times: Default::default(),
             max_violation: 0.0,
-            worst_constraint: String::new(),
+            worst_constraint: None,
             max_displacement: 0.0,
             solve: sweeping_api::SolveStats {
                 backend: "none".into(),
