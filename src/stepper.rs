@@ -47,6 +47,13 @@ pub fn display_number(v: f64) -> String {
     }
 }
 
+/// The number of steps of length `h` that cover `span = T − t₀`: `⌈span/h⌉`, the last one
+/// shortened to land on `T` (a ratio within `1e-9` above an integer counts as that integer,
+/// so that rounding in `T/h` adds no sliver of a step).
+pub fn step_count(span: f64, h: f64) -> usize {
+    ((span / h) - 1e-9).ceil().max(0.0) as usize
+}
+
 /// How the prediction uses `f`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -209,7 +216,8 @@ pub struct RunStats {
 }
 
 impl RunStats {
-    fn absorb(&mut self, r: &StepReport) {
+    /// Adds one step: sums its times and counters, keeps the extremes.
+    pub fn absorb(&mut self, r: &StepReport) {
         self.steps += 1;
         self.times.add(&r.times);
         self.iterations += u64::from(r.iterations);
@@ -436,8 +444,7 @@ impl<'p> Stepper<'p> {
             )));
         }
         problem.validate(settings.feasibility_tolerance)?;
-        let span = settings.t_end - problem.t0();
-        let n_steps = ((span / settings.h) - 1e-9).ceil().max(0.0) as usize;
+        let n_steps = step_count(settings.t_end - problem.t0(), settings.h);
         let dim = problem.dim();
         Ok(Self {
             problem,

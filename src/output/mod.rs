@@ -29,7 +29,7 @@ use crate::constraint::{FamilyKind, LinearizedRow};
 use crate::crowd::Population;
 use crate::error::SweepError;
 use crate::problem::Problem;
-use crate::stepper::{Observer, ObserverError, StageTimes, StepReport};
+use crate::stepper::{Observer, ObserverError, RunStats, StageTimes, StepReport};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -318,6 +318,7 @@ pub struct SummaryCollector<'a> {
     problem: &'a Problem,
     population: Arc<Population>,
     summary: RunSummary,
+    stats: RunStats,
     cands: Vec<usize>,
     row: LinearizedRow,
     last_out: usize,
@@ -344,6 +345,7 @@ impl<'a> SummaryCollector<'a> {
                 ..Default::default()
             },
             population,
+            stats: RunStats::default(),
             cands: Vec::new(),
             row: LinearizedRow::default(),
             last_out: 0,
@@ -426,17 +428,15 @@ impl Observer for SummaryCollector<'_> {
     }
 
     fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
-        let s = &mut self.summary;
-        s.steps += 1;
-        s.seconds_per_stage.effects += r.times.effects;
-        s.seconds_per_stage.broad_phase += r.times.broad_phase;
-        s.seconds_per_stage.assembly += r.times.assembly;
-        s.seconds_per_stage.projection += r.times.projection;
-        s.seconds_per_stage.check += r.times.check;
-        s.solver_iterations += u64::from(r.iterations);
-        s.solves += r.solves as u64;
-        s.max_rows = s.max_rows.max(r.rows);
-        s.max_active = s.max_active.max(r.active);
+        // The run's counters are summed by RunStats, here as in the stepper.
+        self.stats.absorb(r);
+        let (s, st) = (&mut self.summary, &self.stats);
+        s.steps = st.steps;
+        s.seconds_per_stage = st.times;
+        s.solver_iterations = st.iterations;
+        s.solves = st.solves;
+        s.max_rows = st.max_rows;
+        s.max_active = st.max_active;
         self.record(r.t, q);
         Ok(())
     }

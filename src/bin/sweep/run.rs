@@ -150,7 +150,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         h,
         built.output.animation_frames,
     );
-    let n_steps = ((t_end / h) - 1e-9).ceil().max(0.0) as u64;
+    let n_steps = sweeping::stepper::step_count(t_end, h) as u64;
     let bar = if std::io::stderr().is_terminal() {
         ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr())
     } else {
