@@ -16,11 +16,11 @@
 //! instances of one kernel; crowds ship their own families built on the same kernels.
 
 use nalgebra::SVector;
-use serde::{Deserialize, Serialize};
 use num_dual::{
     first_derivative, gradient, hessian, partial_hessian, Dual2SVec64, Dual64, DualNum, DualSVec64,
     HyperDualSVec64,
 };
+use serde::{Deserialize, Serialize};
 
 /// The scalar a constraint is written over: a num-dual number on `f64` (plain `f64`, or any
 /// dual number the library differentiates with). An alias of `DualNum<Primitive = f64> + Copy`,

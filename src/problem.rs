@@ -209,24 +209,57 @@ impl Problem {
         self.perturbation.as_ref()
     }
 
+    /// Calls `f(family, id, row)` for every candidate of every family at `(t, q)`, linearized
+    /// (with `∂ₜg` if `want_dt`): the one place where "each family's candidates, then their
+    /// linearization" is written. `cutoff(family)` is the value cutoff passed to
+    /// [`ConstraintFamily::candidates`], or `None` to skip the family. `scratch` holds the
+    /// buffers, so that a caller looping over states allocates nothing once warm. Stops at the
+    /// first `Err` of `f`.
+    ///
+    /// # Errors
+    /// The first error `f` returns.
+    pub fn for_each_linearized<E>(
+        &self,
+        t: f64,
+        q: &[f64],
+        mut cutoff: impl FnMut(&dyn ConstraintFamily) -> Option<f64>,
+        want_dt: bool,
+        scratch: &mut LinearizeScratch,
+        mut f: impl FnMut(&dyn ConstraintFamily, ConstraintId, &LinearizedRow) -> Result<(), E>,
+    ) -> Result<(), E> {
+        for (family, fam) in self.families.iter().enumerate() {
+            let Some(c) = cutoff(fam.as_ref()) else {
+                continue;
+            };
+            scratch.cands.clear();
+            fam.candidates(t, q, c, &mut scratch.cands);
+            for &member in &scratch.cands {
+                fam.linearize(member, t, q, want_dt, &mut scratch.row);
+                f(fam.as_ref(), ConstraintId { family, member }, &scratch.row)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Smallest `gᵢ(t, q)` over all constraints (found through the families' candidates, so
     /// without enumerating far-apart pairs), with the constraint's description; `None` when
     /// no constraint lies within `cutoff` of violation.
     pub fn min_constraint(&self, t: f64, q: &[f64], cutoff: f64) -> Option<(f64, String)> {
-        let mut best: Option<(f64, String)> = None;
-        let mut cands = Vec::new();
-        let mut row = LinearizedRow::default();
-        for fam in &self.families {
-            cands.clear();
-            fam.candidates(t, q, cutoff, &mut cands);
-            for &i in &cands {
-                fam.linearize(i, t, q, false, &mut row);
-                if best.as_ref().is_none_or(|(v, _)| row.value < *v) {
-                    best = Some((row.value, fam.describe(i)));
+        let mut best: Option<(f64, ConstraintId)> = None;
+        let _ = self.for_each_linearized(
+            t,
+            q,
+            |_| Some(cutoff),
+            false,
+            &mut LinearizeScratch::default(),
+            |_, id, row| {
+                if best.is_none_or(|(v, _)| row.value < v) {
+                    best = Some((row.value, id));
                 }
-            }
-        }
-        best
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
+        best.map(|(v, id)| (v, self.describe(id)))
     }
 
     /// Checks dimensions, finiteness and `q₀ ∈ Q(t₀)` up to `tolerance` (`gᵢ ≥ −tolerance`).
@@ -271,21 +304,22 @@ impl Problem {
             )));
         }
         let mut violations = Vec::new();
-        let mut cands = Vec::new();
-        let mut row = LinearizedRow::default();
-        for fam in &self.families {
-            cands.clear();
-            fam.candidates(self.t0, &self.q0, 0.0, &mut cands);
-            for &i in &cands {
-                fam.linearize(i, self.t0, &self.q0, false, &mut row);
+        let _ = self.for_each_linearized(
+            self.t0,
+            &self.q0,
+            |_| Some(0.0),
+            false,
+            &mut LinearizeScratch::default(),
+            |fam, id, row| {
                 if !row.value.is_finite() || row.value < -tolerance {
                     violations.push(Violation {
-                        constraint: fam.describe(i),
+                        constraint: fam.describe(id.member),
                         value: row.value,
                     });
                 }
-            }
-        }
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
         if violations.is_empty() {
             return Ok(());
         }
@@ -296,4 +330,12 @@ impl Problem {
             violations,
         })
     }
+}
+
+/// The buffers of [`Problem::for_each_linearized`] (candidates and one row), reused across
+/// calls.
+#[derive(Debug, Clone, Default)]
+pub struct LinearizeScratch {
+    cands: Vec<usize>,
+    row: LinearizedRow,
 }

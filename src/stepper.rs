@@ -32,7 +32,7 @@
 use crate::constraint::{ConstraintId, LinearizedRow};
 pub use crate::error::ObserverError;
 use crate::error::SweepError;
-use crate::problem::Problem;
+use crate::problem::{LinearizeScratch, Problem};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use sweeping_api::{Projection, ProjectionProblem, Projector, SolveStats, SparseRows};
@@ -389,6 +389,7 @@ pub struct Stepper<'p> {
     row_origin: Vec<(usize, usize)>,
     cands: Vec<usize>,
     lin: LinearizedRow,
+    scratch: LinearizeScratch,
     families: Vec<FamilyState>,
 }
 
@@ -459,6 +460,7 @@ impl<'p> Stepper<'p> {
             row_origin: Vec::new(),
             cands: Vec::new(),
             lin: LinearizedRow::default(),
+            scratch: LinearizeScratch::default(),
             families: problem
                 .families()
                 .iter()
@@ -832,17 +834,17 @@ impl<'p> Stepper<'p> {
                 consider(self.lin.value, fi, idx);
             }
         }
-        for (fi, fam) in families.iter().enumerate() {
-            if fam.culls() {
-                continue;
-            }
-            self.cands.clear();
-            fam.candidates(t, x, 0.0, &mut self.cands);
-            for &idx in &self.cands {
-                fam.linearize(idx, t, x, false, &mut self.lin);
-                consider(self.lin.value, fi, idx);
-            }
-        }
+        let _ = self.problem.for_each_linearized(
+            t,
+            x,
+            |fam| (!fam.culls()).then_some(0.0),
+            false,
+            &mut self.scratch,
+            |_, id, row| {
+                consider(row.value, id.family, id.member);
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
         let id = |family, member| Some(ConstraintId { family, member });
         match worst {
             Some((v, fi, idx)) if v.is_nan() => (f64::NAN, id(fi, idx)),

@@ -20,7 +20,7 @@ use super::{
     concave_direction, describe_point, second_order_norms, symmetric_spectral_norm,
     AssumptionReport, CONVEXITY_MEANING,
 };
-use crate::constraint::LinearizedRow;
+use crate::constraint::ConstraintFamily;
 use crate::error::SweepError;
 use crate::problem::Problem;
 use crate::stepper::{Observer, ObserverError, StepReport};
@@ -297,8 +297,7 @@ pub struct BoundsMonitor<'p> {
     invalid: Option<SweepError>,
     convexity_explained: bool,
     printed: std::collections::HashSet<(String, String)>,
-    cands: Vec<usize>,
-    row: LinearizedRow,
+    scratch: crate::problem::LinearizeScratch,
     near: Vec<(f64, usize, usize)>,
 }
 
@@ -319,8 +318,7 @@ impl<'p> BoundsMonitor<'p> {
             checks: 0,
             second_order_checks: 0,
             states_seen: 0,
-            cands: Vec::new(),
-            row: LinearizedRow::default(),
+            scratch: Default::default(),
             near: Vec::new(),
         }
     }
@@ -392,28 +390,33 @@ impl<'p> BoundsMonitor<'p> {
             self.verify_affine_claims(step, t, q, &mut found);
         }
         self.near.clear();
-        for (fi, fam) in problem.families().iter().enumerate() {
-            self.cands.clear();
-            // At the start, a family that does not cull (user constraints) is checked whole,
-            // however far from contact: a constraint that is wrong everywhere is caught before
-            // the state gets near it.
-            let whole = start && !fam.culls();
-            let cutoff = if whole {
+        // At the start, a family that does not cull (user constraints) is checked whole,
+        // however far from contact: a constraint that is wrong everywhere is caught before
+        // the state gets near it.
+        let neighbourhood = self.settings.neighbourhood;
+        let cutoff = |fam: &dyn ConstraintFamily| {
+            Some(if start && !fam.culls() {
                 f64::INFINITY
             } else {
-                self.settings.neighbourhood
-            };
-            fam.candidates(t, q, cutoff, &mut self.cands);
-            let want_dt = b.beta.is_some() && fam.is_time_dependent();
-            for ci in 0..self.cands.len() {
-                let idx = self.cands[ci];
-                fam.linearize(idx, t, q, want_dt, &mut self.row);
-                if !whole && not_within(self.row.value, self.settings.neighbourhood) {
-                    continue;
+                neighbourhood
+            })
+        };
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let _ = problem.for_each_linearized(
+            t,
+            q,
+            cutoff,
+            b.beta.is_some(),
+            &mut scratch,
+            |fam, id, row| {
+                let (fi, idx) = (id.family, id.member);
+                let whole = start && !fam.culls();
+                if !whole && not_within(row.value, self.settings.neighbourhood) {
+                    return Ok(());
                 }
                 self.checks += 1;
-                let grad = self.row.gradient_norm();
-                let dt = self.row.dt.unwrap_or(0.0).abs();
+                let grad = row.gradient_norm();
+                let dt = row.dt.unwrap_or(0.0).abs();
                 let mk = |assumption: &str, quantity: &str, bound_name: &str, bound, value| {
                     BoundViolation {
                         step,
@@ -441,10 +444,12 @@ impl<'p> BoundsMonitor<'p> {
                     }
                 }
                 if second {
-                    self.near.push((self.row.value, fi, idx));
+                    self.near.push((row.value, fi, idx));
                 }
-            }
-        }
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
+        self.scratch = scratch;
         if second {
             self.near.sort_by(|x, y| x.0.total_cmp(&y.0));
             if !start {

@@ -25,10 +25,10 @@ pub use sqlite::{SqliteTrajectoryWriter, DEFAULT_FRAMES_PER_COMMIT, JUPEDSIM_DAT
 pub use svg::{render_svg, SnapshotWriter};
 pub use walkable::WalkableArea;
 
-use crate::constraint::{FamilyKind, LinearizedRow};
+use crate::constraint::{ConstraintId, FamilyKind};
 use crate::crowd::Population;
 use crate::error::SweepError;
-use crate::problem::Problem;
+use crate::problem::{LinearizeScratch, Problem};
 use crate::stepper::{Observer, ObserverError, RunStats, StageTimes, StepReport};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -319,8 +319,7 @@ pub struct SummaryCollector<'a> {
     population: Arc<Population>,
     summary: RunSummary,
     stats: RunStats,
-    cands: Vec<usize>,
-    row: LinearizedRow,
+    scratch: LinearizeScratch,
     last_out: usize,
 }
 
@@ -346,8 +345,7 @@ impl<'a> SummaryCollector<'a> {
             },
             population,
             stats: RunStats::default(),
-            cands: Vec::new(),
-            row: LinearizedRow::default(),
+            scratch: LinearizeScratch::default(),
             last_out: 0,
         }
     }
@@ -376,19 +374,27 @@ impl<'a> SummaryCollector<'a> {
     /// The most negative value of the constraints of each kind at `(t, q)`: pairs of people,
     /// and walls or obstacles.
     fn violations(&mut self, t: f64, q: &[f64]) -> [(f64, String); 2] {
-        let mut worst = [(0.0, String::new()), (0.0, String::new())];
-        for fam in self.problem.families() {
-            let slot = usize::from(fam.kind() != FamilyKind::Pairs);
-            self.cands.clear();
-            fam.candidates(t, q, 0.0, &mut self.cands);
-            for &i in &self.cands {
-                fam.linearize(i, t, q, false, &mut self.row);
-                if -self.row.value > worst[slot].0 {
-                    worst[slot] = (-self.row.value, fam.describe(i));
+        let mut worst: [(f64, Option<ConstraintId>); 2] = [(0.0, None), (0.0, None)];
+        let _ = self.problem.for_each_linearized(
+            t,
+            q,
+            |_| Some(0.0),
+            false,
+            &mut self.scratch,
+            |fam, id, row| {
+                let slot = usize::from(fam.kind() != FamilyKind::Pairs);
+                if -row.value > worst[slot].0 {
+                    worst[slot] = (-row.value, Some(id));
                 }
-            }
-        }
-        worst
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
+        worst.map(|(v, id)| {
+            (
+                v,
+                id.map(|id| self.problem.describe(id)).unwrap_or_default(),
+            )
+        })
     }
 
     fn record(&mut self, t: f64, q: &[f64]) {
@@ -519,7 +525,10 @@ mod status_tests {
             (RunStatus::EverybodyLeft, "everybody left"),
             (RunStatus::Failed, "failed"),
         ] {
-            assert_eq!(serde_json::to_string(&status).unwrap(), format!("\"{text}\""));
+            assert_eq!(
+                serde_json::to_string(&status).unwrap(),
+                format!("\"{text}\"")
+            );
             assert_eq!(status.to_string(), text);
             let back: RunStatus = serde_json::from_str(&format!("\"{text}\"")).unwrap();
             assert_eq!(back, status);
