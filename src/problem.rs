@@ -169,6 +169,16 @@ impl Problem {
         self.families.push(family);
     }
 
+    /// Replaces the family at `index` (of [`families`](Self::families)): the same constraints
+    /// assembled another way, such as a crowd's pairs without culling
+    /// ([`DiskPairs::all_pairs`](crate::crowd::DiskPairs::all_pairs)).
+    ///
+    /// # Panics
+    /// When `index` is not a family of this problem.
+    pub fn replace_family(&mut self, index: usize, family: Box<dyn ConstraintFamily>) {
+        self.families[index] = family;
+    }
+
     /// Sets the initial time (default 0).
     pub fn with_start_time(mut self, t0: f64) -> Self {
         self.t0 = t0;

@@ -6,6 +6,8 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sweeping::api::conformance::ReferenceProjector;
+use sweeping::constraint::FamilyKind;
+use sweeping::crowd::DiskPairs;
 use sweeping::scene::{BuiltScene, Overrides, Scene};
 use sweeping::stepper::Stepper;
 
@@ -13,13 +15,22 @@ use sweeping::stepper::Stepper;
 const GAP: f64 = 1e-6;
 
 fn build(text: &str, all_pairs: bool) -> BuiltScene {
-    Scene::from_toml_str(text, "random scene")
+    let mut built = Scene::from_toml_str(text, "random scene")
         .unwrap()
-        .build(&Overrides {
-            all_pairs,
-            ..Default::default()
-        })
-        .unwrap()
+        .build(&Overrides::default())
+        .unwrap();
+    if all_pairs {
+        // The same pairs, every one assembled at every step: the reference of culling.
+        let pairs = built
+            .problem
+            .families()
+            .iter()
+            .position(|f| f.kind() == FamilyKind::Pairs)
+            .expect("a crowd of two or more has a pair family");
+        let every_pair = DiskPairs::all_pairs(built.population.clone());
+        built.problem.replace_family(pairs, Box::new(every_pair));
+    }
+    built
 }
 
 /// Steps both versions in lockstep; returns (largest gap, rows culled, rows all-pairs).

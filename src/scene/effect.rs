@@ -16,12 +16,10 @@ pub enum Effect {
         /// How many.
         people: usize,
     },
-    /// The non-overlap constraints of the pairs of people.
+    /// The non-overlap constraints of the pairs of people, near pairs found by a grid.
     Pairs {
         /// People.
         people: usize,
-        /// Whether near pairs are found by a grid (`false`: every pair is assembled).
-        culled: bool,
     },
     /// Static wall segments.
     Walls {
@@ -52,17 +50,7 @@ impl std::fmt::Display for Effect {
                 f,
                 "{people} people without a desired velocity (they stand still)"
             ),
-            Self::Pairs {
-                people,
-                culled: false,
-            } => write!(
-                f,
-                "pairs of people: {people} people, every pair assembled (no culling)"
-            ),
-            Self::Pairs {
-                people,
-                culled: true,
-            } => write!(
+            Self::Pairs { people } => write!(
                 f,
                 "pairs of people: {people} people, near pairs found by a uniform grid"
             ),
@@ -85,10 +73,7 @@ mod tests {
 
     #[test]
     fn effects_print_the_lines_sweep_check_shows() {
-        let pairs = Effect::Pairs {
-            people: 40,
-            culled: true,
-        };
+        let pairs = Effect::Pairs { people: 40 };
         assert_eq!(
             pairs.to_string(),
             "pairs of people: 40 people, near pairs found by a uniform grid"

@@ -95,9 +95,6 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// Backend.
     pub backend: Option<BackendChoice>,
-    /// Assemble every pair of people at every step (no culling): the reference of the culling
-    /// tests. Default `false`.
-    pub all_pairs: bool,
 }
 
 /// An obstacle as drawn: its shape at `t = 0` and its motion.
@@ -959,19 +956,8 @@ impl Scene {
         let n = positions.len();
         let mut problem = Problem::new(q0, velocity);
         if n >= 2 {
-            if overrides.all_pairs {
-                problem.push_family(Box::new(DiskPairs::all_pairs(population.clone())));
-                effects.push(Effect::Pairs {
-                    people: n,
-                    culled: false,
-                });
-            } else {
-                problem.push_family(Box::new(DiskPairs::new(population.clone())));
-                effects.push(Effect::Pairs {
-                    people: n,
-                    culled: true,
-                });
-            }
+            problem.push_family(Box::new(DiskPairs::new(population.clone())));
+            effects.push(Effect::Pairs { people: n });
         }
         if !walls.is_empty() {
             let shapes = walls

@@ -77,7 +77,6 @@ pub fn main(args: RunArgs) -> Result<()> {
         t_end: args.t_end,
         seed: args.seed,
         backend: args.backend,
-        all_pairs: false,
     };
     let out = args
         .out
