@@ -24,7 +24,7 @@
 //! `Q̃_C`, it is the closest point of `Q̃`: the projection onto all rows. A family omits only
 //! members with `gᵢ(t_{k+1}, q_k) > cutoff` (its candidate contract), and bounds
 //! `|⟨∇gᵢ, x − q_k⟩| ≤ δ` for all of them at once
-//! ([`ConstraintFamily::linearization_drift_bound`]); an omitted row then has
+//! ([`ConstraintFamily::linearization_drift_bound`](crate::constraint::ConstraintFamily::linearization_drift_bound)); an omitted row then has
 //! `gᵢ + ⟨∇gᵢ, x − q_k⟩ > cutoff − δ`, which is `≥ 0` when `δ ≤ cutoff`. When the bound
 //! fails, the cutoff grows to `2δ` and the step is assembled and solved again, so the result
 //! is always the projection onto every row.
