@@ -349,3 +349,81 @@ pub struct LinearizeScratch {
     cands: Vec<usize>,
     row: LinearizedRow,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::constraint::Scalar;
+
+    /// `x_k ≥ 0` for one coordinate.
+    struct NonNegative;
+    impl ConstraintKernel<1> for NonNegative {
+        type Params = ();
+        fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D {
+            z[0]
+        }
+        fn is_time_dependent(&self) -> bool {
+            false
+        }
+        fn is_affine(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn for_each_linearized_names_every_candidate_and_skips_families_without_cutoff() {
+        let mut first = KernelFamily::new("first", NonNegative);
+        first.push([0], (), "x0");
+        first.push([1], (), "x1");
+        let problem = Problem::new(vec![2.0, -1.0, 0.5], crate::problem::NoPerturbation)
+            .with_family(first)
+            .with_family(KernelFamily::single("second", NonNegative, [2]));
+        let mut seen = Vec::new();
+        let mut scratch = LinearizeScratch::default();
+        let all = |_: &dyn ConstraintFamily| Some(f64::INFINITY);
+        let _ = problem.for_each_linearized(
+            0.0,
+            problem.q0(),
+            all,
+            false,
+            &mut scratch,
+            |_, id, row| {
+                seen.push((id, row.value));
+                Ok::<(), ()>(())
+            },
+        );
+        let id = |family, member| ConstraintId { family, member };
+        assert_eq!(
+            seen,
+            vec![(id(0, 0), 2.0), (id(0, 1), -1.0), (id(1, 0), 0.5)]
+        );
+        assert_eq!(problem.describe(id(0, 1)), "first #1 (x1)");
+        // A family whose cutoff is None is skipped; an Err stops the walk.
+        seen.clear();
+        let second_only = |f: &dyn ConstraintFamily| (f.name() == "second").then_some(0.0);
+        let _ = problem.for_each_linearized(
+            0.0,
+            problem.q0(),
+            second_only,
+            false,
+            &mut scratch,
+            |_, id, row| {
+                seen.push((id, row.value));
+                Ok::<(), ()>(())
+            },
+        );
+        // (A family that does not cull returns every member, whatever the cutoff.)
+        assert_eq!(seen, vec![(id(1, 0), 0.5)]);
+        let mut calls = 0;
+        let stopped =
+            problem.for_each_linearized(0.0, problem.q0(), all, false, &mut scratch, |_, _, _| {
+                calls += 1;
+                Err("stop")
+            });
+        assert_eq!((stopped, calls), (Err("stop"), 1));
+        assert_eq!(
+            problem.min_constraint(0.0, problem.q0(), f64::INFINITY),
+            Some((-1.0, "first #1 (x1)".to_string()))
+        );
+    }
+}
