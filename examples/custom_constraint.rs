@@ -43,7 +43,7 @@ impl Observer for ContactSteps {
     fn name(&self) -> &str {
         "contact counter"
     }
-    fn on_step(&mut self, report: &StepReport, _q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, _q: &[f64]) -> Result<(), ObserverError> {
         if report.active > 0 {
             self.0 += 1;
         }

@@ -55,20 +55,14 @@ impl BackendChoice {
 }
 
 impl std::str::FromStr for BackendChoice {
-    type Err = String;
+    type Err = BackendError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "clarabel" => Ok(Self::Clarabel),
-            "osqp" => Ok(Self::Osqp),
-            "cross" => Ok(Self::Cross),
-            "reference" => Ok(Self::Reference),
-            "native" => Ok(Self::Native),
-            "cross-native" => Ok(Self::CrossNative),
-            other => Err(format!(
-                "unknown backend `{other}` (expected clarabel, osqp, native, cross, cross-native \
-                 or reference)"
-            )),
-        }
+        Self::ALL
+            .into_iter()
+            .find(|b| b.to_string() == s)
+            .ok_or_else(|| BackendError::Unknown {
+                name: s.to_string(),
+            })
     }
 }
 
@@ -113,6 +107,18 @@ pub fn native_projector() -> NativeProjector {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum BackendError {
+    /// The backend takes no tolerance (the cross-check runs both backends at their defaults).
+    #[error("backend `{backend}` takes no tolerance: the cross-check runs both backends at their defaults")]
+    NoTolerance {
+        /// The backend asked for.
+        backend: BackendChoice,
+    },
+    /// No backend has this name.
+    #[error("unknown backend `{name}` (expected clarabel, osqp, cross or reference)")]
+    Unknown {
+        /// The name given.
+        name: String,
+    },
     /// The backend's cargo feature is off in this build.
     #[error("backend `{backend}` is not compiled in: build with `--features {features}`")]
     NotCompiled {
@@ -162,5 +168,70 @@ pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, Backe
     }
 }
 
+/// Builds the chosen backend with its accuracy tolerances set to `tolerance` (OSQP:
+/// `eps_abs = eps_rel`; Clarabel: `tol_gap_abs = tol_gap_rel = tol_feas`; reference: its KKT
+/// tolerance), or with its default (tight) settings when `tolerance` is `None`.
+///
+/// # Errors
+/// [`BackendError::NotCompiled`] when the backend's cargo feature is off;
+/// [`BackendError::NoTolerance`] for a tolerance asked of the cross-check (which runs both
+/// backends at their defaults).
+pub fn make_projector_with_tolerance(
+    choice: BackendChoice,
+    tolerance: Option<f64>,
+) -> Result<Box<dyn Projector>, BackendError> {
+    let Some(tol) = tolerance else {
+        return make_projector(choice);
+    };
+    match choice {
+        BackendChoice::Reference => Ok(Box::new(sweeping_api::conformance::ReferenceProjector {
+            tolerance: tol,
+            ..Default::default()
+        })),
+        #[cfg(feature = "osqp")]
+        BackendChoice::Osqp => Ok(Box::new(OsqpProjector::new(OsqpSettings {
+            eps_abs: tol,
+            eps_rel: tol,
+            ..Default::default()
+        }))),
+        #[cfg(feature = "clarabel")]
+        BackendChoice::Clarabel => Ok(Box::new(ClarabelProjector::new(ClarabelSettings {
+            tol_gap_abs: tol,
+            tol_gap_rel: tol,
+            tol_feas: tol,
+            ..Default::default()
+        }))),
+        #[cfg(feature = "native")]
+        BackendChoice::Native => {
+            let mut native = native_projector();
+            native.settings.kkt_tolerance = tol;
+            Ok(Box::new(native))
+        }
+        BackendChoice::Cross | BackendChoice::CrossNative => {
+            Err(BackendError::NoTolerance { backend: choice })
+        }
+        #[allow(unreachable_patterns)]
+        other => make_projector(other),
+    }
+}
+
 #[allow(unused_imports)]
 use CrossCheck as _;
+
+#[cfg(test)]
+mod tests {
+    use super::{BackendChoice, BackendError};
+
+    #[test]
+    fn backend_names_round_trip_and_unknown_names_are_typed_errors() {
+        for b in BackendChoice::ALL {
+            assert_eq!(b.to_string().parse::<BackendChoice>(), Ok(b));
+        }
+        assert_eq!(
+            "gurobi".parse::<BackendChoice>(),
+            Err(BackendError::Unknown {
+                name: "gurobi".into()
+            })
+        );
+    }
+}

@@ -20,6 +20,7 @@ use num_dual::{
     first_derivative, gradient, hessian, partial_hessian, Dual2SVec64, Dual64, DualNum, DualSVec64,
     HyperDualSVec64,
 };
+use serde::{Deserialize, Serialize};
 
 /// The scalar a constraint is written over: a num-dual number on `f64` (plain `f64`, or any
 /// dual number the library differentiates with). An alias of `DualNum<Primitive = f64> + Copy`,
@@ -352,7 +353,47 @@ pub struct SecondOrderData {
     pub dt_gradient: Vec<f64>,
 }
 
-/// A family of constraints `gᵢ(t, q) ≥ 0`, indexed by family-defined identifiers.
+/// The identity of one constraint of a [`Problem`](crate::problem::Problem): the index of
+/// its family in [`Problem::families`](crate::problem::Problem::families) and its member index
+/// in that family. Copy and allocation-free; [`Problem::describe`](crate::problem::Problem::describe)
+/// names it for people.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct ConstraintId {
+    /// Index of the family in the problem.
+    pub family: usize,
+    /// Member index in the family (see [`ConstraintFamily::member_bound`]).
+    pub member: usize,
+}
+
+impl std::fmt::Display for ConstraintId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "family {}, member {}", self.family, self.member)
+    }
+}
+
+/// What a family's constraints keep apart, for reports that tell overlaps of people from
+/// penetrations into walls and obstacles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[non_exhaustive]
+pub enum FamilyKind {
+    /// Pairs of people that may not overlap.
+    Pairs,
+    /// People kept out of walls or obstacles.
+    PersonShapes,
+    /// Anything else (user constraints).
+    #[default]
+    Other,
+}
+
+/// A family of constraints `gᵢ(t, q) ≥ 0`, indexed by family-defined member indices.
+///
+/// # Members
+/// A family has [`count`](Self::count) constraints, each named by a member index below
+/// [`member_bound`](Self::member_bound). The two are equal for a family numbering its members
+/// `0..count()` (the default); a family may number them sparsely (the pairs `(i, j)`, `i < j`,
+/// of `N` people are the `N(N−1)/2` members `i·N + j`, below `N²`: see
+/// [`DiskPairs::pair`](crate::crowd::DiskPairs::pair)), and must then override
+/// [`candidates`](Self::candidates) and `member_bound`.
 ///
 /// Object-safe: a problem holds `Box<dyn ConstraintFamily>`s. The generic code (the stepper,
 /// the assumption checks) asks a family for *candidates* near a configuration and for the
@@ -371,8 +412,19 @@ pub trait ConstraintFamily: Send + Sync {
     /// Name of the family, for reports ("disk pairs", "walls", "user: ellipse"…).
     fn name(&self) -> &str;
 
+    /// What the family keeps apart. Default [`FamilyKind::Other`].
+    fn kind(&self) -> FamilyKind {
+        FamilyKind::Other
+    }
+
     /// Number of constraints in the family.
     fn count(&self) -> usize;
+
+    /// Every member index is below this bound. Default [`count`](Self::count): members
+    /// `0..count()`.
+    fn member_bound(&self) -> usize {
+        self.count()
+    }
 
     /// Whether any member depends on `t`.
     fn is_time_dependent(&self) -> bool;

@@ -145,6 +145,18 @@ pub enum SweepError {
         /// Its error on the rescaled QP.
         second: String,
     },
+    /// The culling proof of a step (module docs of [`crate::stepper`]) still failed after
+    /// [`StepperSettings::max_cull_retries`](crate::stepper::StepperSettings) re-solves: a
+    /// family's drift bound grows faster than its cutoff.
+    #[error("step {step}, t = {}: the culling proof still failed after {solves} solves; a family's drift bound grows faster than its cutoff", display_number(*t))]
+    CullingFailed {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// Solves made.
+        solves: usize,
+    },
     /// An observer failed (for instance, writing a file).
     #[error("step {step}, t = {}: observer {observer} failed: {message}", display_number(*t))]
     Observer {
@@ -157,4 +169,52 @@ pub enum SweepError {
         /// What it reported.
         message: String,
     },
+}
+
+/// Why an [`Observer`](crate::stepper::Observer) stopped a run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ObserverError {
+    /// The observer could not do its work (a file it could not write…); the run stops with
+    /// [`SweepError::Observer`], which adds the observer's name, the step and the time.
+    #[error("{0}")]
+    Failed(String),
+    /// The observer stops the run with an error of the library, returned as is (the run-time
+    /// assumption monitor stops with [`SweepError::AssumptionViolated`]).
+    #[error(transparent)]
+    Stop(Box<SweepError>),
+}
+
+impl From<String> for ObserverError {
+    fn from(message: String) -> Self {
+        Self::Failed(message)
+    }
+}
+
+impl From<&str> for ObserverError {
+    fn from(message: &str) -> Self {
+        Self::Failed(message.to_string())
+    }
+}
+
+impl From<SweepError> for ObserverError {
+    fn from(e: SweepError) -> Self {
+        Self::Stop(Box::new(e))
+    }
+}
+
+impl ObserverError {
+    /// The error the run stops with: a [`Stop`](Self::Stop) as is, a
+    /// [`Failed`](Self::Failed) as [`SweepError::Observer`] naming `observer`, `step` and `t`.
+    pub fn into_sweep_error(self, observer: &str, step: usize, t: f64) -> SweepError {
+        match self {
+            Self::Stop(e) => *e,
+            Self::Failed(message) => SweepError::Observer {
+                step,
+                t,
+                observer: observer.to_string(),
+                message,
+            },
+        }
+    }
 }

@@ -56,7 +56,7 @@ pub mod prelude {
     pub use crate::error::SweepError;
     pub use crate::problem::{NoPerturbation, Perturbation, Problem};
     pub use crate::stepper::{
-        Observer, Prediction, Run, RunFailure, StepReport, Stepper, StepperSettings,
+        Observer, ObserverError, Prediction, Run, RunFailure, StepReport, Stepper, StepperSettings,
     };
     pub use num_dual::DualNum;
     pub use sweeping_api::conformance::ReferenceProjector;

@@ -3,7 +3,9 @@
 
 use crate::assumptions::{BoundsMonitor, MonitorSettings, Policy};
 use crate::backends::{make_projector, BackendChoice};
-use crate::constraint::{ConstraintFamily, ConstraintKernel, KernelFamily, LinearizedRow};
+use crate::constraint::{
+    ConstraintFamily, ConstraintId, ConstraintKernel, KernelFamily, LinearizedRow,
+};
 use crate::error::{SweepError, Violation};
 use crate::stepper::{Run, RunFailure, Stepper, StepperSettings};
 
@@ -168,6 +170,16 @@ impl Problem {
         self.families.push(family);
     }
 
+    /// Replaces the family at `index` (of [`families`](Self::families)): the same constraints
+    /// assembled another way, such as a crowd's pairs without culling
+    /// ([`DiskPairs::all_pairs`](crate::crowd::DiskPairs::all_pairs)).
+    ///
+    /// # Panics
+    /// When `index` is not a family of this problem.
+    pub fn replace_family(&mut self, index: usize, family: Box<dyn ConstraintFamily>) {
+        self.families[index] = family;
+    }
+
     /// Sets the initial time (default 0).
     pub fn with_start_time(mut self, t0: f64) -> Self {
         self.t0 = t0;
@@ -194,29 +206,71 @@ impl Problem {
         &self.families
     }
 
+    /// A constraint named for people: its family's description of the member (for a crowd,
+    /// "no overlap of people 3 and 17").
+    ///
+    /// # Panics
+    /// When `id.family` is not a family of this problem.
+    pub fn describe(&self, id: ConstraintId) -> String {
+        self.families[id.family].describe(id.member)
+    }
+
     /// The perturbation.
     pub fn perturbation(&self) -> &dyn Perturbation {
         self.perturbation.as_ref()
+    }
+
+    /// Calls `f(family, id, row)` for every candidate of every family at `(t, q)`, linearized
+    /// (with `∂ₜg` if `want_dt`): the one place where "each family's candidates, then their
+    /// linearization" is written. `cutoff(family)` is the value cutoff passed to
+    /// [`ConstraintFamily::candidates`], or `None` to skip the family. `scratch` holds the
+    /// buffers, so that a caller looping over states allocates nothing once warm. Stops at the
+    /// first `Err` of `f`.
+    ///
+    /// # Errors
+    /// The first error `f` returns.
+    pub fn for_each_linearized<E>(
+        &self,
+        t: f64,
+        q: &[f64],
+        mut cutoff: impl FnMut(&dyn ConstraintFamily) -> Option<f64>,
+        want_dt: bool,
+        scratch: &mut LinearizeScratch,
+        mut f: impl FnMut(&dyn ConstraintFamily, ConstraintId, &LinearizedRow) -> Result<(), E>,
+    ) -> Result<(), E> {
+        for (family, fam) in self.families.iter().enumerate() {
+            let Some(c) = cutoff(fam.as_ref()) else {
+                continue;
+            };
+            scratch.cands.clear();
+            fam.candidates(t, q, c, &mut scratch.cands);
+            for &member in &scratch.cands {
+                fam.linearize(member, t, q, want_dt, &mut scratch.row);
+                f(fam.as_ref(), ConstraintId { family, member }, &scratch.row)?;
+            }
+        }
+        Ok(())
     }
 
     /// Smallest `gᵢ(t, q)` over all constraints (found through the families' candidates, so
     /// without enumerating far-apart pairs), with the constraint's description; `None` when
     /// no constraint lies within `cutoff` of violation.
     pub fn min_constraint(&self, t: f64, q: &[f64], cutoff: f64) -> Option<(f64, String)> {
-        let mut best: Option<(f64, String)> = None;
-        let mut cands = Vec::new();
-        let mut row = LinearizedRow::default();
-        for fam in &self.families {
-            cands.clear();
-            fam.candidates(t, q, cutoff, &mut cands);
-            for &i in &cands {
-                fam.linearize(i, t, q, false, &mut row);
-                if best.as_ref().is_none_or(|(v, _)| row.value < *v) {
-                    best = Some((row.value, fam.describe(i)));
+        let mut best: Option<(f64, ConstraintId)> = None;
+        let _ = self.for_each_linearized(
+            t,
+            q,
+            |_| Some(cutoff),
+            false,
+            &mut LinearizeScratch::default(),
+            |_, id, row| {
+                if best.is_none_or(|(v, _)| row.value < v) {
+                    best = Some((row.value, id));
                 }
-            }
-        }
-        best
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
+        best.map(|(v, id)| (v, self.describe(id)))
     }
 
     /// Checks dimensions, finiteness and `q₀ ∈ Q(t₀)` up to `tolerance` (`gᵢ ≥ −tolerance`).
@@ -261,21 +315,22 @@ impl Problem {
             )));
         }
         let mut violations = Vec::new();
-        let mut cands = Vec::new();
-        let mut row = LinearizedRow::default();
-        for fam in &self.families {
-            cands.clear();
-            fam.candidates(self.t0, &self.q0, 0.0, &mut cands);
-            for &i in &cands {
-                fam.linearize(i, self.t0, &self.q0, false, &mut row);
+        let _ = self.for_each_linearized(
+            self.t0,
+            &self.q0,
+            |_| Some(0.0),
+            false,
+            &mut LinearizeScratch::default(),
+            |fam, id, row| {
                 if !row.value.is_finite() || row.value < -tolerance {
                     violations.push(Violation {
-                        constraint: fam.describe(i),
+                        constraint: fam.describe(id.member),
                         value: row.value,
                     });
                 }
-            }
-        }
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
         if violations.is_empty() {
             return Ok(());
         }
@@ -285,5 +340,91 @@ impl Problem {
             t: self.t0,
             violations,
         })
+    }
+}
+
+/// The buffers of [`Problem::for_each_linearized`] (candidates and one row), reused across
+/// calls.
+#[derive(Debug, Clone, Default)]
+pub struct LinearizeScratch {
+    cands: Vec<usize>,
+    row: LinearizedRow,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::constraint::Scalar;
+
+    /// `x_k ≥ 0` for one coordinate.
+    struct NonNegative;
+    impl ConstraintKernel<1> for NonNegative {
+        type Params = ();
+        fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D {
+            z[0]
+        }
+        fn is_time_dependent(&self) -> bool {
+            false
+        }
+        fn is_affine(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn for_each_linearized_names_every_candidate_and_skips_families_without_cutoff() {
+        let mut first = KernelFamily::new("first", NonNegative);
+        first.push([0], (), "x0");
+        first.push([1], (), "x1");
+        let problem = Problem::new(vec![2.0, -1.0, 0.5], crate::problem::NoPerturbation)
+            .with_family(first)
+            .with_family(KernelFamily::single("second", NonNegative, [2]));
+        let mut seen = Vec::new();
+        let mut scratch = LinearizeScratch::default();
+        let all = |_: &dyn ConstraintFamily| Some(f64::INFINITY);
+        let _ = problem.for_each_linearized(
+            0.0,
+            problem.q0(),
+            all,
+            false,
+            &mut scratch,
+            |_, id, row| {
+                seen.push((id, row.value));
+                Ok::<(), ()>(())
+            },
+        );
+        let id = |family, member| ConstraintId { family, member };
+        assert_eq!(
+            seen,
+            vec![(id(0, 0), 2.0), (id(0, 1), -1.0), (id(1, 0), 0.5)]
+        );
+        assert_eq!(problem.describe(id(0, 1)), "first #1 (x1)");
+        // A family whose cutoff is None is skipped; an Err stops the walk.
+        seen.clear();
+        let second_only = |f: &dyn ConstraintFamily| (f.name() == "second").then_some(0.0);
+        let _ = problem.for_each_linearized(
+            0.0,
+            problem.q0(),
+            second_only,
+            false,
+            &mut scratch,
+            |_, id, row| {
+                seen.push((id, row.value));
+                Ok::<(), ()>(())
+            },
+        );
+        // (A family that does not cull returns every member, whatever the cutoff.)
+        assert_eq!(seen, vec![(id(1, 0), 0.5)]);
+        let mut calls = 0;
+        let stopped =
+            problem.for_each_linearized(0.0, problem.q0(), all, false, &mut scratch, |_, _, _| {
+                calls += 1;
+                Err("stop")
+            });
+        assert_eq!((stopped, calls), (Err("stop"), 1));
+        assert_eq!(
+            problem.min_constraint(0.0, problem.q0(), f64::INFINITY),
+            Some((-1.0, "first #1 (x1)".to_string()))
+        );
     }
 }

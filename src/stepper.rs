@@ -24,14 +24,15 @@
 //! `Q̃_C`, it is the closest point of `Q̃`: the projection onto all rows. A family omits only
 //! members with `gᵢ(t_{k+1}, q_k) > cutoff` (its candidate contract), and bounds
 //! `|⟨∇gᵢ, x − q_k⟩| ≤ δ` for all of them at once
-//! ([`ConstraintFamily::linearization_drift_bound`]); an omitted row then has
+//! ([`ConstraintFamily::linearization_drift_bound`](crate::constraint::ConstraintFamily::linearization_drift_bound)); an omitted row then has
 //! `gᵢ + ⟨∇gᵢ, x − q_k⟩ > cutoff − δ`, which is `≥ 0` when `δ ≤ cutoff`. When the bound
 //! fails, the cutoff grows to `2δ` and the step is assembled and solved again, so the result
 //! is always the projection onto every row.
 
-use crate::constraint::{ConstraintFamily, LinearizedRow};
+use crate::constraint::{ConstraintId, LinearizedRow};
+pub use crate::error::ObserverError;
 use crate::error::SweepError;
-use crate::problem::Problem;
+use crate::problem::{LinearizeScratch, Problem};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use sweeping_api::{Projection, ProjectionProblem, Projector, RowKey, SolveStats, SparseRows};
@@ -44,6 +45,13 @@ pub fn display_number(v: f64) -> String {
     } else {
         format!("{v}")
     }
+}
+
+/// The number of steps of length `h` that cover `span = T − t₀`: `⌈span/h⌉`, the last one
+/// shortened to land on `T` (a ratio within `1e-9` above an integer counts as that integer,
+/// so that rounding in `T/h` adds no sliver of a step).
+pub fn step_count(span: f64, h: f64) -> usize {
+    ((span / h) - 1e-9).ceil().max(0.0) as usize
 }
 
 /// How the prediction uses `f`.
@@ -177,8 +185,9 @@ pub struct StepReport {
     /// `Q(t_{k+1})` (the linearization is an inner approximation for convex `gᵢ`, so this is of
     /// the order of the solver's tolerance).
     pub max_violation: f64,
-    /// The constraint achieving `max_violation` (empty when none is violated).
-    pub worst_constraint: String,
+    /// The constraint achieving `max_violation` (`None` when none is violated); named by
+    /// [`Problem::describe`].
+    pub worst_constraint: Option<ConstraintId>,
     /// `‖q_{k+1} − q_k‖∞`.
     pub max_displacement: f64,
     /// Statistics of the final solve.
@@ -207,12 +216,15 @@ pub struct RunStats {
     pub max_active: usize,
     /// Largest violation of the true constraints after any step.
     pub max_violation: f64,
-    /// The constraint and time of that violation.
-    pub worst_constraint: String,
+    /// The constraint of that violation (named by [`Problem::describe`]).
+    pub worst_constraint: Option<ConstraintId>,
+    /// The time of that violation.
+    pub worst_time: f64,
 }
 
 impl RunStats {
-    fn absorb(&mut self, r: &StepReport) {
+    /// Adds one step: sums its times and counters, keeps the extremes.
+    pub fn absorb(&mut self, r: &StepReport) {
         self.steps += 1;
         self.times.add(&r.times);
         self.iterations += u64::from(r.iterations);
@@ -223,8 +235,8 @@ impl RunStats {
         self.max_active = self.max_active.max(r.active);
         if r.max_violation > self.max_violation {
             self.max_violation = r.max_violation;
-            self.worst_constraint =
-                format!("{} at t = {}", r.worst_constraint, display_number(r.t));
+            self.worst_constraint = r.worst_constraint;
+            self.worst_time = r.t;
         }
     }
 }
@@ -293,12 +305,12 @@ impl std::error::Error for RunFailure {
 /// implements only what it needs; `()` is the observer that does nothing.
 ///
 /// ```
-/// use sweeping::stepper::{Observer, StepReport};
+/// use sweeping::stepper::{Observer, ObserverError, StepReport};
 /// /// Counts steps whose projection had an active constraint.
 /// #[derive(Default)]
 /// struct ContactSteps(usize);
 /// impl Observer for ContactSteps {
-///     fn on_step(&mut self, report: &StepReport, _q: &[f64]) -> Result<(), String> {
+///     fn on_step(&mut self, report: &StepReport, _q: &[f64]) -> Result<(), ObserverError> {
 ///         if report.active > 0 { self.0 += 1; }
 ///         Ok(())
 ///     }
@@ -312,16 +324,17 @@ pub trait Observer {
     /// Called once before the first step with `(t₀, q₀)`.
     ///
     /// # Errors
-    /// A message; the run stops with [`SweepError::Observer`].
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    /// An [`ObserverError`]; the run stops with it (see
+    /// [`ObserverError::into_sweep_error`]).
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         let _ = (t, q);
         Ok(())
     }
     /// Called after every step with its report and `q_{k+1}`.
     ///
     /// # Errors
-    /// A message; the run stops with [`SweepError::Observer`].
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    /// An [`ObserverError`]; the run stops with it.
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let _ = (report, q);
         Ok(())
     }
@@ -329,18 +342,10 @@ pub trait Observer {
     /// writers can flush what they have).
     ///
     /// # Errors
-    /// A message; reported if the run had not already failed.
-    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+    /// An [`ObserverError`]; reported if the run had not already failed.
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let _ = error;
         Ok(())
-    }
-    /// The typed error behind the `Err` that [`on_start`](Self::on_start) or
-    /// [`on_step`](Self::on_step) just returned, if the observer has one; the run then stops
-    /// with it instead of [`SweepError::Observer`]. The run-time assumption monitor
-    /// ([`crate::assumptions::BoundsMonitor`]) reports [`SweepError::AssumptionViolated`] this
-    /// way. Default `None`.
-    fn take_error(&mut self) -> Option<SweepError> {
-        None
     }
 }
 
@@ -392,6 +397,7 @@ pub struct Stepper<'p> {
     row_origin: Vec<(usize, usize)>,
     cands: Vec<usize>,
     lin: LinearizedRow,
+    scratch: LinearizeScratch,
     families: Vec<FamilyState>,
 }
 
@@ -447,8 +453,7 @@ impl<'p> Stepper<'p> {
             )));
         }
         problem.validate(settings.feasibility_tolerance)?;
-        let span = settings.t_end - problem.t0();
-        let n_steps = ((span / settings.h) - 1e-9).ceil().max(0.0) as usize;
+        let n_steps = step_count(settings.t_end - problem.t0(), settings.h);
         let dim = problem.dim();
         Ok(Self {
             problem,
@@ -463,6 +468,7 @@ impl<'p> Stepper<'p> {
             row_origin: Vec::new(),
             cands: Vec::new(),
             lin: LinearizedRow::default(),
+            scratch: LinearizeScratch::default(),
             families: problem
                 .families()
                 .iter()
@@ -506,11 +512,6 @@ impl<'p> Stepper<'p> {
         } else {
             self.problem.t0() + k as f64 * self.settings.h
         }
-    }
-
-    /// The last assembled QP (after a step: the one whose solution is the current state).
-    pub fn last_projection_problem(&self) -> Option<ProjectionProblem> {
-        ProjectionProblem::new(self.y.clone(), self.rows.clone(), self.b.clone()).ok()
     }
 
     /// The prediction `y = q_k + h f(t_k, q_k)` (or its averaged form) into `self.y`.
@@ -832,7 +833,7 @@ impl<'p> Stepper<'p> {
     /// `gᵢ(t, q) + ⟨∇gᵢ, x − q⟩ ≥ 0` by the culling proof, and `gᵢ` is convex in `q`, so
     /// `gᵢ(t, x) ≥ gᵢ(t, q) + ⟨∇gᵢ, x − q⟩ ≥ 0`. That makes the check `O(rows)` instead of a
     /// second broad phase. Families that do not cull are checked member by member.
-    fn true_violation(&mut self, t: f64, x: &[f64]) -> (f64, String) {
+    fn true_violation(&mut self, t: f64, x: &[f64]) -> (f64, Option<ConstraintId>) {
         let families = self.problem.families();
         // (value, family, member) of the smallest value seen; a NaN wins over everything.
         let mut worst: Option<(f64, usize, usize)> = None;
@@ -851,21 +852,22 @@ impl<'p> Stepper<'p> {
                 consider(self.lin.value, fi, idx);
             }
         }
-        for (fi, fam) in families.iter().enumerate() {
-            if fam.culls() {
-                continue;
-            }
-            self.cands.clear();
-            fam.candidates(t, x, 0.0, &mut self.cands);
-            for &idx in &self.cands {
-                fam.linearize(idx, t, x, false, &mut self.lin);
-                consider(self.lin.value, fi, idx);
-            }
-        }
+        let _ = self.problem.for_each_linearized(
+            t,
+            x,
+            |fam| (!fam.culls()).then_some(0.0),
+            false,
+            &mut self.scratch,
+            |_, id, row| {
+                consider(row.value, id.family, id.member);
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
+        let id = |family, member| Some(ConstraintId { family, member });
         match worst {
-            Some((v, fi, idx)) if v.is_nan() => (f64::NAN, families[fi].describe(idx)),
-            Some((v, fi, idx)) if v < 0.0 => (-v, families[fi].describe(idx)),
-            _ => (0.0, String::new()),
+            Some((v, fi, idx)) if v.is_nan() => (f64::NAN, id(fi, idx)),
+            Some((v, fi, idx)) if v < 0.0 => (-v, id(fi, idx)),
+            _ => (0.0, None),
         }
     }
 
@@ -964,11 +966,11 @@ impl<'p> Stepper<'p> {
                 break sol;
             }
             if solves > self.settings.max_cull_retries {
-                return Err(SweepError::InvalidInput(format!(
-                    "step {}, t = {t_next}: the culling proof still failed after {solves} solves; \
-                     a family's drift bound grows faster than its cutoff",
-                    self.k
-                )));
+                return Err(SweepError::CullingFailed {
+                    step: self.k,
+                    t: t_next,
+                    solves,
+                });
             }
         };
 
@@ -988,7 +990,9 @@ impl<'p> Stepper<'p> {
             return Err(SweepError::ViolationTooLarge {
                 step: self.k,
                 t: t_next,
-                constraint: worst_constraint,
+                constraint: worst_constraint
+                    .map(|id| self.problem.describe(id))
+                    .unwrap_or_default(),
                 violation: max_violation,
                 tolerance: self.settings.violation_tolerance,
             });
@@ -1059,13 +1063,8 @@ impl<'p> Stepper<'p> {
             })
         };
         for o in observers.iter_mut() {
-            if let Err(message) = o.on_start(self.t, &self.q) {
-                let e = o.take_error().unwrap_or_else(|| SweepError::Observer {
-                    step: 0,
-                    t: self.t,
-                    observer: o.name().to_string(),
-                    message,
-                });
+            if let Err(e) = o.on_start(self.t, &self.q) {
+                let e = e.into_sweep_error(o.name(), 0, self.t);
                 return Err(fail(run, e, observers));
             }
         }
@@ -1084,13 +1083,8 @@ impl<'p> Stepper<'p> {
                 run.trajectory.states.push(self.q.clone());
             }
             for o in observers.iter_mut() {
-                if let Err(message) = o.on_step(&report, &self.q) {
-                    let e = o.take_error().unwrap_or_else(|| SweepError::Observer {
-                        step: report.step,
-                        t: report.t,
-                        observer: o.name().to_string(),
-                        message,
-                    });
+                if let Err(e) = o.on_step(&report, &self.q) {
+                    let e = e.into_sweep_error(o.name(), report.step, report.t);
                     return Err(fail(run, e, observers));
                 }
             }
@@ -1099,15 +1093,10 @@ impl<'p> Stepper<'p> {
             }
         }
         for o in observers.iter_mut() {
-            if let Err(message) = o.on_finish(None) {
-                let e = SweepError::Observer {
-                    step: self.k,
-                    t: self.t,
-                    observer: o.name().to_string(),
-                    message,
-                };
+            if let Err(e) = o.on_finish(None) {
+                let error = e.into_sweep_error(o.name(), self.k, self.t);
                 return Err(Box::new(RunFailure {
-                    error: e,
+                    error,
                     partial: run,
                 }));
             }
@@ -1142,19 +1131,6 @@ fn gauss_legendre(points: usize) -> (Vec<f64>, Vec<f64>) {
             let wb = (322.0 - 13.0 * 70f64.sqrt()) / 900.0;
             (vec![-b, -a, 0.0, a, b], vec![wb, wa, 128.0 / 225.0, wa, wb])
         }
-    }
-}
-
-/// Which family and member produced each row of the last assembled QP.
-impl Stepper<'_> {
-    /// `(family index, member index)` for every row of the last QP.
-    pub fn row_origins(&self) -> &[(usize, usize)] {
-        &self.row_origin
-    }
-
-    /// The families of the problem.
-    pub fn families(&self) -> &[Box<dyn ConstraintFamily>] {
-        self.problem.families()
     }
 }
 

@@ -6,6 +6,8 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sweeping::api::conformance::ReferenceProjector;
+use sweeping::constraint::FamilyKind;
+use sweeping::crowd::DiskPairs;
 use sweeping::scene::{BuiltScene, Overrides, Scene};
 use sweeping::stepper::Stepper;
 
@@ -13,13 +15,22 @@ use sweeping::stepper::Stepper;
 const GAP: f64 = 1e-6;
 
 fn build(text: &str, all_pairs: bool) -> BuiltScene {
-    Scene::from_toml_str(text, "random scene")
+    let mut built = Scene::from_toml_str(text, "random scene")
         .unwrap()
-        .build(&Overrides {
-            all_pairs,
-            ..Default::default()
-        })
-        .unwrap()
+        .build(&Overrides::default())
+        .unwrap();
+    if all_pairs {
+        // The same pairs, every one assembled at every step: the reference of culling.
+        let pairs = built
+            .problem
+            .families()
+            .iter()
+            .position(|f| f.kind() == FamilyKind::Pairs)
+            .expect("a crowd of two or more has a pair family");
+        let every_pair = DiskPairs::all_pairs(built.population.clone());
+        built.problem.replace_family(pairs, Box::new(every_pair));
+    }
+    built
 }
 
 /// Steps both versions in lockstep; returns (largest gap, rows culled, rows all-pairs).
@@ -186,9 +197,86 @@ fn the_true_constraint_check_on_assembled_rows_finds_the_worst_violation() {
             );
             if full > 0.0 {
                 found += 1;
-                assert!(!report.worst_constraint.is_empty());
+                assert!(report.worst_constraint.is_some());
             }
         }
         assert!(found > 0, "seed {seed}: no step violated anything\n{text}");
+    }
+}
+
+/// A family that claims to cull and whose drift bound grows fourfold at every call: the proof
+/// can never close, and the step fails with its own error, not `InvalidInput`.
+#[test]
+fn a_culling_proof_that_never_closes_is_a_culling_error() {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    use sweeping::constraint::{LinearizedRow, SecondOrderData};
+    use sweeping::prelude::*;
+
+    struct Floor;
+    impl ConstraintKernel<1> for Floor {
+        type Params = ();
+        fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D {
+            z[0]
+        }
+        fn is_time_dependent(&self) -> bool {
+            false
+        }
+        fn is_affine(&self) -> bool {
+            true
+        }
+    }
+    struct Runaway {
+        inner: KernelFamily<Floor, 1>,
+        calls: AtomicU32,
+    }
+    impl ConstraintFamily for Runaway {
+        fn name(&self) -> &str {
+            "runaway"
+        }
+        fn count(&self) -> usize {
+            self.inner.count()
+        }
+        fn is_time_dependent(&self) -> bool {
+            false
+        }
+        fn is_affine(&self) -> bool {
+            true
+        }
+        fn describe(&self, index: usize) -> String {
+            self.inner.describe(index)
+        }
+        fn culls(&self) -> bool {
+            true
+        }
+        fn linearization_drift_bound(&self, _t: f64, _q: &[f64], _x: &[f64]) -> f64 {
+            4f64.powi(self.calls.fetch_add(1, Ordering::Relaxed) as i32)
+        }
+        fn linearize(&self, i: usize, t: f64, q: &[f64], dt: bool, out: &mut LinearizedRow) {
+            self.inner.linearize(i, t, q, dt, out);
+        }
+        fn second_order(&self, i: usize, t: f64, q: &[f64]) -> SecondOrderData {
+            self.inner.second_order(i, t, q)
+        }
+        fn min_dimension(&self) -> usize {
+            self.inner.min_dimension()
+        }
+    }
+    let problem = Problem::new(vec![1.0], NoPerturbation).with_family(Runaway {
+        inner: KernelFamily::single("floor", Floor, [0]),
+        calls: AtomicU32::new(0),
+    });
+    let settings = StepperSettings {
+        h: 0.1,
+        t_end: 0.1,
+        max_cull_retries: 2,
+        ..Default::default()
+    };
+    let mut stepper = Stepper::new(&problem, settings).unwrap();
+    match stepper.step(&mut ReferenceProjector::default()) {
+        Err(SweepError::CullingFailed { step, t, solves }) => {
+            assert_eq!((step, solves), (0, 3));
+            assert!((t - 0.1).abs() < 1e-12);
+        }
+        other => panic!("expected CullingFailed, got {other:?}"),
     }
 }

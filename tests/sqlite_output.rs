@@ -15,7 +15,7 @@ use sweeping::output::{
     prepare_output_dir, OutputError, SqliteTrajectoryWriter, TrajectoryFormat, WalkableArea,
 };
 use sweeping::scene::{BuiltScene, Overrides, Scene};
-use sweeping::stepper::{Observer, StepReport};
+use sweeping::stepper::{Observer, ObserverError, StepReport};
 
 /// A 4 m × 4 m room with a 1 m door, 12 people heading out: some leave during the run.
 const SCENE: &str = r#"
@@ -88,11 +88,11 @@ impl Expected {
 }
 
 impl Observer for Expected {
-    fn on_start(&mut self, _t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, _t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.record(0, q);
         Ok(())
     }
-    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let k = r.step + 1;
         if k.is_multiple_of(self.every) {
             self.record((k / self.every) as i64, q);
@@ -104,7 +104,7 @@ impl Observer for Expected {
 /// Fails at step `k` (its `on_step` returns an error), like a full disk or a violated bound.
 struct FailAt(usize);
 impl Observer for FailAt {
-    fn on_step(&mut self, r: &StepReport, _q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, r: &StepReport, _q: &[f64]) -> Result<(), ObserverError> {
         if r.step + 1 == self.0 {
             Err("injected failure".into())
         } else {
@@ -116,7 +116,7 @@ impl Observer for FailAt {
 /// Panics at step `k`: the process would die with the writer's transaction open.
 struct PanicAt(usize);
 impl Observer for PanicAt {
-    fn on_step(&mut self, r: &StepReport, _q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, r: &StepReport, _q: &[f64]) -> Result<(), ObserverError> {
         assert!(r.step + 1 != self.0, "injected panic");
         Ok(())
     }

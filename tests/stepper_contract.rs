@@ -80,13 +80,13 @@ impl Observer for Recorder {
     fn name(&self) -> &str {
         &self.name
     }
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.log.borrow_mut().push(format!("{}:start", self.name));
         self.states.push(q.to_vec());
         assert!(t.abs() < 1e-300);
         Ok(())
     }
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.log
             .borrow_mut()
             .push(format!("{}:{}", self.name, report.step));
@@ -97,7 +97,7 @@ impl Observer for Recorder {
         }
         Ok(())
     }
-    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         self.log.borrow_mut().push(format!("{}:finish", self.name));
         self.finished_with = Some(error.cloned());
         Ok(())
@@ -170,7 +170,7 @@ fn step_reports_carry_what_the_step_did() {
         }
         assert!(t.total() >= t.projection);
         assert!(r.max_violation >= 0.0 && r.max_violation <= 1e-12);
-        assert!(r.max_violation > 0.0 || r.worst_constraint.is_empty());
+        assert!(r.max_violation > 0.0 || r.worst_constraint.is_none());
         assert_eq!(r.solve.backend, "reference");
         iterations += u64::from(r.iterations);
         rows += r.rows as u64;

@@ -63,7 +63,7 @@ pub use monitor::{
     BoundViolation, Bounds, BoundsMonitor, MonitorSettings, Policy, AFFINE_CLAIM, CONVEXITY,
 };
 
-use crate::constraint::{ConstraintFamily, LinearizedRow, SecondOrderData};
+use crate::constraint::{ConstraintFamily, SecondOrderData};
 use crate::error::SweepError;
 use crate::problem::Problem;
 use crate::stepper::Trajectory;
@@ -667,8 +667,7 @@ pub fn estimate_problem(
     let mut notes: Vec<String> = Vec::new();
     let mut evaluations = 0usize;
     let cutoff = s.neighbourhood.max(s.rho);
-    let mut cands = Vec::new();
-    let mut row = LinearizedRow::default();
+    let mut scratch = crate::problem::LinearizeScratch::default();
     let mut probe_q: Vec<f64> = Vec::new();
     let mut infeasible_reported = 0usize;
     let mut a1_reported = 0usize;
@@ -704,13 +703,16 @@ pub fn estimate_problem(
         let t = *t;
         let mut near: Vec<Near> = Vec::new();
         let mut worst_violation: Option<(f64, String)> = None;
-        for (fi, fam) in problem.families().iter().enumerate() {
-            cands.clear();
-            fam.candidates(t, q, cutoff, &mut cands);
-            for &idx in &cands {
-                fam.linearize(idx, t, q, false, &mut row);
+        let _ = problem.for_each_linearized(
+            t,
+            q,
+            |_| Some(cutoff),
+            false,
+            &mut scratch,
+            |fam, id, row| {
+                let (fi, idx) = (id.family, id.member);
                 if monitor::not_within(row.value, cutoff) {
-                    continue;
+                    return Ok(());
                 }
                 if row.value < -s.feasibility_tolerance
                     && worst_violation.as_ref().is_none_or(|w| row.value < w.0)
@@ -718,7 +720,7 @@ pub fn estimate_problem(
                     worst_violation = Some((row.value, fam.describe(idx)));
                 }
                 let so = fam.second_order(idx, t, q);
-                let norms = second_order_norms(fam.as_ref(), &so);
+                let norms = second_order_norms(fam, &so);
                 let mut evals = vec![(norms, so.value)];
                 if s.probe_depth > 0.0 && norms.grad > 0.0 {
                     probe_q.clear();
@@ -727,7 +729,7 @@ pub fn estimate_problem(
                         probe_q[*c] -= s.probe_depth * g / norms.grad;
                     }
                     let sp = fam.second_order(idx, t, &probe_q);
-                    evals.push((second_order_norms(fam.as_ref(), &sp), sp.value));
+                    evals.push((second_order_norms(fam, &sp), sp.value));
                 }
                 for (e, (nm, value)) in evals.iter().enumerate() {
                     evaluations += 1;
@@ -786,8 +788,9 @@ pub fn estimate_problem(
                         },
                     });
                 }
-            }
-        }
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
         if let Some((v, name)) = worst_violation {
             infeasible_reported += 1;
             if infeasible_reported <= 10 {

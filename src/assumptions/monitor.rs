@@ -12,18 +12,18 @@
 //! a family that does not cull (user constraints) is checked however far from contact, and a
 //! family that declares itself affine has that claim verified once (`D²g = 0`).
 //!
-//! An observer was chosen over a hook inside the stepper: the stepper stays unchanged but for
-//! one additive method, [`Observer::take_error`], through which the monitor hands the run its
-//! typed [`SweepError::AssumptionViolated`] instead of the generic observer error.
+//! An observer was chosen over a hook inside the stepper: the stepper stays unchanged, and the
+//! monitor stops the run with its typed [`SweepError::AssumptionViolated`] through
+//! [`ObserverError::Stop`].
 
 use super::{
     concave_direction, describe_point, second_order_norms, symmetric_spectral_norm,
     AssumptionReport, CONVEXITY_MEANING,
 };
-use crate::constraint::LinearizedRow;
+use crate::constraint::ConstraintFamily;
 use crate::error::SweepError;
 use crate::problem::Problem;
-use crate::stepper::{Observer, StepReport};
+use crate::stepper::{Observer, ObserverError, StepReport};
 use serde::{Deserialize, Serialize};
 
 /// `true` unless `a ≤ b` (so a NaN is never within a bound).
@@ -294,12 +294,10 @@ pub struct BoundsMonitor<'p> {
     checks: usize,
     second_order_checks: usize,
     states_seen: usize,
-    pending: Option<SweepError>,
     invalid: Option<SweepError>,
     convexity_explained: bool,
     printed: std::collections::HashSet<(String, String)>,
-    cands: Vec<usize>,
-    row: LinearizedRow,
+    scratch: crate::problem::LinearizeScratch,
     near: Vec<(f64, usize, usize)>,
 }
 
@@ -320,9 +318,7 @@ impl<'p> BoundsMonitor<'p> {
             checks: 0,
             second_order_checks: 0,
             states_seen: 0,
-            pending: None,
-            cands: Vec::new(),
-            row: LinearizedRow::default(),
+            scratch: Default::default(),
             near: Vec::new(),
         }
     }
@@ -394,28 +390,33 @@ impl<'p> BoundsMonitor<'p> {
             self.verify_affine_claims(step, t, q, &mut found);
         }
         self.near.clear();
-        for (fi, fam) in problem.families().iter().enumerate() {
-            self.cands.clear();
-            // At the start, a family that does not cull (user constraints) is checked whole,
-            // however far from contact: a constraint that is wrong everywhere is caught before
-            // the state gets near it.
-            let whole = start && !fam.culls();
-            let cutoff = if whole {
+        // At the start, a family that does not cull (user constraints) is checked whole,
+        // however far from contact: a constraint that is wrong everywhere is caught before
+        // the state gets near it.
+        let neighbourhood = self.settings.neighbourhood;
+        let cutoff = |fam: &dyn ConstraintFamily| {
+            Some(if start && !fam.culls() {
                 f64::INFINITY
             } else {
-                self.settings.neighbourhood
-            };
-            fam.candidates(t, q, cutoff, &mut self.cands);
-            let want_dt = b.beta.is_some() && fam.is_time_dependent();
-            for ci in 0..self.cands.len() {
-                let idx = self.cands[ci];
-                fam.linearize(idx, t, q, want_dt, &mut self.row);
-                if !whole && not_within(self.row.value, self.settings.neighbourhood) {
-                    continue;
+                neighbourhood
+            })
+        };
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let _ = problem.for_each_linearized(
+            t,
+            q,
+            cutoff,
+            b.beta.is_some(),
+            &mut scratch,
+            |fam, id, row| {
+                let (fi, idx) = (id.family, id.member);
+                let whole = start && !fam.culls();
+                if !whole && not_within(row.value, self.settings.neighbourhood) {
+                    return Ok(());
                 }
                 self.checks += 1;
-                let grad = self.row.gradient_norm();
-                let dt = self.row.dt.unwrap_or(0.0).abs();
+                let grad = row.gradient_norm();
+                let dt = row.dt.unwrap_or(0.0).abs();
                 let mk = |assumption: &str, quantity: &str, bound_name: &str, bound, value| {
                     BoundViolation {
                         step,
@@ -443,10 +444,12 @@ impl<'p> BoundsMonitor<'p> {
                     }
                 }
                 if second {
-                    self.near.push((self.row.value, fi, idx));
+                    self.near.push((row.value, fi, idx));
                 }
-            }
-        }
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
+        self.scratch = scratch;
         if second {
             self.near.sort_by(|x, y| x.0.total_cmp(&y.0));
             if !start {
@@ -563,19 +566,13 @@ impl<'p> BoundsMonitor<'p> {
         }
     }
 
-    fn observe(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), String> {
+    fn observe(&mut self, step: usize, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         if self.settings.policy != Policy::Off {
             if let Some(e) = self.invalid.take() {
-                let message = e.to_string();
-                self.pending = Some(e);
-                return Err(message);
+                return Err(e.into());
             }
         }
-        self.check(step, t, q).map_err(|v| {
-            let message = v.to_string();
-            self.pending = Some(v.to_error());
-            message
-        })
+        self.check(step, t, q).map_err(|v| v.to_error().into())
     }
 }
 
@@ -584,16 +581,12 @@ impl Observer for BoundsMonitor<'_> {
         "assumption monitor"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.observe(0, t, q)
     }
 
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.observe(report.step, report.t, q)
-    }
-
-    fn take_error(&mut self) -> Option<SweepError> {
-        self.pending.take()
     }
 }
 

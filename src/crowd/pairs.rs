@@ -2,7 +2,8 @@
 
 use super::Population;
 use crate::constraint::{
-    linearize, second_order, ConstraintFamily, ConstraintKernel, LinearizedRow, SecondOrderData,
+    linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
+    SecondOrderData,
 };
 use num_dual::DualNum;
 use std::sync::{Arc, Mutex};
@@ -26,7 +27,9 @@ impl ConstraintKernel<4> for DiskPairKernel {
     }
 }
 
-/// All pairs of a crowd as one family; member `i·N + j` (`i < j`) is the pair `(i, j)`.
+/// All pairs of a crowd as one family: [`count`](ConstraintFamily::count) is the `N(N−1)/2`
+/// pairs, and the pair `(i, j)`, `i < j`, is member `i·N + j` ([`member`](Self::member),
+/// [`pair`](Self::pair)), below [`member_bound`](ConstraintFamily::member_bound) `= N²`.
 ///
 /// Candidates come from a uniform grid of cell size `2 r_max + cutoff`, so a pair within the
 /// cutoff lies in the same or a neighbouring cell: `O(N)` work for a crowd of bounded density,
@@ -61,8 +64,15 @@ impl DiskPairs {
         self.population.len()
     }
 
-    fn pair(&self, index: usize) -> (usize, usize) {
-        (index / self.n(), index % self.n())
+    /// The people `(i, j)`, `i < j`, of pair `member`.
+    pub fn pair(&self, member: usize) -> (usize, usize) {
+        (member / self.n(), member % self.n())
+    }
+
+    /// The member index of the pair of people `i` and `j` (in either order).
+    pub fn member(&self, i: usize, j: usize) -> usize {
+        let (i, j) = if i < j { (i, j) } else { (j, i) };
+        i * self.n() + j
     }
 
     fn gather(q: &[f64], i: usize, j: usize) -> [f64; 4] {
@@ -87,7 +97,7 @@ impl DiskPairs {
                     - pop.radius(i)
                     - pop.radius(j);
                 if d <= cutoff {
-                    out.push(i * n + j);
+                    out.push(self.member(i, j));
                 }
             }
         }
@@ -245,9 +255,17 @@ impl ConstraintFamily for DiskPairs {
         "pairs of people"
     }
 
+    fn kind(&self) -> FamilyKind {
+        FamilyKind::Pairs
+    }
+
     fn count(&self) -> usize {
         let n = self.n();
         n * n.saturating_sub(1) / 2
+    }
+
+    fn member_bound(&self) -> usize {
+        self.n() * self.n()
     }
 
     fn is_time_dependent(&self) -> bool {
@@ -290,7 +308,7 @@ impl ConstraintFamily for DiskPairs {
             let present: Vec<usize> = (0..n).filter(|&i| pop.is_present(q, i)).collect();
             for (a, &i) in present.iter().enumerate() {
                 for &j in &present[a + 1..] {
-                    out.push(i * n + j);
+                    out.push(self.member(i, j));
                 }
             }
             return;
@@ -307,9 +325,8 @@ impl ConstraintFamily for DiskPairs {
             d <= cutoff
         };
         grid.for_each_near_pair(|a, b| {
-            let (i, j) = if a < b { (a, b) } else { (b, a) };
-            if pair_within(i, j) {
-                out.push(i * n + j);
+            if pair_within(a, b) {
+                out.push(self.member(a, b));
             }
         });
     }
@@ -362,5 +379,40 @@ impl ConstraintFamily for DiskPairs {
 
     fn min_dimension(&self) -> usize {
         2 * self.n()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The family's numbering, one contract: `count()` pairs, each a member below
+    /// `member_bound()` that `pair` decodes; the grid finds exactly the brute-force pairs.
+    #[test]
+    fn members_are_pairs_below_the_bound_and_the_grid_misses_none() {
+        let n = 30;
+        let pop = Arc::new(Population::new(vec![0.2; n]));
+        let fam = DiskPairs::new(pop);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let q: Vec<f64> = (0..2 * n).map(|_| rng.gen_range(0.0..4.0)).collect();
+        let mut all = Vec::new();
+        fam.candidates(0.0, &q, f64::INFINITY, &mut all);
+        assert_eq!(all.len(), fam.count());
+        for &m in &all {
+            assert!(m < fam.member_bound());
+            let (i, j) = fam.pair(m);
+            assert!(i < j && j < n);
+            assert_eq!(fam.member(j, i), m);
+        }
+        for cutoff in [0.0, 0.3, 1.0] {
+            let mut grid = Vec::new();
+            fam.candidates(0.0, &q, cutoff, &mut grid);
+            grid.sort_unstable();
+            let mut brute = fam.brute_force_candidates(&q, cutoff);
+            brute.sort_unstable();
+            assert_eq!(grid, brute, "cutoff {cutoff}");
+        }
     }
 }

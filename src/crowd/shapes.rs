@@ -2,7 +2,8 @@
 
 use super::Population;
 use crate::constraint::{
-    linearize, second_order, ConstraintFamily, ConstraintKernel, LinearizedRow, SecondOrderData,
+    linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
+    SecondOrderData,
 };
 use num_dual::DualNum;
 use serde::{Deserialize, Serialize};
@@ -195,6 +196,10 @@ impl PersonShapes {
 impl ConstraintFamily for PersonShapes {
     fn name(&self) -> &str {
         &self.name
+    }
+
+    fn kind(&self) -> FamilyKind {
+        FamilyKind::PersonShapes
     }
 
     fn count(&self) -> usize {

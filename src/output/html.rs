@@ -5,7 +5,7 @@ use super::svg::{frame, obstacle_element, static_layer, xml_escape, PALETTE, PAL
 use crate::crowd::Population;
 use crate::error::SweepError;
 use crate::scene::SceneGeometry;
-use crate::stepper::{Observer, StepReport};
+use crate::stepper::{Observer, ObserverError, StepReport};
 use std::fmt::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -279,13 +279,13 @@ impl Observer for AnimationWriter {
         "animation writer"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.record(t, q);
         self.next = t + self.interval;
         Ok(())
     }
 
-    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         if r.t >= self.next - 1e-9 * self.next.abs().max(1.0) {
             self.record(r.t, q);
             self.last = None;
@@ -296,10 +296,11 @@ impl Observer for AnimationWriter {
         Ok(())
     }
 
-    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
         if let Some((t, q)) = self.last.take() {
             self.record(t, &q);
         }
-        std::fs::write(&self.path, self.html()).map_err(|e| format!("{}: {e}", self.path.display()))
+        std::fs::write(&self.path, self.html())
+            .map_err(|e| format!("{}: {e}", self.path.display()).into())
     }
 }

@@ -25,11 +25,11 @@ pub use sqlite::{SqliteTrajectoryWriter, DEFAULT_FRAMES_PER_COMMIT, JUPEDSIM_DAT
 pub use svg::{render_svg, SnapshotWriter};
 pub use walkable::WalkableArea;
 
-use crate::constraint::LinearizedRow;
+use crate::constraint::{ConstraintId, FamilyKind};
 use crate::crowd::Population;
 use crate::error::SweepError;
-use crate::problem::Problem;
-use crate::stepper::{Observer, StageTimes, StepReport};
+use crate::problem::{LinearizeScratch, Problem};
+use crate::stepper::{Observer, ObserverError, RunStats, StageTimes, StepReport};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -184,16 +184,16 @@ impl Observer for TrajectoryWriter {
         "trajectory writer"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         let file = std::fs::File::create(&self.path)
             .map_err(|e| format!("{}: {e}", self.path.display()))?;
         let mut out = std::io::BufWriter::new(file);
         writeln!(out, "t,id,x,y,present").map_err(|e| format!("{}: {e}", self.path.display()))?;
         self.out = Some(out);
-        self.write_state(t, q)
+        Ok(self.write_state(t, q)?)
     }
 
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let k = report.step + 1;
         if k.is_multiple_of(self.every) {
             self.write_state(report.t, q)?;
@@ -205,7 +205,7 @@ impl Observer for TrajectoryWriter {
         Ok(())
     }
 
-    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
         if let Some((t, q)) = self.last.take() {
             self.write_state(t, &q)?;
         }
@@ -234,13 +234,43 @@ pub struct MsPerStep {
     pub total: f64,
 }
 
+/// Where a run stands, written to `summary.json` as `"running"`, `"completed"`,
+/// `"everybody left"` or `"failed"`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RunStatus {
+    /// Not finished yet.
+    #[default]
+    #[serde(rename = "running")]
+    Running,
+    /// Reached `T` (or stopped with people still in the room).
+    #[serde(rename = "completed")]
+    Completed,
+    /// Stopped early: everybody has left.
+    #[serde(rename = "everybody left")]
+    EverybodyLeft,
+    /// Stopped by an error (see [`RunSummary::error`]).
+    #[serde(rename = "failed")]
+    Failed,
+}
+
+impl std::fmt::Display for RunStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Running => "running",
+            Self::Completed => "completed",
+            Self::EverybodyLeft => "everybody left",
+            Self::Failed => "failed",
+        })
+    }
+}
+
 /// The JSON summary of a run.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct RunSummary {
     /// Scene name.
     pub scene: String,
-    /// `"completed"` (reached `T`), `"everybody left"` (stopped early) or `"failed"`.
-    pub status: String,
+    /// Where the run stands.
+    pub status: RunStatus,
     /// The error, when the run failed.
     pub error: Option<String>,
     /// Backend.
@@ -291,8 +321,8 @@ pub struct SummaryCollector<'a> {
     problem: &'a Problem,
     population: Arc<Population>,
     summary: RunSummary,
-    cands: Vec<usize>,
-    row: LinearizedRow,
+    stats: RunStats,
+    scratch: LinearizeScratch,
     last_out: usize,
 }
 
@@ -310,7 +340,6 @@ impl<'a> SummaryCollector<'a> {
             problem,
             summary: RunSummary {
                 scene: scene.to_string(),
-                status: "running".into(),
                 backend: backend.to_string(),
                 people: population.len(),
                 h,
@@ -318,8 +347,8 @@ impl<'a> SummaryCollector<'a> {
                 ..Default::default()
             },
             population,
-            cands: Vec::new(),
-            row: LinearizedRow::default(),
+            stats: RunStats::default(),
+            scratch: LinearizeScratch::default(),
             last_out: 0,
         }
     }
@@ -332,7 +361,7 @@ impl<'a> SummaryCollector<'a> {
     /// Marks the summary as failed with `message` (for errors the stepper never saw, such as
     /// a backend that could not be built).
     pub fn mark_failed(&mut self, message: &str) {
-        self.summary.status = "failed".into();
+        self.summary.status = RunStatus::Failed;
         self.summary.error = Some(message.to_string());
     }
 
@@ -348,19 +377,27 @@ impl<'a> SummaryCollector<'a> {
     /// The most negative value of the constraints of each kind at `(t, q)`: pairs of people,
     /// and walls or obstacles.
     fn violations(&mut self, t: f64, q: &[f64]) -> [(f64, String); 2] {
-        let mut worst = [(0.0, String::new()), (0.0, String::new())];
-        for fam in self.problem.families() {
-            let slot = usize::from(fam.name() != "pairs of people");
-            self.cands.clear();
-            fam.candidates(t, q, 0.0, &mut self.cands);
-            for &i in &self.cands {
-                fam.linearize(i, t, q, false, &mut self.row);
-                if -self.row.value > worst[slot].0 {
-                    worst[slot] = (-self.row.value, fam.describe(i));
+        let mut worst: [(f64, Option<ConstraintId>); 2] = [(0.0, None), (0.0, None)];
+        let _ = self.problem.for_each_linearized(
+            t,
+            q,
+            |_| Some(0.0),
+            false,
+            &mut self.scratch,
+            |fam, id, row| {
+                let slot = usize::from(fam.kind() != FamilyKind::Pairs);
+                if -row.value > worst[slot].0 {
+                    worst[slot] = (-row.value, Some(id));
                 }
-            }
-        }
-        worst
+                Ok::<(), std::convert::Infallible>(())
+            },
+        );
+        worst.map(|(v, id)| {
+            (
+                v,
+                id.map(|id| self.problem.describe(id)).unwrap_or_default(),
+            )
+        })
     }
 
     fn record(&mut self, t: f64, q: &[f64]) {
@@ -394,29 +431,27 @@ impl Observer for SummaryCollector<'_> {
         "summary"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.record(t, q);
         Ok(())
     }
 
-    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
-        let s = &mut self.summary;
-        s.steps += 1;
-        s.seconds_per_stage.effects += r.times.effects;
-        s.seconds_per_stage.broad_phase += r.times.broad_phase;
-        s.seconds_per_stage.assembly += r.times.assembly;
-        s.seconds_per_stage.projection += r.times.projection;
-        s.seconds_per_stage.check += r.times.check;
-        s.solver_iterations += u64::from(r.iterations);
-        s.fallbacks += u64::from(r.fallbacks);
-        s.solves += r.solves as u64;
-        s.max_rows = s.max_rows.max(r.rows);
-        s.max_active = s.max_active.max(r.active);
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
+        // The run's counters are summed by RunStats, here as in the stepper.
+        self.stats.absorb(r);
+        let (s, st) = (&mut self.summary, &self.stats);
+        s.steps = st.steps;
+        s.seconds_per_stage = st.times;
+        s.solver_iterations = st.iterations;
+        s.solves = st.solves;
+        s.fallbacks = st.fallbacks;
+        s.max_rows = st.max_rows;
+        s.max_active = st.max_active;
         self.record(r.t, q);
         Ok(())
     }
 
-    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let s = &mut self.summary;
         let per = |v: f64| {
             if s.steps > 0 {
@@ -436,15 +471,15 @@ impl Observer for SummaryCollector<'_> {
         };
         match error {
             Some(e) => {
-                s.status = "failed".into();
+                s.status = RunStatus::Failed;
                 s.error = Some(e.to_string());
             }
             None => {
                 let reached_end = s.t_final >= s.t_end - 1e-9 * s.t_end.abs().max(1.0);
                 s.status = if reached_end || s.people_remaining > 0 {
-                    "completed".into()
+                    RunStatus::Completed
                 } else {
-                    "everybody left".into()
+                    RunStatus::EverybodyLeft
                 };
             }
         }
@@ -479,6 +514,29 @@ pub fn steps_between(interval: f64, h: f64) -> usize {
     } else {
         // `as` saturates: 1e300 becomes usize::MAX, not a wrapped value.
         (steps as usize).max(1)
+    }
+}
+
+#[cfg(test)]
+mod status_tests {
+    use super::RunStatus;
+
+    #[test]
+    fn run_status_serializes_to_the_strings_of_summary_json() {
+        for (status, text) in [
+            (RunStatus::Running, "running"),
+            (RunStatus::Completed, "completed"),
+            (RunStatus::EverybodyLeft, "everybody left"),
+            (RunStatus::Failed, "failed"),
+        ] {
+            assert_eq!(
+                serde_json::to_string(&status).unwrap(),
+                format!("\"{text}\"")
+            );
+            assert_eq!(status.to_string(), text);
+            let back: RunStatus = serde_json::from_str(&format!("\"{text}\"")).unwrap();
+            assert_eq!(back, status);
+        }
     }
 }
 

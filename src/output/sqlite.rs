@@ -48,7 +48,7 @@
 use super::{OutputError, WalkableArea};
 use crate::crowd::Population;
 use crate::error::SweepError;
-use crate::stepper::{Observer, StepReport};
+use crate::stepper::{Observer, ObserverError, StepReport};
 use rusqlite::{params, Connection};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -313,13 +313,13 @@ impl Observer for SqliteTrajectoryWriter {
         "sqlite trajectory writer"
     }
 
-    fn on_start(&mut self, _t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, _t: f64, q: &[f64]) -> Result<(), ObserverError> {
         self.write_frame(0, q)?;
         // The first frame on disk at once: a run that dies early still leaves a loadable file.
-        self.commit()
+        Ok(self.commit()?)
     }
 
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let k = report.step + 1;
         if !k.is_multiple_of(self.every) {
             return Ok(());
@@ -330,10 +330,10 @@ impl Observer for SqliteTrajectoryWriter {
         if (report.t - on_grid).abs() > 1e-9 * on_grid.abs().max(1.0) {
             return Ok(());
         }
-        self.write_frame(k / self.every, q)
+        Ok(self.write_frame(k / self.every, q)?)
     }
 
-    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
         self.commit()?;
         if let Some(conn) = self.conn.take() {
             conn.close().map_err(|(_, e)| self.err(e))?;

@@ -3,7 +3,7 @@
 use crate::crowd::Population;
 use crate::error::SweepError;
 use crate::scene::{ObstacleShape, SceneGeometry};
-use crate::stepper::{Observer, StepReport};
+use crate::stepper::{Observer, ObserverError, StepReport};
 use std::fmt::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -241,14 +241,14 @@ impl Observer for SnapshotWriter {
         "snapshot writer"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         std::fs::create_dir_all(&self.dir).map_err(|e| format!("{}: {e}", self.dir.display()))?;
         self.write(&format!("t{t:07.2}.svg"), t, q)?;
         self.next = t + self.every;
         Ok(())
     }
 
-    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         if r.t >= self.next - 1e-9 * self.next.abs().max(1.0) {
             self.write(&format!("t{:07.2}.svg", r.t), r.t, q)?;
             self.next = super::next_time_after(self.next, self.every, r.t);
@@ -257,7 +257,7 @@ impl Observer for SnapshotWriter {
         Ok(())
     }
 
-    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
         if let Some((t, q)) = self.last.take() {
             self.write("final.svg", t, &q)?;
         }

@@ -42,9 +42,11 @@
 //! assert_eq!(names, vec!["walls"]);
 //! ```
 
+mod effect;
 mod error;
 pub mod spec;
 
+pub use effect::Effect;
 pub use error::{line_column, SceneError};
 pub use spec::SceneSpec;
 
@@ -93,9 +95,6 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// Backend.
     pub backend: Option<BackendChoice>,
-    /// Assemble every pair of people at every step (no culling): the reference of the culling
-    /// tests. Default `false`.
-    pub all_pairs: bool,
 }
 
 /// An obstacle as drawn: its shape at `t = 0` and its motion.
@@ -187,8 +186,8 @@ pub struct BuiltScene {
     pub output: OutputSettings,
     /// The geometry, for drawing.
     pub geometry: SceneGeometry,
-    /// One line per active effect (constraint families, velocity terms, fields).
-    pub effects: Vec<String>,
+    /// The active effects (constraint families, velocity terms, exits).
+    pub effects: Vec<Effect>,
     /// The geodesic field, when some people head for the exits.
     pub distance_field: Option<Arc<DistanceField>>,
 }
@@ -942,17 +941,14 @@ impl Scene {
                 }),
                 DesiredKind::Constant => Box::new(ConstantVelocity(d.velocity.unwrap_or_default())),
             };
-            effects.push(format!(
-                "desired velocity: {} for {} people",
-                field.describe(),
-                people.len()
-            ));
+            effects.push(Effect::DesiredVelocity {
+                field: field.describe(),
+                people: people.len(),
+            });
             velocity = velocity.with_term(field, people);
         }
         if still > 0 {
-            effects.push(format!(
-                "{still} people without a desired velocity (they stand still)"
-            ));
+            effects.push(Effect::StandingStill { people: still });
         }
 
         // ---- constraint families
@@ -960,17 +956,8 @@ impl Scene {
         let n = positions.len();
         let mut problem = Problem::new(q0, velocity);
         if n >= 2 {
-            if overrides.all_pairs {
-                problem.push_family(Box::new(DiskPairs::all_pairs(population.clone())));
-                effects.push(format!(
-                    "pairs of people: {n} people, every pair assembled (no culling)"
-                ));
-            } else {
-                problem.push_family(Box::new(DiskPairs::new(population.clone())));
-                effects.push(format!(
-                    "pairs of people: {n} people, near pairs found by a uniform grid"
-                ));
-            }
+            problem.push_family(Box::new(DiskPairs::new(population.clone())));
+            effects.push(Effect::Pairs { people: n });
         }
         if !walls.is_empty() {
             let shapes = walls
@@ -982,7 +969,9 @@ impl Scene {
                 population.clone(),
                 shapes,
             )));
-            effects.push(format!("walls: {} exact segments (static)", walls.len()));
+            effects.push(Effect::Walls {
+                segments: walls.len(),
+            });
         }
         if !obstacles.is_empty() {
             let mut shapes = Vec::new();
@@ -1000,20 +989,13 @@ impl Scene {
                 population.clone(),
                 shapes,
             )));
-            effects.push(if moving > 0 {
-                format!(
-                    "obstacles: {} ({moving} moving: Q depends on t)",
-                    obstacles.len()
-                )
-            } else {
-                format!("obstacles: {} (static)", obstacles.len())
+            effects.push(Effect::Obstacles {
+                count: obstacles.len(),
+                moving,
             });
         }
         if !exits.is_empty() {
-            effects.push(format!(
-                "exits: {} (people whose disk is wholly outside the room have left)",
-                exits.len()
-            ));
+            effects.push(Effect::Exits { count: exits.len() });
         }
         problem
             .validate(1e-9)

@@ -21,7 +21,7 @@ use super::{
 use crate::constraint::{ConstraintKernel, KernelFamily};
 use crate::crowd::{DiskPairs, Population};
 use crate::problem::Problem;
-use crate::stepper::StepperSettings;
+use crate::stepper::{StepperSettings, Trajectory};
 use num_dual::DualNum;
 
 /// A sweeping process with a known solution.
@@ -351,14 +351,15 @@ const SUP_SUBDIVISIONS: usize = 8;
 /// linear with its breaks among the kinks (as for [`TwoDisksOnALine`]), the difference is
 /// piecewise linear with breaks at the step ends and kinks, so this is the exact sup;
 /// otherwise it is the sup over a grid `SUP_SUBDIVISIONS` times finer than the step.
-pub fn sup_error(case: &dyn ExactCase, trajectory: &[(f64, Vec<f64>)]) -> f64 {
+pub fn sup_error(case: &dyn ExactCase, trajectory: &Trajectory) -> f64 {
     let kinks = case.kinks();
     let mut worst = 0.0f64;
-    if let Some((t, q)) = trajectory.first() {
+    let (times, states) = (&trajectory.times, &trajectory.states);
+    if let (Some(t), Some(q)) = (times.first(), states.first()) {
         worst = distance(q, &case.exact(*t));
     }
-    for w in trajectory.windows(2) {
-        let ((ta, qa), (tb, qb)) = (&w[0], &w[1]);
+    for (tw, w) in times.windows(2).zip(states.windows(2)) {
+        let ((ta, qa), (tb, qb)) = ((&tw[0], &w[0]), (&tw[1], &w[1]));
         let mut ts: Vec<f64> = (1..=SUP_SUBDIVISIONS)
             .map(|i| ta + (tb - ta) * i as f64 / SUP_SUBDIVISIONS as f64)
             .collect();

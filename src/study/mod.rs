@@ -50,7 +50,9 @@ pub mod work_precision;
 
 use crate::error::SweepError;
 use crate::problem::Problem;
-use crate::stepper::{Observer, RunStats, StepReport, Stepper, StepperSettings};
+use crate::stepper::{
+    Observer, ObserverError, RunStats, StepReport, Stepper, StepperSettings, Trajectory,
+};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -338,10 +340,10 @@ impl Observer for Sampler {
         "sampler"
     }
 
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         if let Some(&s) = self.times.first() {
             if s < t - 1e-9 * t.abs().max(1.0) {
-                return Err(format!("sample time {s} is before the start t₀ = {t}"));
+                return Err(format!("sample time {s} is before the start t₀ = {t}").into());
             }
         }
         self.t_prev = t;
@@ -349,7 +351,7 @@ impl Observer for Sampler {
         Ok(())
     }
 
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.take_up_to(report.t, q);
         Ok(())
     }
@@ -362,28 +364,14 @@ pub struct SampledRun {
     pub h: f64,
     /// `qⁿ(s)` at each requested time.
     pub samples: Vec<Vec<f64>>,
-    /// Every step's configuration, when asked for (`t_k`, `q_k`), else empty.
-    pub trajectory: Vec<(f64, Vec<f64>)>,
+    /// Every step's configuration when asked for, else the start and the end only.
+    pub trajectory: Trajectory,
     /// CPU seconds of the run's thread (wall seconds where CPU time is unavailable).
     pub cpu_seconds: f64,
     /// Wall-clock seconds.
     pub wall_seconds: f64,
     /// The run's totals (steps, iterations, time per stage, worst violation).
     pub stats: RunStats,
-}
-
-/// Records every step (for sup norms on exact solutions).
-struct Recorder(Vec<(f64, Vec<f64>)>);
-
-impl Observer for Recorder {
-    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
-        self.0.push((t, q.to_vec()));
-        Ok(())
-    }
-    fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), String> {
-        self.0.push((report.t, q.to_vec()));
-        Ok(())
-    }
 }
 
 /// Runs the scheme once with step `h` up to `t_end` and samples `qⁿ` at `times` (sorted, in
@@ -405,7 +393,7 @@ pub fn run_sampled(
     let settings = StepperSettings {
         h,
         t_end,
-        record_every: 0,
+        record_every: usize::from(keep_trajectory),
         ..base.clone()
     };
     let stepper = Stepper::new(&problem, settings).map_err(|source| StudyError::Run {
@@ -415,14 +403,9 @@ pub fn run_sampled(
         source,
     })?;
     let mut sampler = Sampler::new(times.to_vec());
-    let mut recorder = Recorder(Vec::new());
     let cpu0 = thread_cpu_seconds();
     let wall0 = Instant::now();
-    let result = if keep_trajectory {
-        stepper.run(projector.as_mut(), &mut [&mut sampler, &mut recorder])
-    } else {
-        stepper.run(projector.as_mut(), &mut [&mut sampler])
-    };
+    let result = stepper.run(projector.as_mut(), &mut [&mut sampler]);
     let wall_seconds = wall0.elapsed().as_secs_f64();
     let cpu_seconds = match (cpu0, thread_cpu_seconds()) {
         (Some(a), Some(b)) => b - a,
@@ -444,7 +427,7 @@ pub fn run_sampled(
     Ok(SampledRun {
         h,
         samples: sampler.into_samples(),
-        trajectory: recorder.0,
+        trajectory: run.trajectory,
         cpu_seconds,
         wall_seconds,
         stats: run.stats,
@@ -967,7 +950,7 @@ mod tests {
             fallbacks: 0,
             times: Default::default(),
             max_violation: 0.0,
-            worst_constraint: String::new(),
+            worst_constraint: None,
             max_displacement: 0.0,
             solve: sweeping_api::SolveStats {
                 backend: "none".into(),

@@ -10,7 +10,7 @@ use super::{
     comparison_times, distance, map_runs, plot, run_sampled, ProblemFactory, ReferenceSummary,
     StudyError,
 };
-use crate::backends::BackendChoice;
+use crate::backends::{BackendChoice, BackendError};
 use crate::stepper::StepperSettings;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -55,57 +55,19 @@ impl std::str::FromStr for SolverSetting {
             }
         }
         Ok(Self {
-            backend: name.parse()?,
+            backend: name.parse().map_err(|e: BackendError| e.to_string())?,
             tolerance: tol,
         })
     }
 }
 
-/// Builds the projector of a [`SolverSetting`]: the backend's defaults with its accuracy
-/// tolerances set to `tolerance` (OSQP: `eps_abs = eps_rel`; Clarabel: `tol_gap_abs =
-/// tol_gap_rel = tol_feas`; reference: its KKT tolerance).
+/// Builds the projector of a [`SolverSetting`] (see
+/// [`make_projector_with_tolerance`](crate::backends::make_projector_with_tolerance)).
 ///
 /// # Errors
-/// When the backend is not compiled in, or a tolerance is asked of the cross-check (which
-/// runs both backends at their defaults).
-pub fn projector_for(setting: &SolverSetting) -> Result<Box<dyn Projector>, String> {
-    let Some(tol) = setting.tolerance else {
-        return crate::backends::make_projector(setting.backend).map_err(|e| e.to_string());
-    };
-    match setting.backend {
-        BackendChoice::Reference => Ok(Box::new(sweeping_api::conformance::ReferenceProjector {
-            tolerance: tol,
-            ..Default::default()
-        })),
-        #[cfg(feature = "osqp")]
-        BackendChoice::Osqp => Ok(Box::new(crate::backends::OsqpProjector::new(
-            crate::backends::OsqpSettings {
-                eps_abs: tol,
-                eps_rel: tol,
-                ..Default::default()
-            },
-        ))),
-        #[cfg(feature = "clarabel")]
-        BackendChoice::Clarabel => Ok(Box::new(crate::backends::ClarabelProjector::new(
-            crate::backends::ClarabelSettings {
-                tol_gap_abs: tol,
-                tol_gap_rel: tol,
-                tol_feas: tol,
-                ..Default::default()
-            },
-        ))),
-        #[cfg(feature = "native")]
-        BackendChoice::Native => {
-            let mut native = crate::backends::native_projector();
-            native.settings.kkt_tolerance = tol;
-            Ok(Box::new(native))
-        }
-        BackendChoice::Cross | BackendChoice::CrossNative => {
-            Err("the cross-check runs both backends at their defaults; give it no tolerance".into())
-        }
-        #[allow(unreachable_patterns)]
-        other => crate::backends::make_projector(other).map_err(|e| e.to_string()),
-    }
+/// When the backend is not compiled in, or a tolerance is asked of the cross-check.
+pub fn projector_for(setting: &SolverSetting) -> Result<Box<dyn Projector>, BackendError> {
+    crate::backends::make_projector_with_tolerance(setting.backend, setting.tolerance)
 }
 
 /// Settings of a work–precision study.

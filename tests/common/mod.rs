@@ -24,16 +24,10 @@ pub fn real_backends() -> Vec<(BackendChoice, Box<dyn Projector>)> {
     out
 }
 
-/// Least-squares slope of `log e` against `log h`.
+/// Least-squares slope of `log e` against `log h` ([`sweeping::study::fit_order`]; NaN when
+/// the points cannot be fitted).
 pub fn fitted_order(hs: &[f64], errs: &[f64]) -> f64 {
-    let xs: Vec<f64> = hs.iter().map(|h| h.ln()).collect();
-    let ys: Vec<f64> = errs.iter().map(|e| e.ln()).collect();
-    let n = xs.len() as f64;
-    let mx = xs.iter().sum::<f64>() / n;
-    let my = ys.iter().sum::<f64>() / n;
-    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
-    let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
-    sxy / sxx
+    sweeping::study::fit_order(hs, errs).map_or(f64::NAN, |fit| fit.order)
 }
 
 /// `h₀, h₀/2, …` (`levels` values).

@@ -27,6 +27,7 @@
 //! `sweeping::api::…`, and the ones a backend needs are in `sweeping::prelude`: the examples
 //! below write `sweeping_api::…` because they are compiled as this crate's own tests.
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 mod blocks;
 pub mod conformance;

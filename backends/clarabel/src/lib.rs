@@ -4,67 +4,37 @@
 //! [`ProjectionProblem`] with Clarabel 0.11, a primal–dual interior-point method for conic
 //! programs. It is the accurate backend, the one used to cross-validate the others.
 //!
-//! # Formulation
+//! # Formulation: the displacement, not the point
 //!
 //! Clarabel solves `min ½ uᵀPu + qᵀu s.t. G u + s = h, s ∈ K`. The projection is handed to it
-//! in the unknown **displacement** `d = x − y` rather than in `x`:
+//! in the **displacement** `d = x − y`: `P = I`, `q = 0`, `G = −A`, `h = A y − b`, cone
+//! `ℝᵐ₊`; then `x = y + d`, the cone's dual variable is the vector of multipliers `λ`
+//! (stationarity reads `d = Aᵀλ`) and the slack is `A x − b`. Written in `x`, the cost
+//! `½‖x‖² − yᵀx` is dominated by `‖y‖²` when the configuration lies far from the origin (crowds
+//! sit at coordinates ~10²), and Clarabel's relative duality-gap rule stops while the point is
+//! still visibly off; in `d` the cost is the squared step itself.
 //!
-//! ```text
-//!     min ½‖d‖²   s.t.   (−A) d + s = −(b − A y),   s ∈ ℝᵐ₊ (NonnegativeConeT(m)),
-//! ```
+//! # Tolerances and shortcuts
 //!
-//! that is `P = I` (identity, upper-triangular CSC), `q = 0`, `G = −A`, `h = A y − b`. The
-//! answer is `x = y + d`, and the dual variable `z ≥ 0` of the cone is the vector of
-//! multipliers `λ` (stationarity reads `d − Aᵀz = 0`, so `x − y = Aᵀλ`); the slack `s` is
-//! `A x − b`.
+//! The defaults of [`ClarabelSettings`] are tight (gap and feasibility `1e-10`). No solver is
+//! built when there are no rows or when `y` already satisfies every row within
+//! [`ClarabelSettings::tol_feas`]: the answer is `x = y`, `λ = 0` ([`Projection::identity`],
+//! [`SolveStatus::Trivial`]). A row with no non-zero entry and `bᵢ > 0` is
+//! [`ProjectionError::Infeasible`] without calling the solver.
 //!
-//! Why `d` and not `x`: written in `x` the cost is `½‖x‖² − yᵀx`, whose value is dominated by
-//! `‖y‖²` when the configuration lives far from the origin (crowds sit at coordinates ~10²).
-//! Clarabel's relative duality-gap rule then stops while the point is still ~1e-4 off; in `d`
-//! the cost is the squared step itself and the same tolerances give ~1e-7 on crowds, at the
-//! same number of iterations (measured; see `shared/CRATES.md`).
+//! # Polish: why, and when its answer is kept
 //!
-//! # Shortcuts
-//!
-//! No solver is built when the problem has no rows or when `y` already satisfies every row to
-//! within [`ClarabelSettings::tol_feas`] (absolute): the answer is then `x = y`, `λ = 0`
-//! ([`Projection::identity`], status [`SolveStatus::Trivial`]), which is exact when `y` is
-//! feasible and otherwise meets the KKT conditions to within `tol_feas` (only the primal
-//! residual is non-zero). The solver would do no better there: at a `y` on the boundary every
-//! tight row is *weakly* active (see [Polishing](#polishing)), and without polishing,
-//! projecting an answer again moved it by up to `7e-6` at the default tolerances, where the
-//! shortcut returns it unchanged. A row with no non-zero entry and `bᵢ > 0` is reported as
-//! [`ProjectionError::Infeasible`] without calling the solver, and data so large that
-//! `A y − b` overflows as [`ProjectionError::Backend`].
-//!
-//! # Polishing
-//!
-//! An interior-point iterate approaches the answer from inside the cone. On a row that is
-//! tight at the answer with a zero multiplier (*weakly* active, common at degenerate vertices)
-//! both its slack and its multiplier shrink only like `√μ`, so the point stays off by about
-//! the square root of the duality gap however small the residuals: `1.2e-5` at a gap of
-//! `1e-10` on the conformance kit's orthant. Unless [`ClarabelSettings::polish`] is off, the
-//! answer is then polished: starting from the rows whose multiplier exceeds their slack and
-//! from their interior-point multipliers, a Lawson–Hanson active-set method on the dual of the
-//! projection finishes the job. Each of its steps projects `y` onto the affine set where the
-//! current rows hold with equality (one sparse `LDLᵀ` factorization with Clarabel's own QDLDL,
-//! plus iterative refinement started from the current multipliers), then drops a row whose
-//! multiplier must turn negative or that cannot be tight together with the others, or adds the
-//! rows the point violates, until the KKT conditions hold (at most forty steps, each one
-//! factorization; usually one to three). Linearly dependent active rows (*contact loops*,
-//! cycles of touching disks) are handled: the point is unique there although the multipliers
-//! are not, and non-negative ones are found among them rather than rows dropped. The result
-//! replaces the interior-point answer when its KKT residuals are no larger, or below a
-//! hundredth of [`ClarabelSettings::kkt_tolerance`] (the iterate's small residuals do not make
-//! its point accurate). When the method converges the polished answer is exact to rounding.
-//! Over 800 steps of each of the example scenes (evacuation of the paper, corridor, crossing,
-//! moving wall, pillar) it was within `1e-8` of a dense reference on every step where that
-//! reference could be certified by its KKT conditions (3,187 of 4,000), where the
-//! interior-point answers alone were up to `5e-6` off, and its KKT residuals stayed below
-//! `1e-12`. On a contact loop of the evacuation scene (step 287, kept as a test) the unpolished
-//! answer is `2.2e-6` off and the polished one exact. Polishing cost 4 % of the solve time on a
-//! 2000-person evacuation and 8 to 15 % on the crowds of 40 to 150 people (about as much as the
-//! former single-guess polish).
+//! An interior-point iterate approaches the answer from inside the cone: on a row tight at the
+//! answer with a zero multiplier (*weakly* active, common at degenerate vertices and contact
+//! loops) the point stays off by about the square root of the duality gap, however small the
+//! residuals. Unless [`ClarabelSettings::polish`] is off, a Lawson–Hanson active-set method on
+//! the dual of the projection finishes the job from the interior-point answer (each step one
+//! sparse `LDLᵀ` factorization with Clarabel's QDLDL; linearly dependent active rows are
+//! handled). **KKT acceptance:** the polished answer replaces the interior-point one when its
+//! KKT residuals are no larger, or below a hundredth of [`ClarabelSettings::kkt_tolerance`];
+//! a solve that stops short (iteration limit, insufficient progress) is kept only if its KKT
+//! residuals are within tolerance. Measurements and the commands that reproduce them are in
+//! `docs/backends.md`.
 //!
 //! # Statuses
 //!
@@ -87,6 +57,7 @@
 //! assert!((sol.multipliers[0] - 0.15).abs() < 1e-6);
 //! ```
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 mod polish;
 
@@ -105,34 +76,13 @@ pub const NAME: &str = "clarabel";
 
 /// Settings of [`ClarabelProjector`]: a plain, serialisable value.
 ///
-/// The defaults ([`ClarabelSettings::default`]) are tight, for cross-validation: the gap and
-/// feasibility tolerances are `1e-10`, two orders below Clarabel's own `1e-8`, and the answer
-/// is polished. Measured on 400 random instances of
-/// [`sweeping_api::conformance::random_instance`] (up to 61 coordinates and 89 rows) against
-/// the reference projector (itself converged to `1e-10`):
-///
-/// | gap and feasibility tolerance | polish | worst KKT residual | worst ‖x − x_ref‖∞ | iterations |
-/// |---|---|---|---|---|
-/// | `1e-8` (Clarabel's default) | no | `5.6e-8` | `5.6e-5` | (baseline) |
-/// | `1e-10` | no | `5.6e-10` | `3.6e-7` | +11 % |
-/// | `1e-11` | no | `4.3e-11` | `4.0e-8` | +16 %, and `InsufficientProgress` on a jammed crowd |
-/// | `1e-8` | yes | `2.2e-12` | `1.7e-9` | (baseline) |
-/// | `1e-10` (this default) | yes | `1.2e-13` | `1.7e-9` | +11 % |
-///
-/// Without polishing the point error is far larger than the KKT residuals on instances with
-/// weakly active rows (`λᵢ = 0` on a tight row), where an interior-point iterate converges
-/// only like the square root of the gap. Polishing removes that error when its active-set
-/// method converges: on every instance above and on all but a few crowd steps (see
-/// [Polishing](crate#polishing)); an earlier, single-guess polish was right on only 11 of the
-/// 20 steps of a 100-person jam against a wall. The tight tolerances are kept for the steps
-/// where polishing fails: on that jam the unpolished answers at `1e-8` were up to `2.4e-5` away from those at
-/// `1e-10`, which agreed with OSQP to `3e-8`. `1e-10` is also the tightest setting that
-/// solved every crowd and random instance tried (one jam step stalls just above it, and is
-/// accepted after verification: see [`ClarabelProjector`]). With these defaults the backend
-/// passes the `sweeping_api` conformance kit at a KKT tolerance of `1e-7` and a point
-/// tolerance of `1e-6`, and every check but the near-parallel rows (whose point is
-/// ill-conditioned) at `1e-9` and `1e-8`. [`ClarabelSettings::loose`] restores Clarabel's own
-/// tolerances for speed.
+/// The defaults ([`ClarabelSettings::default`]) are tight, for cross-validation: gap and
+/// feasibility tolerances `1e-10`, two orders below Clarabel's own `1e-8`, and the answer is
+/// polished. Polishing removes the point error of weakly active rows when its active-set
+/// method converges; the tight tolerances are for the steps where it does not. `1e-10` is
+/// the tightest setting that solves jammed crowds without stalling (a step that stalls just
+/// above it is accepted after verification: see [`ClarabelProjector`]).
+/// [`ClarabelSettings::loose`] restores Clarabel's own tolerances for speed.
 ///
 /// ```
 /// use sweeping_clarabel::ClarabelSettings;
@@ -306,10 +256,7 @@ impl ClarabelSettings {
 /// [`SolveStatus::Solved`] when its KKT residuals, measured by
 /// [`ProjectionProblem::kkt_residuals`], are within [`ClarabelSettings::kkt_tolerance`]: the
 /// accuracy this backend promises through [`Projector::tolerance`]. This matters at the tight
-/// default tolerances, which sit close to what double precision allows on jammed crowds: on
-/// a 100-person jam, one step in twenty stalled at a relative primal residual of `1.3e-10`
-/// (Clarabel: `AlmostSolved` after 25 iterations) with KKT residuals of `7.5e-11`, and every
-/// step of the run agreed with OSQP to `3e-8`.
+/// default tolerances, which sit close to what double precision allows on jammed crowds.
 ///
 /// A rejected set-up (`DefaultSolver::new` returns a `Result`) is a
 /// [`ProjectionError::Backend`]; so is a non-finite answer under `Solved` (under the other

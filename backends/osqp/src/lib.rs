@@ -28,14 +28,12 @@
 //!
 //! # Accuracy
 //!
-//! OSQP's C defaults (`eps_abs = eps_rel = 1e-3`, no polishing) leave answers off by up to
-//! 3.5·10⁻² on crowd projections, far from what a second opinion must deliver. The defaults of
-//! [`OsqpSettings`] are tight, `eps_abs = eps_rel = 1e-9`: on random instances the answer is
-//! then within ~2·10⁻⁷ of an exact projection (at `1e-8` it was up to 2·10⁻⁶ off, the error
-//! growing with the multipliers), and the KKT residuals are below
-//! [`Projector::tolerance`] (`1e-6`). [`OsqpSettings::loose`] restores OSQP's own
-//! settings for work–precision studies. ADMM converges linearly, so tight tolerances cost
-//! iterations, the more so on jammed crowds.
+//! OSQP's C defaults (`eps_abs = eps_rel = 1e-3`, no polishing) leave answers visibly off
+//! on crowd projections, far from what a second opinion must deliver. The defaults of
+//! [`OsqpSettings`] are tight, `eps_abs = eps_rel = 1e-9`, so that the KKT residuals are below
+//! [`Projector::tolerance`] (`1e-6`; the point error grows with the multipliers at looser
+//! settings). [`OsqpSettings::loose`] restores OSQP's own settings for work–precision studies.
+//! ADMM converges linearly, so tight tolerances cost iterations, the more so on jammed crowds.
 //!
 //! Sets whose feasible region is (nearly) a single point, with huge multipliers, are hard for
 //! ADMM: a few such random instances end in [`ProjectionError::NotConverged`] after
@@ -70,6 +68,7 @@
 //! error (a failed refactorization, say); those panics are caught and reported as
 //! [`ProjectionError::Backend`], and the workspace is then discarded.
 #![deny(missing_docs)]
+#![forbid(unsafe_code)]
 
 use osqp::{CscMatrix, Problem, Settings, Status};
 use serde::{Deserialize, Serialize};

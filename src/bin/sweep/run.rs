@@ -12,7 +12,7 @@ use sweeping::output::{
     SummaryCollector, TrajectoryFormat, TrajectoryWriter,
 };
 use sweeping::scene::{Overrides, Scene};
-use sweeping::stepper::{Observer, StepReport};
+use sweeping::stepper::{Observer, ObserverError, StepReport};
 
 /// Arguments of `sweep run`.
 #[derive(clap::Args)]
@@ -51,7 +51,7 @@ impl Observer for Progress {
     fn name(&self) -> &str {
         "progress bar"
     }
-    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), String> {
+    fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.bar.set_position((r.step + 1) as u64);
         if r.step.is_multiple_of(10) {
             self.bar.set_message(format!(
@@ -63,7 +63,7 @@ impl Observer for Progress {
         }
         Ok(())
     }
-    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), String> {
+    fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
         self.bar.finish_and_clear();
         Ok(())
     }
@@ -77,7 +77,6 @@ pub fn main(args: RunArgs) -> Result<()> {
         t_end: args.t_end,
         seed: args.seed,
         backend: args.backend,
-        all_pairs: false,
     };
     let out = args
         .out
@@ -150,7 +149,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         h,
         built.output.animation_frames,
     );
-    let n_steps = ((t_end / h) - 1e-9).ceil().max(0.0) as u64;
+    let n_steps = sweeping::stepper::step_count(t_end, h) as u64;
     let bar = if std::io::stderr().is_terminal() {
         ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr())
     } else {

@@ -93,7 +93,10 @@ fn under_warn_the_run_completes_and_ends_outside_the_ellipse() {
         "concave ellipse, h = 0.1: {} warning(s), largest violation {:.2e} ({})",
         monitor.violation_count(),
         run.stats.max_violation,
-        run.stats.worst_constraint
+        run.stats
+            .worst_constraint
+            .map(|id| problem.describe(id))
+            .unwrap_or_default()
     );
     assert!(
         run.stats.max_violation > 1e-6,
@@ -333,6 +336,7 @@ impl Projector for Cyclic {
                         solve_seconds: 0.0,
                         setup_seconds: 0.0,
                         warm_started: false,
+                        fallbacks: 0,
                     },
                 });
             }
