@@ -2,9 +2,12 @@
 //! loudly (non-zero exit, a typed error naming step, time and constraint) or runs correctly, as
 //! judged by an independent checker reading the `trajectory.csv` the real `sweep` binary wrote.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
+mod support;
 
-use common::checker::{check_trajectory, moving, still, sweep_run, Geometry, Obstacle};
+use common::checker::{check_trajectory, moving, still, Geometry, Obstacle};
+use support::sweep_run;
 
 const TOL: f64 = 1e-6;
 
