@@ -179,7 +179,10 @@ fn a_scene_built_in_code_is_refused_like_its_file() {
     ];
     for (builder, item, fragment) in cases {
         let name = builder.spec().name.clone().unwrap();
-        let e = builder.build().err().unwrap_or_else(|| panic!("{name} was accepted"));
+        let e = builder
+            .build()
+            .err()
+            .unwrap_or_else(|| panic!("{name} was accepted"));
         let m = e.to_string();
         assert_eq!(e.line(), None, "{m}");
         assert!(

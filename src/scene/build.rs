@@ -585,7 +585,14 @@ pub(super) fn place_crowd(
         RadiusSpec::Range([a, b]) => (a, b),
     };
     if !(rmin.is_finite() && rmax.is_finite() && rmin > 0.0 && rmax >= rmin) {
-        return Err(cx.err(line, item, format!("the radius must be positive and finite (a range needs 0 < min ≤ max), got {:?}", cs.radius)));
+        return Err(cx.err(
+            line,
+            item,
+            format!(
+                "the radius must be positive and finite (a range needs 0 < min ≤ max), got {:?}",
+                cs.radius
+            ),
+        ));
     }
     let speed = check_speed(cx, line, &item, cs.speed)?;
     if let Some(d) = &cs.desired {
@@ -659,9 +666,7 @@ pub(super) fn place_crowd(
         people.push(p, r, speed, cs.desired.clone(), origin);
         placed += 1;
     }
-    people
-        .groups
-        .push(format!("{item} ({} people)", cs.count));
+    people.groups.push(format!("{item} ({} people)", cs.count));
     Ok(())
 }
 

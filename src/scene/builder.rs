@@ -7,8 +7,8 @@
 //! line is missing (there is no file).
 
 use super::spec::{
-    CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec,
-    PersonSpec, RoomSpec, RunSpec, SceneSpec, SegmentSpec,
+    CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec, PersonSpec,
+    RoomSpec, RunSpec, SceneSpec, SegmentSpec,
 };
 use super::{BuiltScene, ObstacleShape, Overrides, Scene, SceneError};
 use crate::backends::BackendChoice;

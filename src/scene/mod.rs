@@ -351,8 +351,7 @@ impl Scene {
         let population = Population::new(people.radii.clone())
             .with_room(room.room.clone())
             .shared();
-        let distance_field =
-            build::geodesic_field(&cx, spec, &terms, &room, &exits, &obstacles)?;
+        let distance_field = build::geodesic_field(&cx, spec, &terms, &room, &exits, &obstacles)?;
         let mut effects = Vec::new();
         let velocity = build::desired_velocity(
             &population,
