@@ -1,5 +1,6 @@
 //! Crowd scenes as TOML files: parse, check, build a [`Problem`] with only the effects the
-//! scene calls for.
+//! scene calls for. [`CrowdBuilder`] builds the same scenes in code: both fill a
+//! [`SceneSpec`], which [`Scene::build`] checks and turns into a [`BuiltScene`] step by step.
 //!
 //! The schema is documented in the README, with an annotated example; in short:
 //!
