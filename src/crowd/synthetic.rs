@@ -8,14 +8,13 @@
 //! Walls are the four sides of the room; nobody leaves (there is no exit), so the dimension
 //! and the number of people in play stay fixed and steps are comparable across `n`.
 
-use std::sync::Arc;
-
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{rectangle_walls, DiskPairs, PersonShapes, Population};
 use crate::error::SweepError;
 use crate::problem::Problem;
+use crate::scene::spec::DesiredSpec;
+use crate::scene::{BuiltScene, CrowdBuilder};
 
 /// Radius of every person of a synthetic crowd.
 pub const RADIUS: f64 = 0.2;
@@ -120,30 +119,38 @@ impl SyntheticCrowd {
         Ok(q)
     }
 
-    /// The problem: pairs (grid-culled), the four walls, and unit desired velocities.
+    /// The crowd as a scene, built with [`CrowdBuilder`]: the square room (its four walls),
+    /// everybody at [`positions`](Self::positions) walking at unit speed towards the target
+    /// (pairs grid-culled), no exit.
     ///
     /// # Errors
-    /// As [`positions`](Self::positions).
-    pub fn problem(&self) -> Result<Problem, SweepError> {
+    /// As [`positions`](Self::positions); [`SweepError::InvalidInput`] with the scene's error
+    /// for `n = 0` (a scene has somebody in it).
+    pub fn scene(&self) -> Result<BuiltScene, SweepError> {
         let l = self.side();
-        let q0 = self.positions()?;
-        let pop: Arc<Population> = Population::new(vec![RADIUS; self.n]).shared();
         let target = match self.start {
             Start::Spread => [l, l / 2.0],
             Start::Jammed => [l / 2.0, l / 2.0],
         };
-        let velocity = move |_t: f64, q: &[f64], f: &mut [f64]| {
-            for (p, v) in q.chunks(2).zip(f.chunks_mut(2)) {
-                let d = [target[0] - p[0], target[1] - p[1]];
-                let norm = (d[0] * d[0] + d[1] * d[1]).sqrt().max(1e-9);
-                v[0] = d[0] / norm;
-                v[1] = d[1] / norm;
-            }
-        };
-        let walls = rectangle_walls(0.0, 0.0, l, l);
-        Ok(Problem::new(q0, velocity)
-            .with_family(DiskPairs::new(pop.clone()))
-            .with_family(PersonShapes::new("walls", pop, walls)))
+        let q0 = self.positions()?;
+        let builder = q0.chunks(2).fold(
+            CrowdBuilder::new(format!("synthetic-{}-{}", self.start, self.n))
+                .rectangle([0.0, 0.0, l, l])
+                .desired(DesiredSpec::point(target)),
+            |b, p| b.person([p[0], p[1]], RADIUS),
+        );
+        builder
+            .build()
+            .map_err(|e| SweepError::InvalidInput(e.to_string()))
+    }
+
+    /// The problem of [`scene`](Self::scene): pairs (grid-culled), the four walls, and unit
+    /// desired velocities.
+    ///
+    /// # Errors
+    /// As [`scene`](Self::scene).
+    pub fn problem(&self) -> Result<Problem, SweepError> {
+        Ok(self.scene()?.problem)
     }
 }
 
@@ -188,5 +195,35 @@ mod tests {
         };
         // One person at twice the density still gets a room of side 0.58 > 0.4.
         assert_eq!(tiny.positions().unwrap().len(), 2);
+    }
+
+    /// The builder wires what the hand-written problem did: the placed positions as `q₀`, a
+    /// grid-culled pair family, the four walls, unit speed towards the target.
+    #[test]
+    fn the_scene_is_the_placed_crowd_walking_to_its_target() {
+        let crowd = SyntheticCrowd {
+            n: 50,
+            start: Start::Spread,
+            seed: 1,
+        };
+        let built = crowd.scene().unwrap();
+        let q0 = crowd.positions().unwrap();
+        assert_eq!(built.problem.q0(), &q0[..]);
+        let names: Vec<_> = built
+            .problem
+            .families()
+            .iter()
+            .map(|f| f.name().to_string())
+            .collect();
+        assert_eq!(names, ["pairs of people", "walls"]);
+        let l = crowd.side();
+        let mut f = vec![0.0; q0.len()];
+        built.problem.perturbation().eval(0.0, &q0, &mut f);
+        for (p, v) in q0.chunks(2).zip(f.chunks(2)) {
+            let d = [l - p[0], l / 2.0 - p[1]];
+            let n = d[0].hypot(d[1]);
+            assert!((v[0] - d[0] / n).abs() < 1e-12 && (v[1] - d[1] / n).abs() < 1e-12);
+        }
+        assert!(SyntheticCrowd { n: 0, ..crowd }.scene().is_err());
     }
 }

@@ -6,7 +6,6 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// An obstacle as the checker sees it: its shape at `t = 0` and its displacement at `t`.
 pub enum Obstacle {
@@ -209,47 +208,12 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
     f
 }
 
-/// The outcome of `sweep run`.
-pub struct CliRun {
-    /// Exit status success.
-    pub success: bool,
-    /// stdout + stderr.
-    pub output: String,
-    /// The output directory.
-    pub out: PathBuf,
-}
-
 /// A fresh directory under the system's temporary directory.
 pub fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("sweeping-hard-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-/// Writes `scene` and runs the real `sweep run` binary on it with `args`.
-pub fn sweep_run(name: &str, scene: &str, args: &[&str]) -> CliRun {
-    let dir = scratch(name);
-    let path = dir.join(format!("{name}.toml"));
-    std::fs::write(&path, scene).unwrap();
-    let out = dir.join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_sweep"))
-        .arg("run")
-        .arg(&path)
-        .arg("--out")
-        .arg(&out)
-        .args(args)
-        .output()
-        .expect("running sweep");
-    CliRun {
-        success: o.status.success(),
-        output: format!(
-            "{}{}",
-            String::from_utf8_lossy(&o.stdout),
-            String::from_utf8_lossy(&o.stderr)
-        ),
-        out,
-    }
 }
 
 /// No offset: a static obstacle.

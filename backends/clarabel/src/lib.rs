@@ -308,6 +308,48 @@ impl ClarabelProjector {
             message: message.into(),
         }
     }
+
+    /// What to do with the iterate Clarabel hands back: `Ok(None)` when it is solved,
+    /// `Ok(Some(fallback))` when it must first be verified (`fallback` applies when its KKT
+    /// residuals exceed the tolerance), `Err` when there is no answer.
+    fn verdict(status: SolverStatus, iterations: u32, accept_almost_solved: bool) -> Verdict {
+        let name = status_name(status);
+        let not_converged = || ProjectionError::NotConverged {
+            backend: NAME.to_string(),
+            iterations,
+            status: name.clone(),
+        };
+        match status {
+            SolverStatus::Solved => Ok(None),
+            SolverStatus::AlmostSolved => Ok(Some(if accept_almost_solved {
+                Ok(SolveStatus::SolvedReducedAccuracy)
+            } else {
+                Err(not_converged())
+            })),
+            SolverStatus::MaxIterations
+            | SolverStatus::MaxTime
+            | SolverStatus::InsufficientProgress => Ok(Some(Err(not_converged()))),
+            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                Err(ProjectionError::Infeasible {
+                    backend: NAME.to_string(),
+                    detail: format!("{name} after {iterations} iterations"),
+                })
+            }
+            SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible => {
+                Err(Self::backend_error(format!(
+                    "status {name} after {iterations} iterations: impossible for a \
+                     projection (the cost ½‖x − y‖² is bounded below), a numerical failure"
+                )))
+            }
+            SolverStatus::NumericalError => Err(Self::backend_error(format!(
+                "status {name} after {iterations} iterations"
+            ))),
+            // No callback is installed and `solve` has run: neither can happen.
+            SolverStatus::CallbackTerminated | SolverStatus::Unsolved => Err(Self::backend_error(
+                format!("unexpected status {name} after {iterations} iterations"),
+            )),
+        }
+    }
 }
 
 /// `−A` in CSC form with entries repeated within a row summed (the [`sweeping_api::SparseRows`]
@@ -349,6 +391,9 @@ fn negated_csc(problem: &ProjectionProblem) -> (CscMatrix<f64>, Vec<bool>) {
 fn status_name(status: SolverStatus) -> String {
     format!("{status:?}")
 }
+
+/// What `verdict` makes of a status: see there.
+type Verdict = Result<Option<Result<SolveStatus, ProjectionError>>, ProjectionError>;
 
 impl Projector for ClarabelProjector {
     fn name(&self) -> &str {
@@ -408,43 +453,7 @@ impl Projector for ClarabelProjector {
             iterations,
             status: name.clone(),
         };
-        // What to do with the iterate Clarabel hands back: `Ok(None)` when it is solved,
-        // `Ok(Some(fallback))` when it must first be verified (`fallback` applies when its
-        // KKT residuals exceed the tolerance), `Err` when there is no answer.
-        let verify: Result<Option<Result<SolveStatus, ProjectionError>>, ProjectionError> =
-            match status {
-                SolverStatus::Solved => Ok(None),
-                SolverStatus::AlmostSolved => Ok(Some(if self.settings.accept_almost_solved {
-                    Ok(SolveStatus::SolvedReducedAccuracy)
-                } else {
-                    Err(not_converged())
-                })),
-                SolverStatus::MaxIterations
-                | SolverStatus::MaxTime
-                | SolverStatus::InsufficientProgress => Ok(Some(Err(not_converged()))),
-                SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
-                    Err(ProjectionError::Infeasible {
-                        backend: NAME.to_string(),
-                        detail: format!("{name} after {iterations} iterations"),
-                    })
-                }
-                SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible => {
-                    Err(Self::backend_error(format!(
-                        "status {name} after {iterations} iterations: impossible for a \
-                         projection (the cost ½‖x − y‖² is bounded below), a numerical failure"
-                    )))
-                }
-                SolverStatus::NumericalError => Err(Self::backend_error(format!(
-                    "status {name} after {iterations} iterations"
-                ))),
-                // No callback is installed and `solve` has run: neither can happen.
-                SolverStatus::CallbackTerminated | SolverStatus::Unsolved => {
-                    Err(Self::backend_error(format!(
-                        "unexpected status {name} after {iterations} iterations"
-                    )))
-                }
-            };
-        let verify = verify?;
+        let verify = Self::verdict(status, iterations, self.settings.accept_almost_solved)?;
         // A malformed iterate is a backend failure when Clarabel called it solved, and the
         // status's own error otherwise.
         let malformed = |message: String| match &verify {

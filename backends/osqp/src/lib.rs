@@ -392,6 +392,61 @@ impl OsqpProjector {
         }
     }
 
+    /// A fresh OSQP workspace for `problem` (`P = I`, `q = 0`, bounds `l ≤ A d ≤ u`).
+    fn set_up(
+        &self,
+        problem: &ProjectionProblem,
+        (col_ptr, row_idx, values): (Vec<usize>, Vec<usize>, Vec<f64>),
+        l: &[f64],
+        u: &[f64],
+    ) -> Result<Cache, ProjectionError> {
+        let m = problem.n_rows();
+        let osqp_settings = self
+            .settings
+            .to_osqp()
+            .map_err(|e| Self::backend_error(format!("invalid settings: {e}")))?;
+        let n = problem.dim();
+        let identity = CscMatrix {
+            nrows: n,
+            ncols: n,
+            indptr: Cow::Owned((0..=n).collect()),
+            indices: Cow::Owned((0..n).collect()),
+            data: Cow::Owned(vec![1.0; n]),
+        };
+        let a_csc = CscMatrix {
+            nrows: m,
+            ncols: n,
+            indptr: Cow::Owned(col_ptr),
+            indices: Cow::Owned(row_idx),
+            data: Cow::Owned(values),
+        };
+        let q = vec![0.0; n];
+        let built = catch_unwind(AssertUnwindSafe(|| {
+            Problem::new(identity, &q, a_csc, l, u, &osqp_settings)
+        }));
+        let problem_osqp = match built {
+            Ok(Ok(p)) => p,
+            Ok(Err(e)) => {
+                let hint = if matches!(e, osqp::SetupError::DataInvalid(_)) {
+                    " (a row with a repeated column makes A invalid)"
+                } else {
+                    ""
+                };
+                return Err(Self::backend_error(format!(
+                    "OSQP set-up failed: {e}{hint}"
+                )));
+            }
+            Err(_) => return Err(Self::backend_error("OSQP set-up panicked")),
+        };
+        Ok(Cache {
+            problem: problem_osqp,
+            a: problem.a().clone(),
+            d: vec![0.0; n],
+            y_osqp: vec![0.0; m],
+            keys: None,
+        })
+    }
+
     /// Solves a problem that needs the solver (`y` violates a row, `A` has columns).
     fn solve(
         &mut self,
@@ -447,49 +502,7 @@ impl OsqpProjector {
             cache
         } else {
             let previous = self.cache.take();
-            let osqp_settings = settings
-                .to_osqp()
-                .map_err(|e| Self::backend_error(format!("invalid settings: {e}")))?;
-            let n = problem.dim();
-            let identity = CscMatrix {
-                nrows: n,
-                ncols: n,
-                indptr: Cow::Owned((0..=n).collect()),
-                indices: Cow::Owned((0..n).collect()),
-                data: Cow::Owned(vec![1.0; n]),
-            };
-            let a_csc = CscMatrix {
-                nrows: m,
-                ncols: n,
-                indptr: Cow::Owned(col_ptr),
-                indices: Cow::Owned(row_idx),
-                data: Cow::Owned(values),
-            };
-            let q = vec![0.0; n];
-            let built = catch_unwind(AssertUnwindSafe(|| {
-                Problem::new(identity, &q, a_csc, &l, &u, &osqp_settings)
-            }));
-            let problem_osqp = match built {
-                Ok(Ok(p)) => p,
-                Ok(Err(e)) => {
-                    let hint = if matches!(e, osqp::SetupError::DataInvalid(_)) {
-                        " (a row with a repeated column makes A invalid)"
-                    } else {
-                        ""
-                    };
-                    return Err(Self::backend_error(format!(
-                        "OSQP set-up failed: {e}{hint}"
-                    )));
-                }
-                Err(_) => return Err(Self::backend_error("OSQP set-up panicked")),
-            };
-            let mut cache = Cache {
-                problem: problem_osqp,
-                a: a.clone(),
-                d: vec![0.0; n],
-                y_osqp: vec![0.0; m],
-                keys: None,
-            };
+            let mut cache = self.set_up(problem, (col_ptr, row_idx, values), &l, &u)?;
             // The pattern changed (rows appeared, vanished or moved): with keys on both
             // problems, start from the previous duals of the rows that are still there.
             if let (true, Some(new), Some(old)) = (

@@ -2,9 +2,12 @@
 //! loudly (non-zero exit, a typed error naming step, time and constraint) or runs correctly, as
 //! judged by an independent checker reading the `trajectory.csv` the real `sweep` binary wrote.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
+mod support;
 
-use common::checker::{check_trajectory, moving, still, sweep_run, Geometry, Obstacle};
+use common::checker::{check_trajectory, moving, still, Geometry, Obstacle};
+use support::sweep_run;
 
 const TOL: f64 = 1e-6;
 
@@ -68,7 +71,7 @@ trajectory_every = 0.01
 fn moving_wall_with_long_steps_fails_and_names_a_step_that_would_do() {
     let scene = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/moving-wall.toml"
+        "/../examples/scenes/moving-wall.toml"
     ))
     .unwrap();
     for h in ["1.0", "0.5"] {
@@ -102,7 +105,7 @@ fn moving_wall_with_long_steps_fails_and_names_a_step_that_would_do() {
 fn moving_wall_at_an_accepted_step_runs_clean() {
     let scene = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/moving-wall.toml"
+        "/../examples/scenes/moving-wall.toml"
     ))
     .unwrap();
     let run = sweep_run("moving-wall-ok", &scene, &["--h", "0.1"]);

@@ -574,7 +574,7 @@ fn sweep_run_format_sqlite_writes_only_the_sqlite_trajectory() {
 
 #[test]
 fn every_shipped_scene_has_a_walkable_area() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/scenes");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes");
     let mut checked = 0;
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();

@@ -1,0 +1,289 @@
+//! [`CrowdBuilder`]: a crowd scene built in code.
+//!
+//! A TOML file and the builder fill the same [`SceneSpec`]; [`Scene::build`] then runs the
+//! same steps on it, so a scene built in code is checked exactly as a file is, with the same
+//! error messages. The items in those messages keep the file's names (`[[people]] #2`,
+//! `[[crowds]] #1, person 7`): each builder call adds one such item, in call order. Only the
+//! line is missing (there is no file).
+
+use super::spec::{
+    CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec, PersonSpec,
+    RoomSpec, RunSpec, SceneSpec, SegmentSpec,
+};
+use super::{BuiltScene, ObstacleShape, Overrides, Scene, SceneError};
+use crate::backends::BackendChoice;
+use crate::crowd::Motion;
+use toml::Spanned;
+
+/// A value with no place in a file.
+fn unplaced<T>(value: T) -> Spanned<T> {
+    Spanned::new(0..0, value)
+}
+
+/// Builds a crowd scene in code: room, exits, obstacles (static or moving), people (one by
+/// one or random crowds with a seed), desired velocities, the geodesic grid, run and output
+/// settings. Everything not given takes the default a scene file would get.
+///
+/// ```
+/// use sweeping::scene::spec::{CrowdSpec, DesiredSpec, RadiusSpec};
+/// use sweeping::scene::{CrowdBuilder, ObstacleShape};
+/// use sweeping::crowd::Motion;
+///
+/// let built = CrowdBuilder::new("corridor")
+///     .rectangle([0.0, 0.0, 10.0, 4.0])
+///     .exit([10.0, 1.5], [10.0, 2.5])
+///     .obstacle(ObstacleShape::Disk { center: [5.0, 2.0], radius: 0.5 }, Motion::Static)
+///     .person([1.0, 2.0], 0.25)
+///     .crowd(CrowdSpec::new(20, RadiusSpec::Range([0.2, 0.25])).region([0.5, 0.5, 4.0, 3.5]))
+///     .desired(DesiredSpec::exit())
+///     .step(0.05)
+///     .horizon(2.0)
+///     .build()
+///     .unwrap();
+/// assert_eq!(built.population.len(), 21);
+/// let families: Vec<_> = built.problem.families().iter().map(|f| f.name().to_string()).collect();
+/// assert_eq!(families, ["pairs of people", "walls", "obstacles"]);
+/// ```
+#[derive(Debug, Clone)]
+pub struct CrowdBuilder {
+    spec: SceneSpec,
+}
+
+impl CrowdBuilder {
+    /// An empty scene named `name` (the name of its output directory). A room must be given.
+    pub fn new(name: impl Into<String>) -> Self {
+        CrowdBuilder {
+            spec: SceneSpec {
+                name: Some(name.into()),
+                description: None,
+                room: unplaced(RoomSpec {
+                    rectangle: None,
+                    polygon: None,
+                }),
+                exits: Vec::new(),
+                obstacles: Vec::new(),
+                people: Vec::new(),
+                crowds: Vec::new(),
+                desired: None,
+                geodesic: None,
+                run: None,
+                output: None,
+            },
+        }
+    }
+
+    /// The room `[x0, y0, x1, y1]`.
+    pub fn rectangle(mut self, r: [f64; 4]) -> Self {
+        self.spec.room = unplaced(RoomSpec {
+            rectangle: Some(r),
+            polygon: None,
+        });
+        self
+    }
+
+    /// A polygonal room (vertices in order).
+    pub fn polygon(mut self, vertices: Vec<[f64; 2]>) -> Self {
+        self.spec.room = unplaced(RoomSpec {
+            rectangle: None,
+            polygon: Some(vertices),
+        });
+        self
+    }
+
+    /// An exit: a segment on one edge of the room.
+    pub fn exit(mut self, from: [f64; 2], to: [f64; 2]) -> Self {
+        self.spec.exits.push(unplaced(ExitSpec { from, to }));
+        self
+    }
+
+    /// An obstacle: its shape at `t = 0` and its motion.
+    pub fn obstacle(mut self, shape: ObstacleShape, motion: Motion) -> Self {
+        let mut o = ObstacleSpec {
+            disk: None,
+            segment: None,
+            polygon: None,
+            velocity: None,
+            path: None,
+        };
+        match shape {
+            ObstacleShape::Disk { center, radius } => o.disk = Some(DiskSpec { center, radius }),
+            ObstacleShape::Segment { a, b } => o.segment = Some(SegmentSpec { from: a, to: b }),
+            ObstacleShape::Polygon(p) => o.polygon = Some(p),
+        }
+        match motion {
+            Motion::Static => {}
+            Motion::Velocity(v) => o.velocity = Some(v),
+            Motion::Path(p) => o.path = Some(p.iter().map(|(t, d)| [*t, d[0], d[1]]).collect()),
+        }
+        self.spec.obstacles.push(unplaced(o));
+        self
+    }
+
+    /// A person at `position` with `radius`, speed 1 and the scene's desired velocity.
+    pub fn person(self, position: [f64; 2], radius: f64) -> Self {
+        self.person_with(PersonSpec {
+            position,
+            radius,
+            speed: None,
+            desired: None,
+        })
+    }
+
+    /// A person with their own speed or desired velocity.
+    pub fn person_with(mut self, person: PersonSpec) -> Self {
+        self.spec.people.push(unplaced(person));
+        self
+    }
+
+    /// `count` people placed at random without overlap (see [`CrowdSpec`]).
+    pub fn crowd(mut self, crowd: CrowdSpec) -> Self {
+        self.spec.crowds.push(unplaced(crowd));
+        self
+    }
+
+    /// The desired velocity of everybody who has none of their own.
+    pub fn desired(mut self, desired: DesiredSpec) -> Self {
+        self.spec.desired = Some(unplaced(desired));
+        self
+    }
+
+    /// The cell of the fast-marching grid (default 0.05).
+    pub fn geodesic_cell(mut self, cell: f64) -> Self {
+        self.spec.geodesic = Some(unplaced(GeodesicSpec { cell: Some(cell) }));
+        self
+    }
+
+    fn run_mut(&mut self) -> &mut RunSpec {
+        let run = self.spec.run.get_or_insert_with(|| {
+            unplaced(RunSpec {
+                h: None,
+                t_end: None,
+                stop_when_empty: None,
+                backend: None,
+            })
+        });
+        run.get_mut()
+    }
+
+    /// The time step (default 0.01).
+    pub fn step(mut self, h: f64) -> Self {
+        self.run_mut().h = Some(h);
+        self
+    }
+
+    /// The horizon (default 10).
+    pub fn horizon(mut self, t_end: f64) -> Self {
+        self.run_mut().t_end = Some(t_end);
+        self
+    }
+
+    /// The projection backend (default: the first one compiled in).
+    pub fn backend(mut self, backend: BackendChoice) -> Self {
+        self.run_mut().backend = Some(backend);
+        self
+    }
+
+    /// Stop as soon as everybody has left (default `false`).
+    pub fn stop_when_empty(mut self, stop: bool) -> Self {
+        self.run_mut().stop_when_empty = Some(stop);
+        self
+    }
+
+    /// What `sweep run` writes.
+    pub fn output(mut self, output: OutputSpec) -> Self {
+        self.spec.output = Some(unplaced(output));
+        self
+    }
+
+    /// The spec filled so far.
+    pub fn spec(&self) -> &SceneSpec {
+        &self.spec
+    }
+
+    /// The scene, not yet checked (as [`Scene::from_file`] returns it).
+    pub fn scene(self) -> Scene {
+        let name = self.spec.name.clone().unwrap_or_default();
+        Scene {
+            origin: format!("{name} (built in code)"),
+            name,
+            spec: self.spec,
+            text: None,
+        }
+    }
+
+    /// Checks and builds the scene.
+    ///
+    /// # Errors
+    /// As [`Scene::build`], without lines.
+    pub fn build(self) -> Result<BuiltScene, SceneError> {
+        self.scene().build(&Overrides::default())
+    }
+}
+
+impl DesiredSpec {
+    /// Towards the nearest exit, around the obstacles.
+    pub fn exit() -> Self {
+        DesiredSpec {
+            kind: super::spec::DesiredKind::Exit,
+            point: None,
+            velocity: None,
+        }
+    }
+
+    /// Straight towards `point`.
+    pub fn point(point: [f64; 2]) -> Self {
+        DesiredSpec {
+            kind: super::spec::DesiredKind::Point,
+            point: Some(point),
+            velocity: None,
+        }
+    }
+
+    /// The constant vector `velocity`.
+    pub fn constant(velocity: [f64; 2]) -> Self {
+        DesiredSpec {
+            kind: super::spec::DesiredKind::Constant,
+            point: None,
+            velocity: Some(velocity),
+        }
+    }
+}
+
+impl CrowdSpec {
+    /// `count` people of `radius` drawn over the room's bounding box, speed 1, seed 0, the
+    /// scene's desired velocity.
+    pub fn new(count: usize, radius: super::spec::RadiusSpec) -> Self {
+        CrowdSpec {
+            count,
+            region: None,
+            radius,
+            speed: None,
+            seed: None,
+            desired: None,
+        }
+    }
+
+    /// Draw the centres in `[x0, y0, x1, y1]`.
+    pub fn region(mut self, region: [f64; 4]) -> Self {
+        self.region = Some(region);
+        self
+    }
+
+    /// The seed of the placement.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = Some(seed);
+        self
+    }
+
+    /// The desired speed.
+    pub fn speed(mut self, speed: f64) -> Self {
+        self.speed = Some(speed);
+        self
+    }
+
+    /// Their own desired velocity.
+    pub fn desired(mut self, desired: DesiredSpec) -> Self {
+        self.desired = Some(desired);
+        self
+    }
+}
