@@ -548,7 +548,7 @@ fn work_precision_keeps_loose_solvers() {
     use sweeping::study::work_precision::{work_precision, SolverSetting, WorkPrecisionSettings};
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/paper-evacuation.toml"
+        "/../examples/scenes/paper-evacuation.toml"
     );
     let make = || -> Result<sweeping::problem::Problem, sweeping::study::BoxError> {
         Ok(Scene::from_file(path)?
