@@ -8,13 +8,13 @@
 //! found by a dense non-negative least-squares solve — the KKT conditions of the convex
 //! projection, which pin the point whatever active-set guess it came from. Long (≈1200 steps
 //! of both backends): `cargo test --release --test cross_certificate -- --ignored --nocapture`.
+#![cfg(all(feature = "clarabel", feature = "osqp"))]
 
 use nalgebra::{DMatrix, DVector};
+use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
+use sweeping::backends::{ClarabelProjector, OsqpProjector, OsqpSettings};
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::Stepper;
-use sweeping_api::{Projection, ProjectionError, ProjectionProblem, Projector};
-use sweeping_clarabel::ClarabelProjector;
-use sweeping_osqp::{OsqpProjector, OsqpSettings};
 
 /// Clarabel and OSQP on every step, as `--backend cross` runs them; keeps the QP and both
 /// answers of the first step where they differ by more than `1e-6`.
