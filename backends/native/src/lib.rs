@@ -76,11 +76,15 @@ pub const NAME: &str = "native";
 pub struct NativeSettings {
     /// Largest KKT residual accepted, relative to `max(1, ‖y‖∞, ‖b‖∞)`. Default `1e-10`.
     pub kkt_tolerance: f64,
-    /// Most factorizations per block; `0` means `40 + rows of the block / 2`. Default `0`.
+    /// Most factorizations per block before the block goes to the fallback; `0` means
+    /// [`DEFAULT_FACTORIZATIONS`] with a fallback and `40 + rows of the block / 2` without one
+    /// (then the method must converge on its own). Default `0`.
     ///
-    /// On the paper's evacuation (whole run, blocks of up to 254 rows) a converging block
-    /// needed at most 160 factorizations, and the few that cycled (rounding on dependent rows)
-    /// ran to any cap: a cap only decides how much time is lost before the fallback.
+    /// The active-set method wins when the active set changes by a few rows per step (a crowd
+    /// walking, a queue at a door) and loses to an interior point when it changes by hundreds
+    /// (a jam forming): each change costs it a factorization. The cap bounds what a jammed
+    /// step can cost before Clarabel takes the block (`sweep bench --start jammed` in the
+    /// README measures both sides).
     pub max_factorizations: u32,
     /// Start from the previous step's active rows, matched by row keys. Default `true`.
     pub warm_start: bool,
@@ -95,6 +99,9 @@ impl Default for NativeSettings {
         }
     }
 }
+
+/// The cap on factorizations per block when [`NativeSettings::max_factorizations`] is `0`.
+pub const DEFAULT_FACTORIZATIONS: u32 = 16;
 
 /// The native backend; see the [crate documentation](crate).
 pub struct NativeProjector {
@@ -184,6 +191,7 @@ impl NativeProjector {
         let warm = support.iter().any(|&i| remembered[i].is_some());
         let lambda = support.iter().map(|&i| join[i]).collect();
         let cap = match self.settings.max_factorizations {
+            0 if self.fallback.is_some() => DEFAULT_FACTORIZATIONS,
             0 => 40 + u32::try_from(m / 2).unwrap_or(u32::MAX / 4),
             c => c,
         };
