@@ -249,6 +249,9 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         "  solver iterations: {} over {} solves (max rows {}, max active {}, fallbacks {})",
         s.solver_iterations, s.solves, s.max_rows, s.max_active, s.fallbacks
     );
+    if let Some(mib) = s.peak_memory_mib {
+        println!("  peak memory: {mib:.0} MiB (resident, the whole process)");
+    }
     println!(
         "  max overlap: {:.3e}{}",
         s.max_overlap,

@@ -300,6 +300,10 @@ pub struct RunSummary {
     /// Sub-problems the backend handed to its fallback (native backend), summed.
     #[serde(default)]
     pub fallbacks: u64,
+    /// The process's peak resident memory at the end of the run, in MiB (`None` where the
+    /// platform does not report it).
+    #[serde(default)]
+    pub peak_memory_mib: Option<f64>,
     /// QP solves (more than steps when a culling proof needed a re-solve).
     pub solves: u64,
     /// Most rows in one QP.
@@ -453,6 +457,7 @@ impl Observer for SummaryCollector<'_> {
 
     fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let s = &mut self.summary;
+        s.peak_memory_mib = crate::study::peak_memory_bytes().map(|b| b as f64 / 1048576.0);
         let per = |v: f64| {
             if s.steps > 0 {
                 1e3 * v / s.steps as f64
