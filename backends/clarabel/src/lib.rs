@@ -59,6 +59,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod active_set;
 mod polish;
 
 use clarabel::algebra::CscMatrix;
@@ -491,7 +492,7 @@ impl Projector for ClarabelProjector {
         }
         let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
         if self.settings.polish {
-            if let Some((px, mut pl)) = polish::polish(problem, &x, &solution.z, &solution.s) {
+            if let Some((px, mut pl)) = polish::polish(problem, &solution.z, &solution.s) {
                 // Tiny negative multipliers of weakly active rows are clamped as above; a
                 // larger one disqualifies the polished answer.
                 let valid = pl.iter().all(|l| *l >= -clamp);

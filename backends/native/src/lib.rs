@@ -8,7 +8,7 @@
 //!    touch nobody and contacts form small clusters, each solved on its own. A block whose
 //!    rows all hold at `y` is answered `x = y`, `λ = 0` (exact).
 //! 2. **Dual active set.** Each block runs the Lawson–Hanson method on the dual
-//!    `min ½‖Aᵀλ‖² − λᵀ(b − Ay)`, `λ ≥ 0` (see [the method](active_set)); every step factors
+//!    `min ½‖Aᵀλ‖² − λᵀ(b − Ay)`, `λ ≥ 0` (see [the method](sweeping_clarabel::active_set)); every step factors
 //!    the quasi-definite KKT matrix of the working set with QDLDL and refines against the
 //!    unregularized one, which copes with linearly dependent rows (contact loops). It starts
 //!    from the rows active at the previous step, matched by their [`RowKey`]s (rows may
@@ -30,20 +30,15 @@
 //!    certificate ([`ProjectionError::Infeasible`]). This backend never returns an answer that
 //!    it has not checked.
 //!
-//! # Factorization: QDLDL
+//! # One implementation of the method
 //!
-//! The factorization is QDLDL as Clarabel ships it (`clarabel::qdldl`, AMD ordering): it is
-//! already compiled in every build that has the Clarabel backend, handles the quasi-definite
-//! matrix directly (signs of `D` prescribed), and the systems are small — one per cluster of
-//! touching people. faer's sparse Cholesky was not measured against it.
-//!
-//! # Why the active-set core is not shared with the Clarabel polish
-//!
-//! The Clarabel backend's polish runs the same method from an interior-point guess. Sharing
-//! one copy would make the Clarabel backend depend on this crate (each backend crate depends
-//! only on the api and its own solver), and Clarabel is this backend's fallback and
-//! cross-check: the cross-check is worth more when the reference's finishing step is a
-//! separate implementation.
+//! The active-set method is `sweeping_clarabel::active_set`, the code that also polishes
+//! Clarabel's interior-point answers: this backend runs it on its own, from the previous
+//! step's active rows, block by block; Clarabel runs it from its interior-point guess. Its
+//! factorization is QDLDL as Clarabel ships it (`clarabel::qdldl`, AMD ordering), with small
+//! well-conditioned supports factored densely; faer's sparse Cholesky was not measured
+//! against it. The cross-check `cross-native` still compares two different paths to the
+//! answer (a warm active set against an interior point), not one computation with itself.
 //!
 //! ```
 //! use sweeping_api::{ProjectionProblem, Projector, SparseRows};
@@ -58,15 +53,13 @@
 //! ```
 #![deny(missing_docs)]
 
-pub mod active_set;
-
-use active_set::{Failure, Start};
 use std::collections::HashMap;
 use std::time::Instant;
 use sweeping_api::{
     Blocks, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
     SolveStatus,
 };
+use sweeping_clarabel::active_set::{self, Failure, Start};
 
 /// The name this backend reports in statistics and errors.
 pub const NAME: &str = "native";

@@ -34,9 +34,10 @@
 //! - otherwise the rows outside `P` that `d` violates join it;
 //! - when none does, `(y + d, μ)` satisfies the KKT conditions.
 //!
-//! The same method polishes Clarabel's interior-point answers (the Clarabel backend's
-//! `polish` module, where it starts from the interior-point guess); here it starts from the
-//! previous step's active set (warm start) or from the rows violated at `y`.
+//! The same method polishes Clarabel's interior-point answers (started from the interior-point
+//! guess, see the crate documentation) and is the whole of the native backend
+//! (`sweeping-native`, started from the previous step's active set or from the rows violated
+//! at `y`): one implementation, two starts.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
@@ -58,7 +59,7 @@ const ACTIVE_TOL: f64 = 1e-12;
 
 /// Where the method starts.
 #[derive(Debug, Clone)]
-pub(crate) struct Start {
+pub struct Start {
     /// The starting support (row indices, increasing).
     pub support: Vec<usize>,
     /// A positive starting multiplier per row of the support.
@@ -69,7 +70,7 @@ pub(crate) struct Start {
 
 /// A converged answer.
 #[derive(Debug, Clone)]
-pub(crate) struct Outcome {
+pub struct Outcome {
     /// The point `y + d`.
     pub x: Vec<f64>,
     /// One multiplier per row (zero off the support).
@@ -80,7 +81,7 @@ pub(crate) struct Outcome {
 
 /// Why no answer came out.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Failure {
+pub enum Failure {
     /// Factorization failed or numbers stopped being finite.
     Numerical(&'static str),
     /// The cap on factorizations was reached.
@@ -280,7 +281,7 @@ impl ActiveSystem {
 /// A fill-reducing (AMD) ordering of `K_δ` with every row of the problem, computed once per
 /// block so that each working set's factorization skips its own ordering (the restriction of
 /// an elimination order to a subset of the vertices fills no more than the whole).
-pub(crate) fn full_ordering(problem: &ProjectionProblem) -> Option<Vec<usize>> {
+pub fn full_ordering(problem: &ProjectionProblem) -> Option<Vec<usize>> {
     let all: Vec<usize> = (0..problem.n_rows()).collect();
     let (_, kkt) = kkt_matrix(problem, &all);
     let settings = QDLDLSettingsBuilder::default().logical(true).build().ok()?;
@@ -414,11 +415,7 @@ fn farkas(problem: &ProjectionProblem, support: &[usize], e: &[f64], r: &[f64]) 
 
 /// Runs the method from `start` for at most `cap` factorizations. See the module
 /// documentation.
-pub(crate) fn solve(
-    problem: &ProjectionProblem,
-    start: Start,
-    cap: u32,
-) -> Result<Outcome, Failure> {
+pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outcome, Failure> {
     // Small blocks are ordered per factorization; larger ones once.
     let order = if problem.n_rows() > 8 {
         full_ordering(problem)
