@@ -595,6 +595,44 @@ pub fn estimate_problem(
     projector: &mut dyn Projector,
 ) -> Result<AssumptionReport, SweepError> {
     let s = settings;
+    validate_estimate_inputs(problem, samples, s)?;
+
+    let mut scan = Scan::new();
+    scan.check_affine_claims(problem, samples);
+    let cutoff = s.neighbourhood.max(s.rho);
+    let mut scratch = crate::problem::LinearizeScratch::default();
+    let mut probe_q: Vec<f64> = Vec::new();
+    for (k, (t, q)) in samples.iter().enumerate() {
+        let t = *t;
+        let (near, worst_violation) =
+            scan.scan_sample(problem, k, t, q, s, cutoff, &mut scratch, &mut probe_q);
+        scan.report_infeasible(k, t, worst_violation);
+        scan.see_gammas(problem, &near, k, t, s, projector)?;
+    }
+    scan.report_totals(s.rho);
+
+    let mut notes: Vec<String> = Vec::new();
+    let c = a0_margin(problem, &mut notes);
+    let (k_l, h_max) = lipschitz_step_bound(problem, &mut notes);
+    if s.probe_depth == 0.0 {
+        notes.push(
+            "A1, A3, A4 were sampled on Q(t) near activity only (probe_depth = 0), A2 near \
+             activity only: the suprema over Uᵢ(t) and R^d may be larger"
+                .into(),
+        );
+    }
+    Ok(scan.into_report(samples.len(), s, c, k_l, h_max, notes))
+}
+
+/// Checks the inputs of [`estimate_problem`], in order: at least one sample, every setting
+/// finite and `≥ 0`, `ρ > 0` (A5), `active_tolerance ≤ ρ` (the active set lies inside
+/// `I_ρ`), every sample of the problem's dimension and finite, and every family reading
+/// only coordinates of `q`.
+fn validate_estimate_inputs(
+    problem: &Problem,
+    samples: &[(f64, Vec<f64>)],
+    s: &EstimateSettings,
+) -> Result<(), SweepError> {
     if samples.is_empty() {
         return Err(SweepError::InvalidInput(
             "no samples to estimate the assumptions on".into(),
@@ -651,31 +689,69 @@ pub fn estimate_problem(
             )));
         }
     }
+    Ok(())
+}
 
-    let mut alpha = Tracker::new(false);
-    let mut beta_grad = Tracker::new(true);
-    let mut beta_dt = Tracker::new(true);
-    let mut m_hess = Tracker::new(true);
-    let mut m_dt_grad = Tracker::new(true);
-    let mut gamma = Tracker::new(true);
-    let mut gamma_prime = Tracker::new(true);
-    let mut gamma_group = Tracker::new(true);
-    let mut curvature = Tracker::new(false);
-    let mut concave_reported = 0usize;
-    let mut affine_claims_false = 0usize;
-    let mut failures: Vec<String> = Vec::new();
-    let mut notes: Vec<String> = Vec::new();
-    let mut evaluations = 0usize;
-    let cutoff = s.neighbourhood.max(s.rho);
-    let mut scratch = crate::problem::LinearizeScratch::default();
-    let mut probe_q: Vec<f64> = Vec::new();
-    let mut infeasible_reported = 0usize;
-    let mut a1_reported = 0usize;
-    let mut dependent_reported = (0usize, 0usize);
+/// The running extremes of the sampled quantities of A1–A5 (and of the curvature of §2),
+/// with the failures found so far and how many of each kind were seen.
+struct Scan {
+    /// A1: smallest `|∇gᵢ|` (`α`).
+    alpha: Tracker,
+    /// A1: largest `|∇gᵢ|` (one part of `β`).
+    beta_grad: Tracker,
+    /// A2: largest `|∂ₜgᵢ|` (the other part of `β`).
+    beta_dt: Tracker,
+    /// A4: largest `|D²_q gᵢ|` (one part of `M`).
+    m_hess: Tracker,
+    /// A3: largest `|∂ₜ∇_q gᵢ|` (the other part of `M`).
+    m_dt_grad: Tracker,
+    /// A5 at `ρ`: largest global `γ`.
+    gamma: Tracker,
+    /// A5': largest `γ'` over the active sets.
+    gamma_prime: Tracker,
+    /// Largest `γₖ` of one coordinate group at `ρ`.
+    gamma_group: Tracker,
+    /// §2: smallest eigenvalue of `D²gᵢ`.
+    curvature: Tracker,
+    concave_reported: usize,
+    affine_claims_false: usize,
+    a1_reported: usize,
+    infeasible_reported: usize,
+    /// Samples with `γ = ∞` at `ρ` and with `γ' = ∞` over the active set.
+    dependent_reported: (usize, usize),
+    evaluations: usize,
+    failures: Vec<String>,
+}
 
-    // A family that declares itself affine skips the Hessian everywhere: verify the claim
-    // once, on its first member at the first sample.
-    if let Some((t, q)) = samples.first() {
+impl Scan {
+    fn new() -> Self {
+        Self {
+            alpha: Tracker::new(false),
+            beta_grad: Tracker::new(true),
+            beta_dt: Tracker::new(true),
+            m_hess: Tracker::new(true),
+            m_dt_grad: Tracker::new(true),
+            gamma: Tracker::new(true),
+            gamma_prime: Tracker::new(true),
+            gamma_group: Tracker::new(true),
+            curvature: Tracker::new(false),
+            concave_reported: 0,
+            affine_claims_false: 0,
+            a1_reported: 0,
+            infeasible_reported: 0,
+            dependent_reported: (0, 0),
+            evaluations: 0,
+            failures: Vec::new(),
+        }
+    }
+
+    /// A family that declares itself affine skips the Hessian everywhere: verifies the claim
+    /// once, on its first member at the first sample (`|D²g| = 0` within
+    /// [`CONVEXITY_TOLERANCE`]), and records each false claim.
+    fn check_affine_claims(&mut self, problem: &Problem, samples: &[(f64, Vec<f64>)]) {
+        let Some((t, q)) = samples.first() else {
+            return;
+        };
         for fam in problem.families() {
             if !fam.is_affine() || fam.count() == 0 {
                 continue;
@@ -684,9 +760,9 @@ pub fn estimate_problem(
                 let n = (h.len() as f64).sqrt().round() as usize;
                 let norm = symmetric_spectral_norm(&h, n);
                 if monitor::not_within(norm, CONVEXITY_TOLERANCE) {
-                    affine_claims_false += 1;
+                    self.affine_claims_false += 1;
                     let v = monitor::affine_claim_violation(0, *t, fam.describe(0), norm);
-                    failures.push(format!(
+                    self.failures.push(format!(
                         "{}: {} at t = {} (sample 0): |D²g| = {} ≠ 0: {}",
                         AFFINE_CLAIM,
                         v.constraint,
@@ -699,8 +775,22 @@ pub fn estimate_problem(
         }
     }
 
-    for (k, (t, q)) in samples.iter().enumerate() {
-        let t = *t;
+    /// Evaluates every constraint with `gᵢ(t, q) ≤ cutoff` at sample `k`: records its norms
+    /// (see [`Self::see_constraint`]) and returns the near-active ones (`gᵢ ≤ ρ`, with their
+    /// unit normals, for `γ`) and the most violated constraint when `q ∉ Q(t)` beyond the
+    /// feasibility tolerance.
+    #[allow(clippy::too_many_arguments)]
+    fn scan_sample(
+        &mut self,
+        problem: &Problem,
+        k: usize,
+        t: f64,
+        q: &[f64],
+        s: &EstimateSettings,
+        cutoff: f64,
+        scratch: &mut crate::problem::LinearizeScratch,
+        probe_q: &mut Vec<f64>,
+    ) -> (Vec<Near>, Option<(f64, String)>) {
         let mut near: Vec<Near> = Vec::new();
         let mut worst_violation: Option<(f64, String)> = None;
         let _ = problem.for_each_linearized(
@@ -708,7 +798,7 @@ pub fn estimate_problem(
             q,
             |_| Some(cutoff),
             false,
-            &mut scratch,
+            scratch,
             |fam, id, row| {
                 let (fi, idx) = (id.family, id.member);
                 if monitor::not_within(row.value, cutoff) {
@@ -719,154 +809,295 @@ pub fn estimate_problem(
                 {
                     worst_violation = Some((row.value, fam.describe(idx)));
                 }
-                let so = fam.second_order(idx, t, q);
-                let norms = second_order_norms(fam, &so);
-                let mut evals = vec![(norms, so.value)];
-                if s.probe_depth > 0.0 && norms.grad > 0.0 {
-                    probe_q.clear();
-                    probe_q.extend_from_slice(q);
-                    for (c, g) in so.columns.iter().zip(&so.gradient) {
-                        probe_q[*c] -= s.probe_depth * g / norms.grad;
-                    }
-                    let sp = fam.second_order(idx, t, &probe_q);
-                    evals.push((second_order_norms(fam, &sp), sp.value));
-                }
-                for (e, (nm, value)) in evals.iter().enumerate() {
-                    evaluations += 1;
-                    let name = || fam.describe(idx);
-                    if !fam.is_affine() {
-                        curvature.see(nm.min_eig, t, k, name);
-                        if concave_direction(nm.min_eig, nm.hess, CONVEXITY_TOLERANCE) {
-                            concave_reported += 1;
-                            if concave_reported <= 10 {
-                                let point = if e == 0 {
-                                    describe_point(&so.columns, q)
-                                } else {
-                                    describe_point(&so.columns, &probe_q)
-                                };
-                                failures.push(format!(
-                                    "{CONVEXITY}: the smallest eigenvalue of D²g is {} < 0 for {} \
-                                     at t = {} (sample {k}), at {point}, g = {}{}",
-                                    fmt_num(nm.min_eig),
-                                    fam.describe(idx),
-                                    crate::stepper::display_number(t),
-                                    fmt_num(*value),
-                                    if concave_reported == 1 {
-                                        format!(": {CONVEXITY_MEANING}")
-                                    } else {
-                                        String::new()
-                                    }
-                                ));
-                            }
-                        }
-                    }
-                    alpha.see(nm.grad, t, k, name);
-                    beta_grad.see(nm.grad, t, k, name);
-                    beta_dt.see(nm.dt, t, k, name);
-                    m_hess.see(nm.hess, t, k, name);
-                    m_dt_grad.see(nm.dt_grad, t, k, name);
-                    let vanishing = monitor::not_within(1e-12, nm.grad);
-                    if vanishing {
-                        a1_reported += 1;
-                    }
-                    if vanishing && a1_reported <= 10 {
-                        failures.push(format!(
-                            "A1: |∇g| = {} vanishes at t = {t} (sample {k}) for {}",
-                            fmt_num(nm.grad),
-                            fam.describe(idx)
-                        ));
-                    }
-                }
-                if so.value <= s.rho && norms.grad > 1e-12 {
-                    near.push(Near {
-                        family: fi,
-                        index: idx,
-                        value: so.value,
-                        normal: SparseVector {
-                            columns: so.columns.clone(),
-                            values: so.gradient.iter().map(|g| g / norms.grad).collect(),
-                        },
-                    });
+                if let Some(n) = self.see_constraint(fam, fi, idx, k, t, q, s, probe_q) {
+                    near.push(n);
                 }
                 Ok::<(), std::convert::Infallible>(())
             },
         );
-        if let Some((v, name)) = worst_violation {
-            infeasible_reported += 1;
-            if infeasible_reported <= 10 {
-                failures.push(format!(
-                    "sample {k} (t = {}) is not in Q(t): {name} = {} (A5 is stated on Q(t)){}",
-                    crate::stepper::display_number(t),
-                    fmt_num(v),
-                    if concave_reported > 0 {
-                        "; expected here: a constraint is not convex (above), so its \
-                         linearization lets computed states end outside Q(t)"
-                    } else {
-                        ""
-                    }
-                ));
+        (near, worst_violation)
+    }
+
+    /// Evaluates constraint `idx` of family `fam` at `(t, q)` and, when `probe_depth > 0`,
+    /// also at the probe `q − probe_depth·∇g/|∇g|` (inside `Uᵢ(t)`, off `Q(t)`); feeds each
+    /// evaluation to [`Self::see_evaluation`]. Returns the constraint as [`Near`] when
+    /// `gᵢ ≤ ρ` with a non-vanishing gradient.
+    #[allow(clippy::too_many_arguments)]
+    fn see_constraint(
+        &mut self,
+        fam: &dyn ConstraintFamily,
+        fi: usize,
+        idx: usize,
+        k: usize,
+        t: f64,
+        q: &[f64],
+        s: &EstimateSettings,
+        probe_q: &mut Vec<f64>,
+    ) -> Option<Near> {
+        let so = fam.second_order(idx, t, q);
+        let norms = second_order_norms(fam, &so);
+        let mut evals = vec![(norms, so.value)];
+        if s.probe_depth > 0.0 && norms.grad > 0.0 {
+            probe_q.clear();
+            probe_q.extend_from_slice(q);
+            for (c, g) in so.columns.iter().zip(&so.gradient) {
+                probe_q[*c] -= s.probe_depth * g / norms.grad;
+            }
+            let sp = fam.second_order(idx, t, probe_q);
+            evals.push((second_order_norms(fam, &sp), sp.value));
+        }
+        for (e, (nm, value)) in evals.iter().enumerate() {
+            let at: &[f64] = if e == 0 { q } else { probe_q };
+            self.see_evaluation(fam, idx, k, t, nm, *value, &so.columns, at);
+        }
+        if so.value <= s.rho && norms.grad > 1e-12 {
+            Some(Near {
+                family: fi,
+                index: idx,
+                value: so.value,
+                normal: SparseVector {
+                    columns: so.columns.clone(),
+                    values: so.gradient.iter().map(|g| g / norms.grad).collect(),
+                },
+            })
+        } else {
+            None
+        }
+    }
+
+    /// Records one evaluation's norms: the smallest eigenvalue of `D²g` (§2, reporting a
+    /// concave direction of a non-affine constraint at the point `at`), `α` and `β` (A1) from
+    /// `|∇g|`, `β` (A2) from `|∂ₜg|`, `M` (A4) from `|D²g|`, `M` (A3) from `|∂ₜ∇g|`, and a
+    /// vanishing gradient as an A1 failure (the first 10 of each are reported).
+    #[allow(clippy::too_many_arguments)]
+    fn see_evaluation(
+        &mut self,
+        fam: &dyn ConstraintFamily,
+        idx: usize,
+        k: usize,
+        t: f64,
+        nm: &Norms,
+        value: f64,
+        columns: &[usize],
+        at: &[f64],
+    ) {
+        self.evaluations += 1;
+        let name = || fam.describe(idx);
+        if !fam.is_affine() {
+            self.curvature.see(nm.min_eig, t, k, name);
+            if concave_direction(nm.min_eig, nm.hess, CONVEXITY_TOLERANCE) {
+                self.concave_reported += 1;
+                if self.concave_reported <= 10 {
+                    let point = describe_point(columns, at);
+                    self.failures.push(format!(
+                        "{CONVEXITY}: the smallest eigenvalue of D²g is {} < 0 for {} \
+                         at t = {} (sample {k}), at {point}, g = {}{}",
+                        fmt_num(nm.min_eig),
+                        fam.describe(idx),
+                        crate::stepper::display_number(t),
+                        fmt_num(value),
+                        if self.concave_reported == 1 {
+                            format!(": {CONVEXITY_MEANING}")
+                        } else {
+                            String::new()
+                        }
+                    ));
+                }
             }
         }
-        if let Some((g, g_group, label)) = gamma_of(problem, &near, s.rho, s, projector, k, t)? {
-            gamma.see(g, t, k, || label.clone());
-            gamma_group.see(g_group, t, k, || label.clone());
+        self.alpha.see(nm.grad, t, k, name);
+        self.beta_grad.see(nm.grad, t, k, name);
+        self.beta_dt.see(nm.dt, t, k, name);
+        self.m_hess.see(nm.hess, t, k, name);
+        self.m_dt_grad.see(nm.dt_grad, t, k, name);
+        let vanishing = monitor::not_within(1e-12, nm.grad);
+        if vanishing {
+            self.a1_reported += 1;
+        }
+        if vanishing && self.a1_reported <= 10 {
+            self.failures.push(format!(
+                "A1: |∇g| = {} vanishes at t = {t} (sample {k}) for {}",
+                fmt_num(nm.grad),
+                fam.describe(idx)
+            ));
+        }
+    }
+
+    /// Reports sample `k` as outside `Q(t)` (A5 is stated on `Q(t)`) when a constraint is
+    /// violated there (the first 10 such samples).
+    fn report_infeasible(&mut self, k: usize, t: f64, worst_violation: Option<(f64, String)>) {
+        let Some((v, name)) = worst_violation else {
+            return;
+        };
+        self.infeasible_reported += 1;
+        if self.infeasible_reported <= 10 {
+            self.failures.push(format!(
+                "sample {k} (t = {}) is not in Q(t): {name} = {} (A5 is stated on Q(t)){}",
+                crate::stepper::display_number(t),
+                fmt_num(v),
+                if self.concave_reported > 0 {
+                    "; expected here: a constraint is not convex (above), so its \
+                     linearization lets computed states end outside Q(t)"
+                } else {
+                    ""
+                }
+            ));
+        }
+    }
+
+    /// Records sample `k`'s `γ` (A5 at `ρ`, global and of the worst coordinate group) and
+    /// `γ'` (A5', over the active set `gᵢ ≤ active_tolerance`), reporting `γ' = ∞`
+    /// (positively dependent active gradients: MFCQ fails) for the first 10 samples.
+    fn see_gammas(
+        &mut self,
+        problem: &Problem,
+        near: &[Near],
+        k: usize,
+        t: f64,
+        s: &EstimateSettings,
+        projector: &mut dyn Projector,
+    ) -> Result<(), SweepError> {
+        if let Some((g, g_group, label)) = gamma_of(problem, near, s.rho, s, projector, k, t)? {
+            self.gamma.see(g, t, k, || label.clone());
+            self.gamma_group.see(g_group, t, k, || label.clone());
             if g_group.is_infinite() {
-                dependent_reported.0 += 1;
+                self.dependent_reported.0 += 1;
             }
         }
         if let Some((g, _, label)) =
-            gamma_of(problem, &near, s.active_tolerance, s, projector, k, t)?
+            gamma_of(problem, near, s.active_tolerance, s, projector, k, t)?
         {
-            gamma_prime.see(g, t, k, || label.clone());
+            self.gamma_prime.see(g, t, k, || label.clone());
             if g.is_infinite() {
-                dependent_reported.1 += 1;
-                if dependent_reported.1 <= 10 {
-                    failures.push(format!(
+                self.dependent_reported.1 += 1;
+                if self.dependent_reported.1 <= 10 {
+                    self.failures.push(format!(
                         "A5': active gradients positively dependent at t = {t} (sample {k}): {label} \
                          (γ' = ∞: MFCQ fails, Q(t) is not prox-regular there and the motion may jam)"
                     ));
                 }
             }
         }
+        Ok(())
     }
-    if dependent_reported.1 > 10 {
-        failures.push(format!(
-            "A5': … positively dependent active gradients at {} samples in all",
-            dependent_reported.1
-        ));
-    }
-    if concave_reported > 10 {
-        failures.push(format!(
-            "{CONVEXITY}: … {concave_reported} evaluations with a negative eigenvalue in all"
-        ));
-    }
-    if a1_reported > 10 {
-        failures.push(format!("A1: … {a1_reported} vanishing gradients in all"));
-    }
-    if infeasible_reported > 10 {
-        failures.push(format!(
-            "… {infeasible_reported} samples outside Q(t) in all{}",
-            if concave_reported > 0 {
-                " (a constraint is not convex: see above)"
-            } else {
-                ""
-            }
-        ));
-    }
-    if let Some(g) = &gamma.best {
-        if g.value.is_infinite() && dependent_reported.1 == 0 {
-            failures.push(format!(
-                "A5 at ρ = {}: near-active gradients positively dependent at t = {} (sample {}): {} \
-                 (γ = ∞: Θ and r of Theorem 4.1 are not available; a smaller ρ may help)",
-                fmt_num(s.rho),
-                g.t,
-                g.sample,
-                g.constraint
+
+    /// After all samples: the totals of the failures reported only 10 at a time (A5',
+    /// convexity, A1, samples outside `Q(t)`), then `γ = ∞` at `ρ` (A5) when A5' did not
+    /// already report dependence.
+    fn report_totals(&mut self, rho: f64) {
+        if self.dependent_reported.1 > 10 {
+            self.failures.push(format!(
+                "A5': … positively dependent active gradients at {} samples in all",
+                self.dependent_reported.1
             ));
+        }
+        let concave_reported = self.concave_reported;
+        if concave_reported > 10 {
+            self.failures.push(format!(
+                "{CONVEXITY}: … {concave_reported} evaluations with a negative eigenvalue in all"
+            ));
+        }
+        let a1_reported = self.a1_reported;
+        if a1_reported > 10 {
+            self.failures
+                .push(format!("A1: … {a1_reported} vanishing gradients in all"));
+        }
+        let infeasible_reported = self.infeasible_reported;
+        if infeasible_reported > 10 {
+            self.failures.push(format!(
+                "… {infeasible_reported} samples outside Q(t) in all{}",
+                if concave_reported > 0 {
+                    " (a constraint is not convex: see above)"
+                } else {
+                    ""
+                }
+            ));
+        }
+        if let Some(g) = &self.gamma.best {
+            if g.value.is_infinite() && self.dependent_reported.1 == 0 {
+                self.failures.push(format!(
+                    "A5 at ρ = {}: near-active gradients positively dependent at t = {} (sample {}): {} \
+                     (γ = ∞: Θ and r of Theorem 4.1 are not available; a smaller ρ may help)",
+                    fmt_num(rho),
+                    g.t,
+                    g.sample,
+                    g.constraint
+                ));
+            }
         }
     }
 
-    // A0: every family must derive its margin; an affine family is smooth everywhere (c = ∞).
+    /// The report: the measured witnesses, the paper's `β = max(β of A1, β of A2)` and
+    /// `M = max(M of A3, M of A4)`, and `η`, `Θ`, `r` from [`derived_constants`] unless
+    /// convexity failed (then `None`, with a note).
+    fn into_report(
+        self,
+        samples: usize,
+        s: &EstimateSettings,
+        c: Option<f64>,
+        k_l: Option<f64>,
+        h_max: Option<f64>,
+        mut notes: Vec<String>,
+    ) -> AssumptionReport {
+        let a = self.alpha.best.as_ref().map(|w| w.value);
+        let beta = max_of(&self.beta_grad, &self.beta_dt);
+        let m = max_of(&self.m_hess, &self.m_dt_grad);
+        let g = self.gamma.best.as_ref().map_or(1.0, |w| w.value);
+        let gp = self.gamma_prime.best.as_ref().map_or(1.0, |w| w.value);
+        let (eta, theta, r) = derived_constants(a, beta, m, g, gp, s.rho);
+        let convexity_failed = self.concave_reported > 0 || self.affine_claims_false > 0;
+        let (eta, theta, r) = if convexity_failed {
+            notes.push(
+                "η, Θ and r are not claimed: Prop 2.2 and Theorem 4.1 are proved for gᵢ convex in q, \
+                 and convexity fails here (see FAILED)"
+                    .into(),
+            );
+            (None, None, None)
+        } else {
+            (eta, theta, r)
+        };
+        AssumptionReport {
+            samples,
+            evaluations: self.evaluations,
+            rho: s.rho,
+            neighbourhood: s.neighbourhood,
+            alpha: self.alpha.best,
+            beta_grad: self.beta_grad.best,
+            beta_dt: self.beta_dt.best,
+            m_hess: self.m_hess.best,
+            m_dt_grad: self.m_dt_grad.best,
+            gamma: self.gamma.best,
+            gamma_prime: self.gamma_prime.best,
+            gamma_group: self.gamma_group.best,
+            min_curvature: self.curvature.best,
+            convexity_failed,
+            beta,
+            m,
+            c,
+            eta,
+            theta,
+            r,
+            k_l,
+            h_max,
+            failures: self.failures,
+            notes,
+        }
+    }
+}
+
+/// The larger of two trackers' values (`β` from A1 and A2, `M` from A3 and A4); `None` when
+/// neither saw anything.
+fn max_of(x: &Tracker, y: &Tracker) -> Option<f64> {
+    match (&x.best, &y.best) {
+        (Some(x), Some(y)) => Some(x.value.max(y.value)),
+        (Some(x), None) | (None, Some(x)) => Some(x.value),
+        (None, None) => None,
+    }
+}
+
+/// A0's margin `c`: the smallest over the families (an affine family is smooth everywhere,
+/// `c = ∞`); `None`, with a note, when some family does not state it.
+fn a0_margin(problem: &Problem, notes: &mut Vec<String>) -> Option<f64> {
     let mut c: Option<f64> = Some(f64::INFINITY);
     for fam in problem.families() {
         let margin = fam
@@ -883,12 +1114,16 @@ pub fn estimate_problem(
             }
         }
     }
+    c
+}
 
-    // A static problem has Q(t) = Q(0) for all t: d_H(Q(t), Q(s)) = 0, so K_L = 0 and the
-    // well-posedness bound h < c/K_L holds for every h. With moving constraints the paper
-    // asserts K_L exists (Prop 2.3) without a formula, and we do not invent one.
+/// `(K_L, h_max)` of Prop 2.3. A static problem has Q(t) = Q(0) for all t:
+/// d_H(Q(t), Q(s)) = 0, so K_L = 0 and the well-posedness bound h < c/K_L holds for every h.
+/// With moving constraints the paper asserts K_L exists (Prop 2.3) without a formula, and we
+/// do not invent one: `(None, None)` with a note.
+fn lipschitz_step_bound(problem: &Problem, notes: &mut Vec<String>) -> (Option<f64>, Option<f64>) {
     let static_problem = problem.families().iter().all(|f| !f.is_time_dependent());
-    let (k_l, h_max) = if static_problem {
+    if static_problem {
         (Some(0.0), Some(f64::INFINITY))
     } else {
         notes.push(
@@ -897,28 +1132,21 @@ pub fn estimate_problem(
                 .into(),
         );
         (None, None)
-    };
-    if s.probe_depth == 0.0 {
-        notes.push(
-            "A1, A3, A4 were sampled on Q(t) near activity only (probe_depth = 0), A2 near \
-             activity only: the suprema over Uᵢ(t) and R^d may be larger"
-                .into(),
-        );
     }
+}
 
-    let a = alpha.best.as_ref().map(|w| w.value);
-    let beta = match (&beta_grad.best, &beta_dt.best) {
-        (Some(x), Some(y)) => Some(x.value.max(y.value)),
-        (Some(x), None) | (None, Some(x)) => Some(x.value),
-        (None, None) => None,
-    };
-    let m = match (&m_hess.best, &m_dt_grad.best) {
-        (Some(x), Some(y)) => Some(x.value.max(y.value)),
-        (Some(x), None) | (None, Some(x)) => Some(x.value),
-        (None, None) => None,
-    };
-    let g = gamma.best.as_ref().map_or(1.0, |w| w.value);
-    let gp = gamma_prime.best.as_ref().map_or(1.0, |w| w.value);
+/// The derived constants from `α`, `β`, `M`, `γ` (A5 at `ρ`) and `γ'` (A5'):
+/// `η = α/(Mγ')` (Prop 2.2; 0 when `γ' = ∞`), `Θ = 2γβ/α` and
+/// `r = min(4ρ/(13β), α/(2Mγ))` (Theorem 4.1; the second term 0 when `γ = ∞`); a division
+/// by zero gives `∞`.
+fn derived_constants(
+    a: Option<f64>,
+    beta: Option<f64>,
+    m: Option<f64>,
+    g: f64,
+    gp: f64,
+    rho: f64,
+) -> (Option<f64>, Option<f64>, Option<f64>) {
     let ratio = |num: f64, den: f64| -> f64 {
         if den == 0.0 {
             f64::INFINITY
@@ -945,45 +1173,9 @@ pub fn estimate_problem(
             } else {
                 ratio(a, 2.0 * m * g)
             };
-            Some(ratio(4.0 * s.rho, 13.0 * b).min(second))
+            Some(ratio(4.0 * rho, 13.0 * b).min(second))
         }
         _ => None,
     };
-    let convexity_failed = concave_reported > 0 || affine_claims_false > 0;
-    let (eta, theta, r) = if convexity_failed {
-        notes.push(
-            "η, Θ and r are not claimed: Prop 2.2 and Theorem 4.1 are proved for gᵢ convex in q, \
-             and convexity fails here (see FAILED)"
-                .into(),
-        );
-        (None, None, None)
-    } else {
-        (eta, theta, r)
-    };
-    Ok(AssumptionReport {
-        samples: samples.len(),
-        evaluations,
-        rho: s.rho,
-        neighbourhood: s.neighbourhood,
-        alpha: alpha.best,
-        beta_grad: beta_grad.best,
-        beta_dt: beta_dt.best,
-        m_hess: m_hess.best,
-        m_dt_grad: m_dt_grad.best,
-        gamma: gamma.best,
-        gamma_prime: gamma_prime.best,
-        gamma_group: gamma_group.best,
-        min_curvature: curvature.best,
-        convexity_failed,
-        beta,
-        m,
-        c,
-        eta,
-        theta,
-        r,
-        k_l,
-        h_max,
-        failures,
-        notes,
-    })
+    (eta, theta, r)
 }

@@ -385,10 +385,32 @@ impl<'p> BoundsMonitor<'p> {
             return Ok(());
         }
         let mut found: Vec<BoundViolation> = Vec::new();
-        let problem = self.problem;
         if start && wants_second {
             self.verify_affine_claims(step, t, q, &mut found);
         }
+        self.check_first_order(step, t, q, start, second, &mut found);
+        if second {
+            self.check_second_order(step, t, q, start, &mut found);
+        }
+        self.violations += found.len();
+        self.deliver(found)
+    }
+
+    /// First-order checks at `(t, q)`: every constraint within the neighbourhood of
+    /// activity (every member of a non-culling family at the start) has `|∇g| ≥ α` (A1),
+    /// `|∇g| ≤ β` (A1) and `|∂ₜg| ≤ β` (A2) within the relative tolerance; when `second`,
+    /// the constraints seen are collected in `self.near` for [`Self::check_second_order`].
+    fn check_first_order(
+        &mut self,
+        step: usize,
+        t: f64,
+        q: &[f64],
+        start: bool,
+        second: bool,
+        found: &mut Vec<BoundViolation>,
+    ) {
+        let b = self.settings.bounds;
+        let problem = self.problem;
         self.near.clear();
         // At the start, a family that does not cull (user constraints) is checked whole,
         // however far from contact: a constraint that is wrong everywhere is caught before
@@ -450,71 +472,90 @@ impl<'p> BoundsMonitor<'p> {
             },
         );
         self.scratch = scratch;
-        if second {
-            self.near.sort_by(|x, y| x.0.total_cmp(&y.0));
-            if !start {
-                self.near.truncate(self.settings.second_order_max);
+    }
+
+    /// Second-order checks on the constraints collected by [`Self::check_first_order`]
+    /// (nearest to activity first; all of them at the start, at most `second_order_max`
+    /// later): `|D²g| ≤ M` (A4) and `|∂ₜ∇g| ≤ M` (A3), and, when asked, convexity (the
+    /// smallest eigenvalue of `D²g` not negative beyond the tolerance).
+    fn check_second_order(
+        &mut self,
+        step: usize,
+        t: f64,
+        q: &[f64],
+        start: bool,
+        found: &mut Vec<BoundViolation>,
+    ) {
+        let b = self.settings.bounds;
+        let problem = self.problem;
+        self.near.sort_by(|x, y| x.0.total_cmp(&y.0));
+        if !start {
+            self.near.truncate(self.settings.second_order_max);
+        }
+        for &(_, fi, idx) in &self.near {
+            let fam = &problem.families()[fi];
+            if fam.is_affine() && !fam.is_time_dependent() {
+                // D²g = 0 and ∂ₜ∇g = 0: nothing to bound (the affine claim itself is
+                // verified at the start).
+                continue;
             }
-            for &(_, fi, idx) in &self.near {
-                let fam = &problem.families()[fi];
-                if fam.is_affine() && !fam.is_time_dependent() {
-                    // D²g = 0 and ∂ₜ∇g = 0: nothing to bound (the affine claim itself is
-                    // verified at the start).
-                    continue;
-                }
-                self.second_order_checks += 1;
-                let so = fam.second_order(idx, t, q);
-                let n = second_order_norms(fam.as_ref(), &so);
-                if let Some(m) = b.m {
-                    for (assumption, quantity, value) in [
-                        ("A4", "|D²g| (spectral)", n.hess),
-                        ("A3", "|∂ₜ∇g|", n.dt_grad),
-                    ] {
-                        if self.exceeds(value, m) {
-                            found.push(BoundViolation {
-                                step,
-                                t,
-                                assumption: assumption.into(),
-                                constraint: fam.describe(idx),
-                                quantity: quantity.into(),
-                                bound_name: "M".into(),
-                                bound: m,
-                                value,
-                                note: String::new(),
-                            });
-                        }
+            self.second_order_checks += 1;
+            let so = fam.second_order(idx, t, q);
+            let n = second_order_norms(fam.as_ref(), &so);
+            if let Some(m) = b.m {
+                for (assumption, quantity, value) in [
+                    ("A4", "|D²g| (spectral)", n.hess),
+                    ("A3", "|∂ₜ∇g|", n.dt_grad),
+                ] {
+                    if self.exceeds(value, m) {
+                        found.push(BoundViolation {
+                            step,
+                            t,
+                            assumption: assumption.into(),
+                            constraint: fam.describe(idx),
+                            quantity: quantity.into(),
+                            bound_name: "M".into(),
+                            bound: m,
+                            value,
+                            note: String::new(),
+                        });
                     }
                 }
-                if self.settings.convexity
-                    && !fam.is_affine()
-                    && concave_direction(n.min_eig, n.hess, self.settings.relative_tolerance)
-                {
-                    found.push(BoundViolation {
-                        step,
-                        t,
-                        assumption: CONVEXITY.into(),
-                        constraint: fam.describe(idx),
-                        quantity: "the smallest eigenvalue of D²g".into(),
-                        bound_name: "0".into(),
-                        bound: 0.0,
-                        value: n.min_eig,
-                        note: format!(
-                            "at {}, g = {:.3e}{}",
-                            describe_point(&so.columns, q),
-                            so.value,
-                            if self.convexity_explained {
-                                String::new()
-                            } else {
-                                format!(": {CONVEXITY_MEANING}")
-                            }
-                        ),
-                    });
-                    // The meaning is said once; later messages give the where and the value.
-                    self.convexity_explained = true;
-                }
+            }
+            if self.settings.convexity
+                && !fam.is_affine()
+                && concave_direction(n.min_eig, n.hess, self.settings.relative_tolerance)
+            {
+                found.push(BoundViolation {
+                    step,
+                    t,
+                    assumption: CONVEXITY.into(),
+                    constraint: fam.describe(idx),
+                    quantity: "the smallest eigenvalue of D²g".into(),
+                    bound_name: "0".into(),
+                    bound: 0.0,
+                    value: n.min_eig,
+                    note: format!(
+                        "at {}, g = {:.3e}{}",
+                        describe_point(&so.columns, q),
+                        so.value,
+                        if self.convexity_explained {
+                            String::new()
+                        } else {
+                            format!(": {CONVEXITY_MEANING}")
+                        }
+                    ),
+                });
+                // The meaning is said once; later messages give the where and the value.
+                self.convexity_explained = true;
             }
         }
-        self.violations += found.len();
+    }
+
+    /// Hands the violations found at one state over by the policy: under
+    /// [`Policy::Error`] the first is returned as the error; otherwise they are kept as
+    /// warnings (up to `max_warnings`), each printed once per assumption and constraint.
+    fn deliver(&mut self, found: Vec<BoundViolation>) -> Result<(), Box<BoundViolation>> {
         match self.settings.policy {
             Policy::Error => match found.into_iter().next() {
                 Some(v) => Err(Box::new(v)),

@@ -78,8 +78,22 @@ impl AnimationWriter {
         );
     }
 
-    /// The page.
+    /// The page: the scene as inline SVG ([`Self::svg_scene`]), the frames as JSON
+    /// ([`Self::frames_json`]), the group colours, and the player script ([`page`]).
     pub fn html(&self) -> String {
+        let (unit, _, _) = frame(&self.geometry);
+        let svg = self.svg_scene();
+        let data = self.frames_json();
+        let palette = js_string_array(&PALETTE);
+        let palette_dark = js_string_array(&PALETTE_DARK);
+        let title = xml_escape(&self.title);
+        let stroke = 0.4 * unit;
+        page(&title, &svg, &data, &palette, &palette_dark, stroke)
+    }
+
+    /// The scene's SVG: the static layer (walls, exits), one group `ob{k}` per obstacle
+    /// (moved by the script) and the empty `people` group the script fills.
+    fn svg_scene(&self) -> String {
         let g = &self.geometry;
         let (unit, w, h) = frame(g);
         let mut svg = String::new();
@@ -97,7 +111,13 @@ impl AnimationWriter {
             );
         }
         svg.push_str("<g id=\"people\"></g>\n</svg>\n");
+        svg
+    }
 
+    /// The recorded run as JSON: times `t`, radii `r`, colour index `g` of each person's
+    /// group, positions `f` per frame (in thousandths, `null` for who has left) and
+    /// obstacle offsets `o` per frame.
+    fn frames_json(&self) -> String {
         let mut data = String::new();
         data.push_str("{\"t\":[");
         data.push_str(
@@ -159,26 +179,34 @@ impl AnimationWriter {
             data.push(']');
         }
         data.push_str("]}");
-        let palette = format!(
-            "[{}]",
-            PALETTE
-                .iter()
-                .map(|c| format!("\"{c}\""))
-                .collect::<Vec<_>>()
-                .join(",")
-        );
-        let palette_dark = format!(
-            "[{}]",
-            PALETTE_DARK
-                .iter()
-                .map(|c| format!("\"{c}\""))
-                .collect::<Vec<_>>()
-                .join(",")
-        );
-        let title = xml_escape(&self.title);
-        let stroke = 0.4 * unit;
-        format!(
-            r##"<!doctype html>
+        data
+    }
+}
+
+/// A JavaScript array of the given strings, quoted (the palette's colours).
+fn js_string_array(colors: &[&str]) -> String {
+    format!(
+        "[{}]",
+        colors
+            .iter()
+            .map(|c| format!("\"{c}\""))
+            .collect::<Vec<_>>()
+            .join(",")
+    )
+}
+
+/// The HTML page around `svg` and the frame data: style, controls (play/pause, time
+/// slider, speed) and the player script; `stroke` is the people's outline width.
+fn page(
+    title: &str,
+    svg: &str,
+    data: &str,
+    palette: &str,
+    palette_dark: &str,
+    stroke: f64,
+) -> String {
+    format!(
+        r##"<!doctype html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
@@ -270,8 +298,7 @@ show(0);
 </body>
 </html>
 "##
-        )
-    }
+    )
 }
 
 impl Observer for AnimationWriter {

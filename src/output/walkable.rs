@@ -24,7 +24,7 @@
 
 use super::OutputError;
 use crate::crowd::{segment_distance, Motion, Population, Room};
-use crate::scene::{ObstacleShape, SceneGeometry};
+use crate::scene::{Obstacle, ObstacleShape, SceneGeometry};
 use std::fmt::Write as _;
 
 /// Vertices of the regular polygon inscribed in a disk obstacle.
@@ -98,6 +98,178 @@ fn fmt_ring(out: &mut String, ring: &[[f64; 2]]) {
     out.push(')');
 }
 
+/// The room's boundary, counter-clockwise, with an apron of depth `depth` (the largest
+/// radius) pushed outward along each exit's normal, so that people walking out stay inside;
+/// repeated vertices (an exit at a corner) within `tol` are dropped.
+fn shell_with_aprons(geometry: &SceneGeometry, depth: f64, tol: f64) -> Vec<[f64; 2]> {
+    let room = orient(geometry.room.clone(), true);
+    let n = room.len();
+    let mut shell: Vec<[f64; 2]> = Vec::with_capacity(n + 4 * geometry.exits.len());
+    for i in 0..n {
+        let (v0, v1) = (room[i], room[(i + 1) % n]);
+        let len = (v1[0] - v0[0]).hypot(v1[1] - v0[1]);
+        let along = |p: [f64; 2]| {
+            ((p[0] - v0[0]) * (v1[0] - v0[0]) + (p[1] - v0[1]) * (v1[1] - v0[1])) / len
+        };
+        shell.push(v0);
+        if depth <= 0.0 {
+            continue;
+        }
+        // The exits on this edge, in the edge's direction.
+        let mut on_edge: Vec<([f64; 2], [f64; 2], [f64; 2])> = geometry
+            .exits
+            .iter()
+            .filter(|e| {
+                segment_distance(e.a, v0, v1) <= tol && segment_distance(e.b, v0, v1) <= tol
+            })
+            .map(|e| {
+                if along(e.a) <= along(e.b) {
+                    (e.a, e.b, e.outward)
+                } else {
+                    (e.b, e.a, e.outward)
+                }
+            })
+            .collect();
+        on_edge.sort_by(|x, y| along(x.0).total_cmp(&along(y.0)));
+        for (p, q, nrm) in on_edge {
+            let out = |z: [f64; 2]| [z[0] + depth * nrm[0], z[1] + depth * nrm[1]];
+            shell.extend([p, out(p), out(q), q]);
+        }
+    }
+    // An exit that starts or ends at a corner repeats the corner: drop repeats.
+    shell.dedup_by(|b, a| (a[0] - b[0]).hypot(a[1] - b[1]) <= tol);
+    while shell.len() > 1 {
+        let (f, l) = (shell[0], shell[shell.len() - 1]);
+        if (f[0] - l[0]).hypot(f[1] - l[1]) <= tol {
+            shell.pop();
+        } else {
+            break;
+        }
+    }
+    shell
+}
+
+/// Checks that the shell is a simple polygon: no two non-adjacent edges meet or come within
+/// `tol` of each other (the error names the first such pair).
+fn check_simple(shell: &[[f64; 2]], depth: f64, tol: f64) -> Result<(), OutputError> {
+    let m = shell.len();
+    for i in 0..m {
+        for j in i + 2..m {
+            if i == 0 && j == m - 1 {
+                continue; // adjacent through the closing edge
+            }
+            let (a, b) = (shell[i], shell[(i + 1) % m]);
+            let (c, d) = (shell[j], shell[(j + 1) % m]);
+            if segments_touch(a, b, c, d, tol) {
+                return Err(OutputError::WalkableArea(format!(
+                    "the room with its exit aprons (depth {depth}) is not a simple polygon: \
+                     edges ({}, {})–({}, {}) and ({}, {})–({}, {}) meet",
+                    a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The outline of a static obstacle, unoriented: a disk as a `DISK_VERTICES`-gon, a
+/// polygon as given, a segment (thin wall) as a rectangle of half-width `half_width`
+/// around it.
+fn obstacle_ring(shape: &ObstacleShape, half_width: f64) -> Vec<[f64; 2]> {
+    match shape {
+        ObstacleShape::Disk { center, radius } => (0..DISK_VERTICES)
+            .map(|j| {
+                let a = std::f64::consts::TAU * j as f64 / DISK_VERTICES as f64;
+                [center[0] + radius * a.cos(), center[1] + radius * a.sin()]
+            })
+            .collect(),
+        ObstacleShape::Polygon(v) => v.clone(),
+        ObstacleShape::Segment { a, b } => {
+            let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+            let (t, nrm) = if len > 0.0 {
+                let t = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+                (t, [-t[1], t[0]])
+            } else {
+                ([1.0, 0.0], [0.0, 1.0])
+            };
+            let w = half_width;
+            let p = |s: [f64; 2], u: f64, v: f64| {
+                [s[0] + u * t[0] + v * nrm[0], s[1] + u * t[1] + v * nrm[1]]
+            };
+            vec![p(*a, -w, -w), p(*b, w, -w), p(*b, w, w), p(*a, -w, w)]
+        }
+    }
+}
+
+/// Adds obstacle `k` to `holes` as a clockwise ring, unless it moves or is a thin wall
+/// touching the shell or a hole already placed (then left out, with a note). An obstacle
+/// with an area that touches or crosses the shell, or touches, overlaps or contains another
+/// hole, is an error.
+fn add_hole(
+    k: usize,
+    obstacle: &Obstacle,
+    shell: &[[f64; 2]],
+    half_width: f64,
+    tol: f64,
+    holes: &mut Vec<(usize, Vec<[f64; 2]>)>,
+    notes: &mut Vec<String>,
+) -> Result<(), OutputError> {
+    if !matches!(obstacle.motion, Motion::Static) {
+        notes.push(format!(
+            "obstacle #{} moves: left out of the walkable area",
+            k + 1
+        ));
+        return Ok(());
+    }
+    let thin = matches!(obstacle.shape, ObstacleShape::Segment { .. });
+    let ring = orient(obstacle_ring(&obstacle.shape, half_width), false);
+    let room_poly = Room {
+        vertices: shell.to_vec(),
+    };
+    if !ring.iter().all(|&p| room_poly.contains(p)) || rings_touch(&ring, shell, tol) {
+        if thin {
+            notes.push(format!(
+                "obstacle #{} (a thin wall) touches the room's boundary: left out of \
+                 the walkable area",
+                k + 1
+            ));
+            return Ok(());
+        }
+        return Err(OutputError::WalkableArea(format!(
+            "obstacle #{} touches or crosses the room's boundary; the walkable area \
+             would not be a polygon with holes (write the trajectory as csv instead)",
+            k + 1
+        )));
+    }
+    let inside = |x: &[[f64; 2]], y: &[[f64; 2]]| {
+        Room {
+            vertices: y.to_vec(),
+        }
+        .contains(x[0])
+    };
+    let touched = holes.iter().find(|(_, other)| {
+        rings_touch(&ring, other, tol) || inside(&ring, other) || inside(other, &ring)
+    });
+    if let Some((j, _)) = touched {
+        if thin {
+            notes.push(format!(
+                "obstacle #{} (a thin wall) touches obstacle #{}: left out of the \
+                 walkable area",
+                k + 1,
+                j + 1
+            ));
+            return Ok(());
+        }
+        let (first, second) = ((*j).min(k) + 1, (*j).max(k) + 1);
+        return Err(OutputError::WalkableArea(format!(
+            "obstacles #{first} and #{second} touch or overlap; the walkable area would \
+             not be a polygon with holes (write the trajectory as csv instead)"
+        )));
+    }
+    holes.push((k, ring));
+    Ok(())
+}
+
 impl WalkableArea {
     /// The walkable area of a scene whose people are `population` (see the module's
     /// documentation for what it contains).
@@ -120,67 +292,8 @@ impl WalkableArea {
             (b[2] - b[0]).max(b[3] - b[1]).max(1.0)
         };
         let tol = 1e-9 * scale;
-        let room = orient(geometry.room.clone(), true);
-        let n = room.len();
-        let mut shell: Vec<[f64; 2]> = Vec::with_capacity(n + 4 * geometry.exits.len());
-        for i in 0..n {
-            let (v0, v1) = (room[i], room[(i + 1) % n]);
-            let len = (v1[0] - v0[0]).hypot(v1[1] - v0[1]);
-            let along = |p: [f64; 2]| {
-                ((p[0] - v0[0]) * (v1[0] - v0[0]) + (p[1] - v0[1]) * (v1[1] - v0[1])) / len
-            };
-            shell.push(v0);
-            if depth <= 0.0 {
-                continue;
-            }
-            // The exits on this edge, in the edge's direction.
-            let mut on_edge: Vec<([f64; 2], [f64; 2], [f64; 2])> = geometry
-                .exits
-                .iter()
-                .filter(|e| {
-                    segment_distance(e.a, v0, v1) <= tol && segment_distance(e.b, v0, v1) <= tol
-                })
-                .map(|e| {
-                    if along(e.a) <= along(e.b) {
-                        (e.a, e.b, e.outward)
-                    } else {
-                        (e.b, e.a, e.outward)
-                    }
-                })
-                .collect();
-            on_edge.sort_by(|x, y| along(x.0).total_cmp(&along(y.0)));
-            for (p, q, nrm) in on_edge {
-                let out = |z: [f64; 2]| [z[0] + depth * nrm[0], z[1] + depth * nrm[1]];
-                shell.extend([p, out(p), out(q), q]);
-            }
-        }
-        // An exit that starts or ends at a corner repeats the corner: drop repeats.
-        shell.dedup_by(|b, a| (a[0] - b[0]).hypot(a[1] - b[1]) <= tol);
-        while shell.len() > 1 {
-            let (f, l) = (shell[0], shell[shell.len() - 1]);
-            if (f[0] - l[0]).hypot(f[1] - l[1]) <= tol {
-                shell.pop();
-            } else {
-                break;
-            }
-        }
-        let m = shell.len();
-        for i in 0..m {
-            for j in i + 2..m {
-                if i == 0 && j == m - 1 {
-                    continue; // adjacent through the closing edge
-                }
-                let (a, b) = (shell[i], shell[(i + 1) % m]);
-                let (c, d) = (shell[j], shell[(j + 1) % m]);
-                if segments_touch(a, b, c, d, tol) {
-                    return Err(OutputError::WalkableArea(format!(
-                        "the room with its exit aprons (depth {depth}) is not a simple polygon: \
-                         edges ({}, {})–({}, {}) and ({}, {})–({}, {}) meet",
-                        a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]
-                    )));
-                }
-            }
-        }
+        let shell = shell_with_aprons(geometry, depth, tol);
+        check_simple(&shell, depth, tol)?;
 
         let half_width = (0.5 * r_min).min(0.01);
         let mut holes: Vec<(usize, Vec<[f64; 2]>)> = Vec::new();
@@ -192,83 +305,15 @@ impl WalkableArea {
         order
             .sort_by_key(|&k| matches!(geometry.obstacles[k].shape, ObstacleShape::Segment { .. }));
         for k in order {
-            let obstacle = &geometry.obstacles[k];
-            if !matches!(obstacle.motion, Motion::Static) {
-                notes.push(format!(
-                    "obstacle #{} moves: left out of the walkable area",
-                    k + 1
-                ));
-                continue;
-            }
-            let thin = matches!(obstacle.shape, ObstacleShape::Segment { .. });
-            let ring = match &obstacle.shape {
-                ObstacleShape::Disk { center, radius } => (0..DISK_VERTICES)
-                    .map(|j| {
-                        let a = std::f64::consts::TAU * j as f64 / DISK_VERTICES as f64;
-                        [center[0] + radius * a.cos(), center[1] + radius * a.sin()]
-                    })
-                    .collect(),
-                ObstacleShape::Polygon(v) => v.clone(),
-                ObstacleShape::Segment { a, b } => {
-                    let len = (b[0] - a[0]).hypot(b[1] - a[1]);
-                    let (t, nrm) = if len > 0.0 {
-                        let t = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
-                        (t, [-t[1], t[0]])
-                    } else {
-                        ([1.0, 0.0], [0.0, 1.0])
-                    };
-                    let w = half_width;
-                    let p = |s: [f64; 2], u: f64, v: f64| {
-                        [s[0] + u * t[0] + v * nrm[0], s[1] + u * t[1] + v * nrm[1]]
-                    };
-                    vec![p(*a, -w, -w), p(*b, w, -w), p(*b, w, w), p(*a, -w, w)]
-                }
-            };
-            let ring = orient(ring, false);
-            let room_poly = Room {
-                vertices: shell.clone(),
-            };
-            if !ring.iter().all(|&p| room_poly.contains(p)) || rings_touch(&ring, &shell, tol) {
-                if thin {
-                    notes.push(format!(
-                        "obstacle #{} (a thin wall) touches the room's boundary: left out of \
-                         the walkable area",
-                        k + 1
-                    ));
-                    continue;
-                }
-                return Err(OutputError::WalkableArea(format!(
-                    "obstacle #{} touches or crosses the room's boundary; the walkable area \
-                     would not be a polygon with holes (write the trajectory as csv instead)",
-                    k + 1
-                )));
-            }
-            let inside = |x: &[[f64; 2]], y: &[[f64; 2]]| {
-                Room {
-                    vertices: y.to_vec(),
-                }
-                .contains(x[0])
-            };
-            let touched = holes.iter().find(|(_, other)| {
-                rings_touch(&ring, other, tol) || inside(&ring, other) || inside(other, &ring)
-            });
-            if let Some((j, _)) = touched {
-                if thin {
-                    notes.push(format!(
-                        "obstacle #{} (a thin wall) touches obstacle #{}: left out of the \
-                         walkable area",
-                        k + 1,
-                        j + 1
-                    ));
-                    continue;
-                }
-                let (first, second) = ((*j).min(k) + 1, (*j).max(k) + 1);
-                return Err(OutputError::WalkableArea(format!(
-                    "obstacles #{first} and #{second} touch or overlap; the walkable area would \
-                     not be a polygon with holes (write the trajectory as csv instead)"
-                )));
-            }
-            holes.push((k, ring));
+            add_hole(
+                k,
+                &geometry.obstacles[k],
+                &shell,
+                half_width,
+                tol,
+                &mut holes,
+                &mut notes,
+            )?;
         }
         holes.sort_by_key(|(k, _)| *k);
         Ok(WalkableArea {
