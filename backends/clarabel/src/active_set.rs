@@ -508,33 +508,9 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
             return Err(Failure::Numerical("non-finite step"));
         }
 
-        // Negative multipliers (beyond rounding).
-        let floor = -tol * mu.iter().fold(1.0, |acc: f64, m| acc.max(m.abs()));
-        if mu.iter().any(|&m| m < floor) {
-            if aggressive {
-                (support, lambda) = support
-                    .iter()
-                    .zip(&mu)
-                    .filter(|(_, &m)| m >= floor)
-                    .map(|(&i, &m)| (i, m.max(f64::MIN_POSITIVE)))
-                    .unzip();
-                continue;
-            }
-            // Lawson–Hanson: step from λ toward μ until an entry reaches zero.
-            let (blocking, alpha) = lambda
-                .iter()
-                .zip(&mu)
-                .enumerate()
-                .filter(|(_, (_, m))| **m < 0.0)
-                .map(|(j, (l, m))| (j, l / (l - m)))
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .ok_or(Failure::Numerical("no blocking multiplier"))?;
-            let step: Vec<f64> = lambda
-                .iter()
-                .zip(&mu)
-                .map(|(l, m)| l + alpha * (m - l))
-                .collect();
-            (support, lambda) = shrink(&support, &step, blocking);
+        // Negative multipliers (beyond rounding): rows leave the support.
+        if let Some(smaller) = drop_negative(&support, &lambda, &mu, tol, aggressive)? {
+            (support, lambda) = smaller;
             continue;
         }
         lambda = mu.iter().map(|m| m.max(f64::MIN_POSITIVE)).collect();
@@ -563,26 +539,81 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
         // cycle with adding them back.
         aggressive = false;
         let mut joined: Vec<(usize, f64)> = support.iter().copied().zip(lambda).collect();
-        if proper {
-            // The steepest descent direction of the dual: the largest r_i − a_i·d.
-            let steepest = violated
-                .iter()
-                .copied()
-                .max_by(|&a, &b| (r[a] - ad[a]).total_cmp(&(r[b] - ad[b])))
-                .ok_or(Failure::Numerical("no steepest row"))?;
-            joined.push((steepest, f64::MIN_POSITIVE));
-        } else {
-            joined.extend(
-                violated
-                    .iter()
-                    .map(|&i| (i, join[i].max(f64::MIN_POSITIVE))),
-            );
-        }
+        joined.extend(joining_rows(&violated, &r, &ad, &join, proper)?);
         joined.sort_unstable_by_key(|&(i, _)| i);
         (support, lambda) = joined.into_iter().unzip();
         debug_assert!(support.len() > k);
     }
     Err(Failure::Cap(cap))
+}
+
+/// A support (row indices, increasing) and a positive multiplier per row.
+type Support = (Vec<usize>, Vec<f64>);
+
+/// When some multiplier `μ` of the support is negative beyond rounding, the smaller support
+/// and its multipliers: every such row at once (`aggressive`, before any row has joined), or
+/// Lawson–Hanson's step from `λ` toward `μ` until the first entry reaches zero. `None` when
+/// every `μ` is non-negative.
+fn drop_negative(
+    support: &[usize],
+    lambda: &[f64],
+    mu: &[f64],
+    tol: f64,
+    aggressive: bool,
+) -> Result<Option<Support>, Failure> {
+    let floor = -tol * mu.iter().fold(1.0, |acc: f64, m| acc.max(m.abs()));
+    if !mu.iter().any(|&m| m < floor) {
+        return Ok(None);
+    }
+    if aggressive {
+        return Ok(Some(
+            support
+                .iter()
+                .zip(mu)
+                .filter(|(_, &m)| m >= floor)
+                .map(|(&i, &m)| (i, m.max(f64::MIN_POSITIVE)))
+                .unzip(),
+        ));
+    }
+    let (blocking, alpha) = lambda
+        .iter()
+        .zip(mu)
+        .enumerate()
+        .filter(|(_, (_, m))| **m < 0.0)
+        .map(|(j, (l, m))| (j, l / (l - m)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .ok_or(Failure::Numerical("no blocking multiplier"))?;
+    let step: Vec<f64> = lambda
+        .iter()
+        .zip(mu)
+        .map(|(l, m)| l + alpha * (m - l))
+        .collect();
+    Ok(Some(shrink(support, &step, blocking)))
+}
+
+/// The violated rows that join the support, with their starting multipliers: all of them
+/// from their remembered multipliers, or (Lawson–Hanson `proper`) only the steepest descent
+/// direction of the dual, the largest `rᵢ − aᵢ·d`, from zero.
+fn joining_rows(
+    violated: &[usize],
+    r: &[f64],
+    ad: &[f64],
+    join: &[f64],
+    proper: bool,
+) -> Result<Vec<(usize, f64)>, Failure> {
+    if proper {
+        let steepest = violated
+            .iter()
+            .copied()
+            .max_by(|&a, &b| (r[a] - ad[a]).total_cmp(&(r[b] - ad[b])))
+            .ok_or(Failure::Numerical("no steepest row"))?;
+        Ok(vec![(steepest, f64::MIN_POSITIVE)])
+    } else {
+        Ok(violated
+            .iter()
+            .map(|&i| (i, join[i].max(f64::MIN_POSITIVE)))
+            .collect())
+    }
 }
 
 /// The support without its entry `blocking` and without any entry that `lambda` leaves
