@@ -10,11 +10,14 @@
 //! of both backends): `cargo test --release --test cross_certificate -- --ignored --nocapture`.
 #![cfg(all(feature = "clarabel", feature = "osqp"))]
 
-use nalgebra::{DMatrix, DVector};
 use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
 use sweeping::backends::{ClarabelProjector, OsqpProjector, OsqpSettings};
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::Stepper;
+
+#[path = "common/certified.rs"]
+mod certified;
+use certified::reference;
 
 /// Clarabel and OSQP on every step, as `--backend cross` runs them; keeps the QP and both
 /// answers of the first step where they differ by more than `1e-6`.
@@ -48,105 +51,6 @@ fn inf_dist(a: &[f64], b: &[f64]) -> f64 {
         .zip(b)
         .map(|(u, v)| (u - v).abs())
         .fold(0.0, f64::max)
-}
-
-fn dense_rows(problem: &ProjectionProblem, rows: &[usize]) -> DMatrix<f64> {
-    let mut a = DMatrix::zeros(rows.len(), problem.dim());
-    for (t, &r) in rows.iter().enumerate() {
-        for (c, v) in problem.a().row(r) {
-            a[(t, c)] += v;
-        }
-    }
-    a
-}
-
-/// Lawson–Hanson non-negative least squares: `argmin ‖M λ − g‖₂` over `λ ≥ 0`.
-fn nnls(m: &DMatrix<f64>, g: &DVector<f64>) -> DVector<f64> {
-    let k = m.ncols();
-    let mut lambda = DVector::zeros(k);
-    let mut passive = vec![false; k];
-    let solve_passive = |passive: &[bool]| -> DVector<f64> {
-        let cols: Vec<usize> = (0..k).filter(|&j| passive[j]).collect();
-        let mut out = DVector::zeros(k);
-        if cols.is_empty() {
-            return out;
-        }
-        let sub = m.select_columns(&cols);
-        let sol = sub.svd(true, true).solve(g, 1e-13).expect("SVD solve");
-        for (t, &j) in cols.iter().enumerate() {
-            out[j] = sol[t];
-        }
-        out
-    };
-    for _ in 0..10 * k {
-        let w = m.transpose() * (g - m * &lambda);
-        let Some(j) = (0..k)
-            .filter(|&j| !passive[j] && w[j] > 1e-14)
-            .max_by(|&a, &b| w[a].total_cmp(&w[b]))
-        else {
-            break;
-        };
-        passive[j] = true;
-        loop {
-            let s = solve_passive(&passive);
-            if (0..k).all(|i| !passive[i] || s[i] > 0.0) {
-                lambda = s;
-                break;
-            }
-            let alpha = (0..k)
-                .filter(|&i| passive[i] && s[i] <= 0.0)
-                .map(|i| lambda[i] / (lambda[i] - s[i]))
-                .fold(f64::INFINITY, f64::min);
-            lambda += (s - &lambda) * alpha;
-            for i in 0..k {
-                if passive[i] && lambda[i] <= 1e-15 {
-                    passive[i] = false;
-                    lambda[i] = 0.0;
-                }
-            }
-        }
-    }
-    lambda
-}
-
-fn affine_projection(problem: &ProjectionProblem, rows: &[usize]) -> DVector<f64> {
-    let a = dense_rows(problem, rows);
-    let y = DVector::from_column_slice(problem.y());
-    let b = DVector::from_iterator(rows.len(), rows.iter().map(|&i| problem.b()[i]));
-    let gram = &a * a.transpose();
-    let mu = gram
-        .svd(true, true)
-        .solve(&(b - &a * &y), 1e-13)
-        .expect("SVD solve");
-    &y + a.transpose() * mu
-}
-
-/// The certified projection from an active-set guess: `(x, max violation, cone residual)`.
-fn reference(problem: &ProjectionProblem, guess: &[f64], tight_tol: f64) -> (Vec<f64>, f64, f64) {
-    let mut ax = vec![0.0; problem.n_rows()];
-    problem.a().mul_vec(guess, &mut ax);
-    let mut tight: Vec<usize> = (0..problem.n_rows())
-        .filter(|&i| ax[i] - problem.b()[i] <= tight_tol)
-        .collect();
-    let mut x = affine_projection(problem, &tight);
-    for _ in 0..10 {
-        problem.a().mul_vec(x.as_slice(), &mut ax);
-        let violated: Vec<usize> = (0..problem.n_rows())
-            .filter(|i| !tight.contains(i) && ax[*i] < problem.b()[*i])
-            .collect();
-        if violated.is_empty() {
-            break;
-        }
-        tight.extend(violated);
-        tight.sort_unstable();
-        x = affine_projection(problem, &tight);
-    }
-    let violation = problem.max_violation(x.as_slice());
-    let at = dense_rows(problem, &tight).transpose();
-    let d = &x - DVector::from_column_slice(problem.y());
-    let lambda = nnls(&at, &d);
-    let residual = (at * &lambda - d).amax();
-    (x.as_slice().to_vec(), violation, residual)
 }
 
 #[test]

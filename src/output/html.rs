@@ -78,8 +78,8 @@ impl AnimationWriter {
         );
     }
 
-    /// The page: the scene as inline SVG ([`Self::svg_scene`]), the frames as JSON
-    /// ([`Self::frames_json`]), the group colours, and the player script ([`page`]).
+    /// The page: the scene as inline SVG (`svg_scene`), the frames as JSON
+    /// (`frames_json`), the group colours, and the player script (`page`).
     pub fn html(&self) -> String {
         let (unit, _, _) = frame(&self.geometry);
         let svg = self.svg_scene();

@@ -86,7 +86,7 @@ pub enum Failure {
     Numerical(&'static str),
     /// The cap on factorizations was reached.
     Cap(u32),
-    /// A working set came back [`REPEATS`] times even after the restart as Lawson–Hanson
+    /// A working set came back three times even after the restart as Lawson–Hanson
     /// proper: rounding on degenerate, dependent rows made the method cycle.
     Cycling(u32),
     /// A checked Farkas certificate: rows `support` with weights `e ≥ 0`, `A_Pᵀe ≈ 0`,

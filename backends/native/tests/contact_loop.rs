@@ -11,7 +11,9 @@
 //! least squares, min-norm multipliers), checked to be feasible and to satisfy
 //! `x − y = A_Tᵀλ` with `λ ≥ 0` found by a dense non-negative least-squares solve.
 
-use nalgebra::{DMatrix, DVector};
+#[path = "../../../tests/common/certified.rs"]
+mod certified;
+use certified::reference;
 use sweeping_api::RowKey;
 use sweeping_api::{ProjectionProblem, Projector};
 use sweeping_clarabel::ClarabelProjector;
@@ -26,116 +28,8 @@ fn load() -> ProjectionProblem {
     serde_json::from_str(&text).expect("parse the contact-loop QP")
 }
 
-/// `A` restricted to `rows`, dense.
-fn dense_rows(problem: &ProjectionProblem, rows: &[usize]) -> DMatrix<f64> {
-    let mut a = DMatrix::zeros(rows.len(), problem.dim());
-    for (t, &r) in rows.iter().enumerate() {
-        for (c, v) in problem.a().row(r) {
-            a[(t, c)] += v;
-        }
-    }
-    a
-}
-
-/// Lawson–Hanson non-negative least squares: `argmin ‖M λ − g‖₂` over `λ ≥ 0`.
-fn nnls(m: &DMatrix<f64>, g: &DVector<f64>) -> DVector<f64> {
-    let k = m.ncols();
-    let mut lambda = DVector::zeros(k);
-    let mut passive = vec![false; k];
-    // Least squares on the passive columns (zero elsewhere), by SVD (they may be dependent).
-    let solve_passive = |passive: &[bool]| -> DVector<f64> {
-        let cols: Vec<usize> = (0..k).filter(|&j| passive[j]).collect();
-        let mut out = DVector::zeros(k);
-        if cols.is_empty() {
-            return out;
-        }
-        let sub = m.select_columns(&cols);
-        let sol = sub.svd(true, true).solve(g, 1e-13).expect("SVD solve");
-        for (t, &j) in cols.iter().enumerate() {
-            out[j] = sol[t];
-        }
-        out
-    };
-    for _ in 0..10 * k {
-        let w = m.transpose() * (g - m * &lambda);
-        let Some(j) = (0..k)
-            .filter(|&j| !passive[j] && w[j] > 1e-14)
-            .max_by(|&a, &b| w[a].total_cmp(&w[b]))
-        else {
-            break;
-        };
-        passive[j] = true;
-        loop {
-            let s = solve_passive(&passive);
-            if (0..k).all(|i| !passive[i] || s[i] > 0.0) {
-                lambda = s;
-                break;
-            }
-            // Step from λ toward s until a passive coordinate reaches zero.
-            let alpha = (0..k)
-                .filter(|&i| passive[i] && s[i] <= 0.0)
-                .map(|i| lambda[i] / (lambda[i] - s[i]))
-                .fold(f64::INFINITY, f64::min);
-            lambda += (s - &lambda) * alpha;
-            for i in 0..k {
-                if passive[i] && lambda[i] <= 1e-15 {
-                    passive[i] = false;
-                    lambda[i] = 0.0;
-                }
-            }
-        }
-    }
-    lambda
-}
-
-/// The projection of `y` onto the affine set `{A_T x = b_T}`: `x = y + A_Tᵀμ` with
-/// `(A_T A_Tᵀ) μ = b_T − A_T y`, min-norm `μ` by SVD. The point is unique even though `A_T` is
-/// rank-deficient.
-fn affine_projection(problem: &ProjectionProblem, rows: &[usize]) -> DVector<f64> {
-    let a = dense_rows(problem, rows);
-    let y = DVector::from_column_slice(problem.y());
-    let b = DVector::from_iterator(rows.len(), rows.iter().map(|&i| problem.b()[i]));
-    let gram = &a * a.transpose();
-    let mu = gram
-        .svd(true, true)
-        .solve(&(b - &a * &y), 1e-13)
-        .expect("SVD solve");
-    &y + a.transpose() * mu
-}
-
-/// The certified reference projection: `(x, max violation, NNLS residual)`.
-fn reference(problem: &ProjectionProblem, guess: &[f64]) -> (Vec<f64>, f64, f64) {
-    // Rows nearly tight at the answer under test, plus any row the affine projection then
-    // violates: a guess, certified below.
-    let mut ax = vec![0.0; problem.n_rows()];
-    problem.a().mul_vec(guess, &mut ax);
-    let mut tight: Vec<usize> = (0..problem.n_rows())
-        .filter(|&i| ax[i] - problem.b()[i] <= 1e-7)
-        .collect();
-    let mut x = affine_projection(problem, &tight);
-    for _ in 0..10 {
-        problem.a().mul_vec(x.as_slice(), &mut ax);
-        let violated: Vec<usize> = (0..problem.n_rows())
-            .filter(|i| !tight.contains(i) && ax[*i] < problem.b()[*i])
-            .collect();
-        if violated.is_empty() {
-            break;
-        }
-        tight.extend(violated);
-        tight.sort_unstable();
-        x = affine_projection(problem, &tight);
-    }
-    let violation = problem.max_violation(x.as_slice());
-    // Non-negative multipliers: x − y ∈ cone{a_i : i ∈ T}.
-    let at = dense_rows(problem, &tight).transpose();
-    let d = &x - DVector::from_column_slice(problem.y());
-    let lambda = nnls(&at, &d);
-    let residual = (at * &lambda - d).amax();
-    (x.as_slice().to_vec(), violation, residual)
-}
-
 fn check_against_reference(problem: &ProjectionProblem, x: &[f64], what: &str) {
-    let (x_ref, violation, cone_residual) = reference(problem, x);
+    let (x_ref, violation, cone_residual) = reference(problem, x, 1e-7);
     assert!(
         violation <= 1e-9,
         "{what}: reference violates a row by {violation:.3e}"

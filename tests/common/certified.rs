@@ -1,0 +1,112 @@
+//! A certified reference projection, independent of every backend: the projection of `y` onto
+//! the affine set of the rows tight at a guess (dense SVD least squares, min-norm multipliers),
+//! grown by any row it violates, then checked feasible and `x − y = A_Tᵀλ` with `λ ≥ 0` found
+//! by a dense non-negative least-squares solve: the KKT conditions of the convex projection,
+//! which pin the point whatever guess it came from. Shared by the contact-loop tests of the
+//! Clarabel and native backends and by the cross-check certificate (each includes this file).
+
+use nalgebra::{DMatrix, DVector};
+use sweeping_api::ProjectionProblem;
+
+pub fn dense_rows(problem: &ProjectionProblem, rows: &[usize]) -> DMatrix<f64> {
+    let mut a = DMatrix::zeros(rows.len(), problem.dim());
+    for (t, &r) in rows.iter().enumerate() {
+        for (c, v) in problem.a().row(r) {
+            a[(t, c)] += v;
+        }
+    }
+    a
+}
+
+/// Lawson–Hanson non-negative least squares: `argmin ‖M λ − g‖₂` over `λ ≥ 0`.
+pub fn nnls(m: &DMatrix<f64>, g: &DVector<f64>) -> DVector<f64> {
+    let k = m.ncols();
+    let mut lambda = DVector::zeros(k);
+    let mut passive = vec![false; k];
+    let solve_passive = |passive: &[bool]| -> DVector<f64> {
+        let cols: Vec<usize> = (0..k).filter(|&j| passive[j]).collect();
+        let mut out = DVector::zeros(k);
+        if cols.is_empty() {
+            return out;
+        }
+        let sub = m.select_columns(&cols);
+        let sol = sub.svd(true, true).solve(g, 1e-13).expect("SVD solve");
+        for (t, &j) in cols.iter().enumerate() {
+            out[j] = sol[t];
+        }
+        out
+    };
+    for _ in 0..10 * k {
+        let w = m.transpose() * (g - m * &lambda);
+        let Some(j) = (0..k)
+            .filter(|&j| !passive[j] && w[j] > 1e-14)
+            .max_by(|&a, &b| w[a].total_cmp(&w[b]))
+        else {
+            break;
+        };
+        passive[j] = true;
+        loop {
+            let s = solve_passive(&passive);
+            if (0..k).all(|i| !passive[i] || s[i] > 0.0) {
+                lambda = s;
+                break;
+            }
+            let alpha = (0..k)
+                .filter(|&i| passive[i] && s[i] <= 0.0)
+                .map(|i| lambda[i] / (lambda[i] - s[i]))
+                .fold(f64::INFINITY, f64::min);
+            lambda += (s - &lambda) * alpha;
+            for i in 0..k {
+                if passive[i] && lambda[i] <= 1e-15 {
+                    passive[i] = false;
+                    lambda[i] = 0.0;
+                }
+            }
+        }
+    }
+    lambda
+}
+
+pub fn affine_projection(problem: &ProjectionProblem, rows: &[usize]) -> DVector<f64> {
+    let a = dense_rows(problem, rows);
+    let y = DVector::from_column_slice(problem.y());
+    let b = DVector::from_iterator(rows.len(), rows.iter().map(|&i| problem.b()[i]));
+    let gram = &a * a.transpose();
+    let mu = gram
+        .svd(true, true)
+        .solve(&(b - &a * &y), 1e-13)
+        .expect("SVD solve");
+    &y + a.transpose() * mu
+}
+
+/// The certified projection from an active-set guess: `(x, max violation, cone residual)`.
+pub fn reference(
+    problem: &ProjectionProblem,
+    guess: &[f64],
+    tight_tol: f64,
+) -> (Vec<f64>, f64, f64) {
+    let mut ax = vec![0.0; problem.n_rows()];
+    problem.a().mul_vec(guess, &mut ax);
+    let mut tight: Vec<usize> = (0..problem.n_rows())
+        .filter(|&i| ax[i] - problem.b()[i] <= tight_tol)
+        .collect();
+    let mut x = affine_projection(problem, &tight);
+    for _ in 0..10 {
+        problem.a().mul_vec(x.as_slice(), &mut ax);
+        let violated: Vec<usize> = (0..problem.n_rows())
+            .filter(|i| !tight.contains(i) && ax[*i] < problem.b()[*i])
+            .collect();
+        if violated.is_empty() {
+            break;
+        }
+        tight.extend(violated);
+        tight.sort_unstable();
+        x = affine_projection(problem, &tight);
+    }
+    let violation = problem.max_violation(x.as_slice());
+    let at = dense_rows(problem, &tight).transpose();
+    let d = &x - DVector::from_column_slice(problem.y());
+    let lambda = nnls(&at, &d);
+    let residual = (at * &lambda - d).amax();
+    (x.as_slice().to_vec(), violation, residual)
+}
