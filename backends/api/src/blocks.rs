@@ -177,15 +177,7 @@ impl Blocks {
         assert_eq!(answers.len(), self.blocks.len(), "one answer per block");
         let mut x = problem.y().to_vec();
         let mut multipliers = vec![0.0; problem.n_rows()];
-        let mut stats = SolveStats {
-            backend: backend.to_string(),
-            status: SolveStatus::Trivial,
-            iterations: 0,
-            solve_seconds: 0.0,
-            setup_seconds: 0.0,
-            warm_started: false,
-            fallbacks: 0,
-        };
+        let mut stats = SolveStats::trivial(backend);
         for (block, answer) in self.blocks.iter().zip(answers) {
             assert_eq!(answer.x.len(), block.cols.len(), "block answer dimension");
             assert_eq!(

@@ -285,15 +285,7 @@ impl Projection {
         Self {
             x: problem.y().to_vec(),
             multipliers: vec![0.0; problem.n_rows()],
-            stats: SolveStats {
-                backend: backend.to_string(),
-                status: SolveStatus::Trivial,
-                iterations: 0,
-                solve_seconds: 0.0,
-                setup_seconds: 0.0,
-                warm_started: false,
-                fallbacks: 0,
-            },
+            stats: SolveStats::trivial(backend),
         }
     }
 
@@ -335,6 +327,22 @@ pub struct SolveStats {
     /// fallback backend (the native backend's count; `0` for the others).
     #[serde(default)]
     pub fallbacks: u32,
+}
+
+impl SolveStats {
+    /// The statistics of an answer that needed no solver work (status
+    /// [`SolveStatus::Trivial`], every count zero); solves add to them.
+    pub fn trivial(backend: &str) -> Self {
+        Self {
+            backend: backend.to_string(),
+            status: SolveStatus::Trivial,
+            iterations: 0,
+            solve_seconds: 0.0,
+            setup_seconds: 0.0,
+            warm_started: false,
+            fallbacks: 0,
+        }
+    }
 }
 
 /// Why a projection failed.
