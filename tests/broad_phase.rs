@@ -144,3 +144,23 @@ proptest! {
         check_drift(&fam, t, &q, &x);
     }
 }
+
+#[test]
+fn all_pairs_proposes_every_present_pair_however_far() {
+    // The reference the culling is tested against: no cutoff applies to it.
+    let pop = Population::new(vec![0.2; 4]).shared();
+    let q = [0.0, 0.0, 100.0, 0.0, 0.0, 100.0, 1e6, 1e6];
+    let pairs = DiskPairs::all_pairs(pop.clone());
+    assert!(!pairs.culls());
+    for cutoff in [0.0, 1.0, f64::INFINITY] {
+        let mut proposed = Vec::new();
+        pairs.candidates(0.0, &q, cutoff, &mut proposed);
+        assert_eq!(proposed.len(), 6, "cutoff {cutoff}: {proposed:?}");
+    }
+    // The culled family proposes none of them at a finite cutoff, and says it culls.
+    let culled = DiskPairs::new(pop);
+    assert!(culled.culls());
+    let mut proposed = Vec::new();
+    culled.candidates(0.0, &q, 1.0, &mut proposed);
+    assert!(proposed.is_empty(), "{proposed:?}");
+}
