@@ -82,11 +82,16 @@ proptest! {
         (q, radii) in crowd(),
         cutoff in prop_oneof![Just(0.0), 0.0f64..0.3, 0.3f64..5.0],
     ) {
+        let n = radii.len();
         let pairs = DiskPairs::new(Population::new(radii).shared());
         check_contract(&pairs, 0.0, &q, cutoff);
-        // The grid agrees with the brute-force enumeration exactly on the pairs within it.
+        // The grid agrees with the brute-force enumeration exactly on the pairs within it, and
+        // proposes only real pairs (i < j: nobody paired with themselves).
         let mut grid = Vec::new();
         pairs.candidates(0.0, &q, cutoff, &mut grid);
+        for &m in &grid {
+            prop_assert!(m / n < m % n, "member {m} is not a pair i < j of {n} people");
+        }
         let grid: HashSet<usize> = grid.into_iter().collect();
         for i in pairs.brute_force_candidates(&q, cutoff) {
             prop_assert!(grid.contains(&i));
@@ -163,4 +168,31 @@ fn all_pairs_proposes_every_present_pair_however_far() {
     let mut proposed = Vec::new();
     culled.candidates(0.0, &q, 1.0, &mut proposed);
     assert!(proposed.is_empty(), "{proposed:?}");
+}
+
+#[test]
+fn the_pair_drift_bound_is_attained_by_two_people_walking_into_each_other() {
+    // |⟨∇D, x − q⟩| = |Δᵢ| + |Δⱼ| when both move along the line between them: the bound is
+    // exact there, so a looser or a smaller bound is caught. Far from the origin, and with
+    // displacements of different sizes, so that the two largest are the ones summed.
+    for (origin, step_i, step_j) in [(0.0, 0.3, 0.5), (250.0, 1.5, 2.5), (-1e4, 0.01, 3.0)] {
+        let pop = Population::new(vec![0.2; 3]).shared();
+        let pairs = DiskPairs::new(pop);
+        let q = [origin, origin, origin + 5.0, origin, origin, origin + 40.0];
+        let x = [
+            origin + step_i,
+            origin,
+            origin + 5.0 - step_j,
+            origin,
+            origin,
+            origin + 40.0 + 0.001,
+        ];
+        let bound = pairs.linearization_drift_bound(0.0, &q, &x);
+        let exact = step_i + step_j;
+        assert!(
+            (bound - exact).abs() <= 1e-9 * (1.0 + origin.abs()),
+            "origin {origin}: bound {bound}, exact drift {exact}"
+        );
+        check_drift(&pairs, 0.0, &q, &x);
+    }
 }
