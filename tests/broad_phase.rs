@@ -196,3 +196,25 @@ fn the_pair_drift_bound_is_attained_by_two_people_walking_into_each_other() {
         check_drift(&pairs, 0.0, &q, &x);
     }
 }
+
+#[test]
+fn the_shape_drift_bound_is_attained_by_a_person_walking_into_a_wall() {
+    // |∇g| = 1 on the person's two coordinates, so |⟨∇g, x − q⟩| = |Δ| when the person moves
+    // along the wall's normal: the bound (the largest displacement) is exact there.
+    for step in [0.05, 2.5] {
+        let pop = Population::new(vec![0.2, 0.2]).shared();
+        let wall = vec![(
+            Shape::Segment {
+                a: [0.0, -10.0],
+                b: [0.0, 10.0],
+            },
+            Motion::Static,
+        )];
+        let fam = PersonShapes::new("wall", pop, wall);
+        let q = [5.0, 0.0, 8.0, 3.0];
+        let x = [5.0 - step, 0.0, 8.0 - 0.5 * step, 3.0];
+        let bound = fam.linearization_drift_bound(0.0, &q, &x);
+        assert!((bound - step).abs() <= 1e-12, "bound {bound}, step {step}");
+        check_drift(&fam, 0.0, &q, &x);
+    }
+}
