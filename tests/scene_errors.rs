@@ -157,6 +157,19 @@ fn exit_across_a_corner() {
     assert_message(&error_of(&text), 4, &["[[exits]] #1", "not on a wall"]);
 }
 
+/// An exit and a segment obstacle share one schema; a value that is not a table says what
+/// is expected, in the user's words rather than a Rust type's name.
+#[test]
+fn an_exit_or_a_segment_that_is_not_a_table_says_what_a_segment_is() {
+    let exit = format!("exits = [1]\n{ROOM}");
+    let segment = format!("{ROOM}[[obstacles]]\nsegment = 2.0\n");
+    for (text, line) in [(exit, 1), (segment, 4)] {
+        let e = error_of(&text);
+        assert_message(&e, line, &["a segment: a table with `from = [x, y]`"]);
+        assert!(!e.to_string().contains("Spec"), "{e}");
+    }
+}
+
 #[test]
 fn overlapping_exits() {
     let text = format!(

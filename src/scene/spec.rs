@@ -82,18 +82,6 @@ pub struct RoomSpec {
     pub polygon: Option<Vec<[f64; 2]>>,
 }
 
-/// `[[exits]]`: a segment lying on one wall of the room.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ExitSpec {
-    /// One end.
-    #[serde(deserialize_with = "exact::array")]
-    pub from: [f64; 2],
-    /// The other end.
-    #[serde(deserialize_with = "exact::array")]
-    pub to: [f64; 2],
-}
-
 /// A disk.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -107,7 +95,10 @@ pub struct DiskSpec {
 
 /// A segment.
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a segment: a table with `from = [x, y]` and `to = [x, y]`"
+)]
 pub struct SegmentSpec {
     /// One end.
     #[serde(deserialize_with = "exact::array")]
@@ -116,6 +107,10 @@ pub struct SegmentSpec {
     #[serde(deserialize_with = "exact::array")]
     pub to: [f64; 2],
 }
+
+/// `[[exits]]`: a segment lying on one wall of the room (the same table as a segment
+/// obstacle's: `from` and `to`).
+pub type ExitSpec = SegmentSpec;
 
 /// `[[obstacles]]`: exactly one of `disk`, `segment`, `polygon`; at most one of `velocity`
 /// and `path`.
