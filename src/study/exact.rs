@@ -425,26 +425,9 @@ pub fn true_error_study(
     let runs = runs.into_iter().collect::<Result<Vec<_>, _>>()?;
     let rows: Vec<ConvergenceRow> = runs
         .iter()
-        .map(|run| {
-            let errors_at: Vec<f64> = run
-                .samples
-                .iter()
-                .zip(&exact_at)
-                .map(|(a, b)| distance(a, b))
-                .collect();
-            ConvergenceRow {
-                h: run.h,
-                error: errors_at.iter().copied().fold(0.0, f64::max),
-                error_short: None,
-                errors_at,
-                errors_at_short: Vec::new(),
-                error_sup: Some(sup_error(case, &run.trajectory)),
-                cpu_seconds: run.cpu_seconds,
-                wall_seconds: run.wall_seconds,
-                steps: run.stats.steps,
-                iterations: run.stats.iterations,
-                max_violation: run.stats.max_violation,
-            }
+        .map(|run| ConvergenceRow {
+            error_sup: Some(sup_error(case, &run.trajectory)),
+            ..ConvergenceRow::measured(run, super::distances(&run.samples, &exact_at))
         })
         .collect();
     let hs_v: Vec<f64> = rows.iter().map(|r| r.h).collect();

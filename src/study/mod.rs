@@ -577,6 +577,49 @@ pub struct ConvergenceReport {
     pub order_sup: Option<OrderFit>,
 }
 
+impl ConvergenceRow {
+    /// The row of `run` whose distances at the comparison times of the whole horizon are
+    /// `errors_at`: `e_h` is their max, the costs are the run's; the short horizon and the sup
+    /// error are left empty for the caller to fill.
+    fn measured(run: &SampledRun, errors_at: Vec<f64>) -> Self {
+        Self {
+            h: run.h,
+            error: max_of(&errors_at),
+            error_short: None,
+            errors_at,
+            errors_at_short: Vec::new(),
+            error_sup: None,
+            cpu_seconds: run.cpu_seconds,
+            wall_seconds: run.wall_seconds,
+            steps: run.stats.steps,
+            iterations: run.stats.iterations,
+            max_violation: run.stats.max_violation,
+        }
+    }
+}
+
+impl ReferenceSummary {
+    /// The cost of the reference `run`, made with step `h`.
+    fn of(h: f64, run: &SampledRun) -> Self {
+        Self {
+            h,
+            cpu_seconds: run.cpu_seconds,
+            steps: run.stats.steps,
+            iterations: run.stats.iterations,
+        }
+    }
+}
+
+/// The largest of `values` (0 for none): `e_h = max_i |q_ref(tᵢ) − qⁿ(tᵢ)|`.
+fn max_of(values: &[f64]) -> f64 {
+    values.iter().copied().fold(0.0, f64::max)
+}
+
+/// `|aᵢ − bᵢ|` at each comparison time, from two runs' (or a run's and the exact) samples.
+fn distances(a: &[Vec<f64>], b: &[Vec<f64>]) -> Vec<f64> {
+    a.iter().zip(b).map(|(a, b)| distance(a, b)).collect()
+}
+
 impl ConvergenceReport {
     fn fit(&mut self) {
         let hs: Vec<f64> = self.rows.iter().map(|r| r.h).collect();
@@ -884,22 +927,11 @@ pub fn converge(
     let rows = runs
         .iter()
         .map(|run| {
-            let errors_at = at(run, &times);
             let errors_at_short = at(run, &times_short);
             ConvergenceRow {
-                h: run.h,
-                error: errors_at.iter().copied().fold(0.0, f64::max),
-                error_short: settings
-                    .t_short
-                    .map(|_| errors_at_short.iter().copied().fold(0.0, f64::max)),
-                errors_at,
+                error_short: settings.t_short.map(|_| max_of(&errors_at_short)),
                 errors_at_short,
-                error_sup: None,
-                cpu_seconds: run.cpu_seconds,
-                wall_seconds: run.wall_seconds,
-                steps: run.stats.steps,
-                iterations: run.stats.iterations,
-                max_violation: run.stats.max_violation,
+                ..ConvergenceRow::measured(run, at(run, &times))
             }
         })
         .collect();
@@ -908,12 +940,7 @@ pub fn converge(
         settings: settings.clone(),
         times,
         times_short,
-        reference: Some(ReferenceSummary {
-            h: settings.h_min,
-            cpu_seconds: reference.cpu_seconds,
-            steps: reference.stats.steps,
-            iterations: reference.stats.iterations,
-        }),
+        reference: Some(ReferenceSummary::of(settings.h_min, &reference)),
         rows,
         order: None,
         order_short: None,

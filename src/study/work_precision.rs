@@ -7,8 +7,8 @@
 //! faster and more accurate ([`WorkPrecisionReport::pareto`]).
 
 use super::{
-    comparison_times, distance, map_runs, plot, run_sampled, ProblemFactory, ReferenceSummary,
-    StudyError,
+    comparison_times, distances, map_runs, max_of, plot, run_sampled, ProblemFactory,
+    ReferenceSummary, StudyError,
 };
 use crate::backends::{BackendChoice, BackendError};
 use crate::stepper::StepperSettings;
@@ -374,12 +374,7 @@ pub fn work_precision(
             Ok(run) => WorkPrecisionRow {
                 h: *h,
                 solver: solver.label(),
-                error: run
-                    .samples
-                    .iter()
-                    .zip(&reference.samples)
-                    .map(|(a, b)| distance(a, b))
-                    .fold(0.0, f64::max),
+                error: max_of(&distances(&run.samples, &reference.samples)),
                 cpu_seconds: run.cpu_seconds,
                 wall_seconds: run.wall_seconds,
                 steps: run.stats.steps,
@@ -403,12 +398,7 @@ pub fn work_precision(
     Ok(WorkPrecisionReport {
         label: label.to_string(),
         settings: settings.clone(),
-        reference: ReferenceSummary {
-            h: settings.h_min,
-            cpu_seconds: reference.cpu_seconds,
-            steps: reference.stats.steps,
-            iterations: reference.stats.iterations,
-        },
+        reference: ReferenceSummary::of(settings.h_min, &reference),
         rows,
     })
 }
