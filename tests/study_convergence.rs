@@ -6,12 +6,23 @@ use sweeping::api::conformance::ReferenceProjector;
 use sweeping::crowd::{rectangle_walls, DiskPairs, PersonShapes, Population};
 use sweeping::prelude::*;
 use sweeping::study::exact::{
-    true_error_study, PointAroundDisk, PointBehindMovingWall, TwoDisksOnALine,
+    true_error_study, ExactCase, PointAroundDisk, PointBehindMovingWall, TwoDisksOnALine,
 };
-use sweeping::study::{converge, fit_order, BoxError, ConvergenceSettings, StudyError};
+use sweeping::study::{
+    converge, fit_order, BoxError, ConvergenceReport, ConvergenceSettings, StudyError,
+};
 
 fn reference() -> Result<Box<dyn Projector>, BoxError> {
     Ok(Box::new(ReferenceProjector::default()))
+}
+
+/// The steps of the true-error studies on the moving wall and the disk.
+const SMALL_HS: [f64; 5] = [0.005, 0.01, 0.02, 0.04, 0.08];
+
+/// The true error of the scheme on `case` at each step of `hs`, 10 comparison times, with
+/// the reference projector and the default stepper settings, in parallel.
+fn true_error_of(case: &dyn ExactCase, hs: &[f64]) -> ConvergenceReport {
+    true_error_study(case, hs, 10, &reference, &StepperSettings::default(), true).unwrap()
 }
 
 /// Hildreth's method crawls on jammed crowds at 1e-10; 1e-8 is far below the errors studied.
@@ -78,15 +89,7 @@ fn the_scheme_is_exact_at_grid_points_for_two_disks_on_a_line() {
     // contact falls a third into that step, so the sup error is √2 h/9: order exactly 1.
     let case = TwoDisksOnALine::default();
     let hs = [0.01, 0.02, 0.04, 0.08, 0.16];
-    let report = true_error_study(
-        &case,
-        &hs,
-        10,
-        &reference,
-        &StepperSettings::default(),
-        true,
-    )
-    .unwrap();
+    let report = true_error_of(&case, &hs);
     for r in &report.rows {
         let sup = r.error_sup.unwrap();
         let expect = 2f64.sqrt() * r.h / 9.0;
@@ -109,15 +112,7 @@ fn the_scheme_is_exact_at_grid_points_for_two_disks_on_a_line() {
 
 #[test]
 fn true_error_behind_a_moving_wall_converges_at_order_one() {
-    let report = true_error_study(
-        &PointBehindMovingWall::default(),
-        &[0.005, 0.01, 0.02, 0.04, 0.08],
-        10,
-        &reference,
-        &StepperSettings::default(),
-        true,
-    )
-    .unwrap();
+    let report = true_error_of(&PointBehindMovingWall::default(), &SMALL_HS);
     let (o, s) = (report.order.unwrap(), report.order_sup.unwrap());
     assert!(
         o.order > 0.8 && s.order > 0.8,
@@ -131,15 +126,7 @@ fn true_error_behind_a_moving_wall_converges_at_order_one() {
 
 #[test]
 fn true_error_around_a_disk_converges_at_least_at_order_one_half() {
-    let report = true_error_study(
-        &PointAroundDisk::default(),
-        &[0.005, 0.01, 0.02, 0.04, 0.08],
-        10,
-        &reference,
-        &StepperSettings::default(),
-        true,
-    )
-    .unwrap();
+    let report = true_error_of(&PointAroundDisk::default(), &SMALL_HS);
     let (o, s) = (report.order.unwrap(), report.order_sup.unwrap());
     assert!(
         o.order >= 0.5 && s.order >= 0.5,
