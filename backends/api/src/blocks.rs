@@ -279,19 +279,13 @@ impl<P: Projector> Projector for Blocked<P> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conformance::{random_instance, ReferenceProjector, Tolerances};
+    use crate::conformance::testing::{capped_reference, CAPPED_REFERENCE_TOLERANCES};
+    use crate::conformance::{random_instance, ReferenceProjector};
     use crate::RowKey;
 
     crate::conformance_tests!(
-        Blocked::new(ReferenceProjector {
-            tolerance: 1e-10,
-            max_sweeps: 20_000
-        }),
-        Tolerances {
-            kkt: 1e-8,
-            point: 1e-6,
-            certifies_infeasibility: false
-        }
+        Blocked::new(capped_reference()),
+        CAPPED_REFERENCE_TOLERANCES
     );
 
     /// Two copies of a random instance side by side, with free unknowns in between.

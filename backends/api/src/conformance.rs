@@ -463,19 +463,30 @@ impl Projector for ReferenceProjector {
     }
 }
 
+/// The reference projector as the crate's own tests run it through the kit (here and behind
+/// [`crate::Blocked`]): capped at 20 000 sweeps so that the infeasible check ends quickly (it
+/// cannot certify infeasibility), and the tolerances it meets so.
 #[cfg(test)]
-mod tests {
-    use super::*;
+pub(crate) mod testing {
+    use super::{ReferenceProjector, Tolerances};
 
-    crate::conformance_tests!(
+    pub(crate) fn capped_reference() -> ReferenceProjector {
         ReferenceProjector {
             tolerance: 1e-10,
-            max_sweeps: 20_000
-        },
-        Tolerances {
-            kkt: 1e-8,
-            point: 1e-6,
-            certifies_infeasibility: false
+            max_sweeps: 20_000,
         }
-    );
+    }
+
+    pub(crate) const CAPPED_REFERENCE_TOLERANCES: Tolerances = Tolerances {
+        kkt: 1e-8,
+        point: 1e-6,
+        certifies_infeasibility: false,
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testing::{capped_reference, CAPPED_REFERENCE_TOLERANCES};
+
+    crate::conformance_tests!(capped_reference(), CAPPED_REFERENCE_TOLERANCES);
 }
