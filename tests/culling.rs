@@ -3,6 +3,9 @@
 //! the culled run equals the all-pairs run (`DiskPairs::all_pairs`) step by step, to solver
 //! tolerance.
 
+mod common;
+
+use common::kernels::Floor;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sweeping::api::conformance::ReferenceProjector;
@@ -212,19 +215,6 @@ fn a_culling_proof_that_never_closes_is_a_culling_error() {
     use sweeping::constraint::{LinearizedRow, SecondOrderData};
     use sweeping::prelude::*;
 
-    struct Floor;
-    impl ConstraintKernel<1> for Floor {
-        type Params = ();
-        fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D {
-            z[0]
-        }
-        fn is_time_dependent(&self) -> bool {
-            false
-        }
-        fn is_affine(&self) -> bool {
-            true
-        }
-    }
     struct Runaway {
         inner: KernelFamily<Floor, 1>,
         calls: AtomicU32,
@@ -279,4 +269,59 @@ fn a_culling_proof_that_never_closes_is_a_culling_error() {
         }
         other => panic!("expected CullingFailed, got {other:?}"),
     }
+}
+
+/// `Problem::for_each_linearized` names every candidate in order, skips the families whose
+/// cutoff is `None` and stops at the first error.
+#[test]
+fn for_each_linearized_names_every_candidate_and_skips_families_without_cutoff() {
+    use sweeping::constraint::ConstraintId;
+    use sweeping::prelude::*;
+    use sweeping::problem::LinearizeScratch;
+
+    let mut first = KernelFamily::new("first", Floor);
+    first.push([0], (), "x0");
+    first.push([1], (), "x1");
+    let problem = Problem::new(vec![2.0, -1.0, 0.5], NoPerturbation)
+        .with_family(first)
+        .with_family(KernelFamily::single("second", Floor, [2]));
+    let mut scratch = LinearizeScratch::default();
+    // Every (constraint, value) the walk visits with this cutoff.
+    let mut seen_with = |cutoff: &dyn Fn(&dyn ConstraintFamily) -> Option<f64>| {
+        let mut seen = Vec::new();
+        let _ = problem.for_each_linearized(
+            0.0,
+            problem.q0(),
+            cutoff,
+            false,
+            &mut scratch,
+            |_, id, row| {
+                seen.push((id, row.value));
+                Ok::<(), ()>(())
+            },
+        );
+        seen
+    };
+    let all = |_: &dyn ConstraintFamily| Some(f64::INFINITY);
+    let id = |family, member| ConstraintId { family, member };
+    assert_eq!(
+        seen_with(&all),
+        vec![(id(0, 0), 2.0), (id(0, 1), -1.0), (id(1, 0), 0.5)]
+    );
+    assert_eq!(problem.describe(id(0, 1)), "first #1 (x1)");
+    // A family whose cutoff is None is skipped; an Err stops the walk.
+    let second_only = |f: &dyn ConstraintFamily| (f.name() == "second").then_some(0.0);
+    // (A family that does not cull returns every member, whatever the cutoff.)
+    assert_eq!(seen_with(&second_only), vec![(id(1, 0), 0.5)]);
+    let mut calls = 0;
+    let stopped =
+        problem.for_each_linearized(0.0, problem.q0(), all, false, &mut scratch, |_, _, _| {
+            calls += 1;
+            Err("stop")
+        });
+    assert_eq!((stopped, calls), (Err("stop"), 1));
+    assert_eq!(
+        problem.min_constraint(0.0, problem.q0(), f64::INFINITY),
+        Some((-1.0, "first #1 (x1)".to_string()))
+    );
 }

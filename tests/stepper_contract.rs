@@ -2,6 +2,9 @@
 //! order, the averaged prediction, and that bad input and failures mid-run come back as typed
 //! errors with context — together with everything computed before — and never as a panic.
 
+mod common;
+
+use common::kernels::Floor;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::cell::RefCell;
@@ -12,22 +15,6 @@ use sweeping::crowd::{DiskPairs, Population};
 use sweeping::error::SweepError;
 use sweeping::prelude::*;
 use sweeping::stepper::{Run, StepReport};
-
-/// `x ≥ 0` on one coordinate.
-struct Floor;
-
-impl ConstraintKernel<1> for Floor {
-    type Params = ();
-    fn value<D: DualNum<Primitive = f64> + Copy>(&self, _: &(), _t: D, z: [D; 1]) -> D {
-        z[0]
-    }
-    fn is_time_dependent(&self) -> bool {
-        false
-    }
-    fn is_affine(&self) -> bool {
-        true
-    }
-}
 
 /// A point falling at speed 1 onto the floor from `x0`.
 fn falling(x0: f64) -> Problem {

@@ -42,3 +42,4 @@ pub fn sci(values: &[f64]) -> String {
 }
 
 pub mod checker;
+pub mod kernels;
