@@ -10,6 +10,7 @@
 //! of both backends): `cargo test --release --test cross_certificate -- --ignored --nocapture`.
 #![cfg(all(feature = "clarabel", feature = "osqp"))]
 
+use sweeping::api::conformance::max_gap;
 use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
 use sweeping::backends::{ClarabelProjector, OsqpProjector, OsqpSettings};
 use sweeping::scene::{Overrides, Scene};
@@ -34,7 +35,7 @@ impl Projector for Recorder {
     fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
         let a = self.clarabel.project(p)?;
         let b = self.osqp.project(p)?;
-        let gap = inf_dist(&a.x, &b.x);
+        let gap = max_gap(&a.x, &b.x);
         if gap > 1e-6 {
             self.disagreement = Some((p.clone(), a, b, gap));
             return Err(ProjectionError::Backend {
@@ -44,13 +45,6 @@ impl Projector for Recorder {
         }
         Ok(a)
     }
-}
-
-fn inf_dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max)
 }
 
 #[test]
@@ -91,8 +85,8 @@ fn which_backend_is_right_where_cross_stops_on_the_paper_evacuation() {
             let (x, violation, residual) = reference(&problem, guess, tight_tol);
             eprintln!(
                 "  from {name}'s active set (slack ≤ {tight_tol:.0e}): violation {violation:.2e}, cone residual {residual:.2e}, ‖clarabel − x*‖∞ = {:.3e}, ‖osqp − x*‖∞ = {:.3e}",
-                inf_dist(&clarabel.x, &x),
-                inf_dist(&osqp.x, &x)
+                max_gap(&clarabel.x, &x),
+                max_gap(&osqp.x, &x)
             );
             let certified = violation <= 1e-10 && residual <= 1e-10;
             if certified && best.as_ref().is_none_or(|b| residual < b.2) {
@@ -101,7 +95,7 @@ fn which_backend_is_right_where_cross_stops_on_the_paper_evacuation() {
         }
     }
     let (x_star, violation, residual) = best.expect("no certified reference");
-    let (dc, dosqp) = (inf_dist(&clarabel.x, &x_star), inf_dist(&osqp.x, &x_star));
+    let (dc, dosqp) = (max_gap(&clarabel.x, &x_star), max_gap(&osqp.x, &x_star));
     let kc = problem.kkt_residuals(&clarabel.x, &clarabel.multipliers);
     let ko = problem.kkt_residuals(&osqp.x, &osqp.multipliers);
     eprintln!(
@@ -128,7 +122,7 @@ fn which_backend_is_right_where_cross_stops_on_the_paper_evacuation() {
     match polished.project(&problem) {
         Ok(p) => eprintln!(
             "osqp with polish on the same QP (cold): off by {:.3e}",
-            inf_dist(&p.x, &x_star)
+            max_gap(&p.x, &x_star)
         ),
         Err(e) => eprintln!("osqp with polish on the same QP: {e}"),
     }

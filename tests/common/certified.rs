@@ -6,6 +6,7 @@
 //! Clarabel and native backends and by the cross-check certificate (each includes this file).
 
 use nalgebra::{DMatrix, DVector};
+use sweeping_api::conformance::max_gap;
 use sweeping_api::ProjectionProblem;
 
 pub fn dense_rows(problem: &ProjectionProblem, rows: &[usize]) -> DMatrix<f64> {
@@ -109,4 +110,34 @@ pub fn reference(
     let lambda = nnls(&at, &d);
     let residual = (at * &lambda - d).amax();
     (x.as_slice().to_vec(), violation, residual)
+}
+
+/// The contact-loop QP of the including crate's `tests/data/contact_loop_qp.json` (step 287
+/// of the paper's evacuation: 142 rows, 300 coordinates, 113 dependent active rows).
+#[allow(dead_code)] // used by the backends' contact-loop tests, not by every includer
+pub fn contact_loop_qp() -> ProjectionProblem {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/contact_loop_qp.json"
+    );
+    let text = std::fs::read_to_string(path).expect("read the contact-loop QP");
+    serde_json::from_str(&text).expect("parse the contact-loop QP")
+}
+
+/// Asserts that `x` is the exact projection: the certified reference from `x`'s tight rows
+/// (slack ≤ `1e-7`) is feasible and certified to `1e-9`, and `x` lies within `1e-8` of it.
+#[allow(dead_code)] // used by the backends' contact-loop tests, not by every includer
+pub fn assert_is_the_projection(problem: &ProjectionProblem, x: &[f64], what: &str) {
+    let (x_ref, violation, cone_residual) = reference(problem, x, 1e-7);
+    assert!(
+        violation <= 1e-9,
+        "{what}: reference violates a row by {violation:.3e}"
+    );
+    assert!(
+        cone_residual <= 1e-9,
+        "{what}: reference is not certified: NNLS residual {cone_residual:.3e}"
+    );
+    let gap = max_gap(x, &x_ref);
+    eprintln!("{what}: ‖x − x_ref‖∞ = {gap:.3e}");
+    assert!(gap <= 1e-8, "{what}: {gap:.3e} from the exact projection");
 }

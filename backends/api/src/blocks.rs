@@ -280,7 +280,7 @@ impl<P: Projector> Projector for Blocked<P> {
 mod tests {
     use super::*;
     use crate::conformance::testing::{capped_reference, CAPPED_REFERENCE_TOLERANCES};
-    use crate::conformance::{random_instance, ReferenceProjector};
+    use crate::conformance::{max_gap, random_instance, ReferenceProjector};
     use crate::RowKey;
 
     crate::conformance_tests!(
@@ -341,11 +341,7 @@ mod tests {
             let (Ok(s1), Ok(s2)) = (whole.project(&p), split.project(&p)) else {
                 continue;
             };
-            let gap =
-                s1.x.iter()
-                    .zip(&s2.x)
-                    .map(|(u, v)| (u - v).abs())
-                    .fold(0.0, f64::max);
+            let gap = max_gap(&s1.x, &s2.x);
             assert!(gap <= 1e-8, "seed {seed}: gap {gap:.3e}");
             assert!(p.kkt_residuals(&s2.x, &s2.multipliers).max() <= 1e-9);
             let n = 10;

@@ -102,12 +102,22 @@ fn expect_kkt(
     Ok(())
 }
 
+/// The ∞-norm distance `maxᵢ |aᵢ − bᵢ|` between two answers (over their common length; 0 for
+/// none): how the kit and the backends' tests compare points.
+///
+/// ```
+/// use sweeping_api::conformance::max_gap;
+/// assert_eq!(max_gap(&[1.0, 2.0], &[1.5, -1.0]), 3.0);
+/// ```
+pub fn max_gap(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(u, v)| (u - v).abs())
+        .fold(0.0, f64::max)
+}
+
 fn expect_point(x: &[f64], expected: &[f64], tol: f64, what: &str) -> Result<(), String> {
-    let gap = x
-        .iter()
-        .zip(expected)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let gap = max_gap(x, expected);
     if gap > tol || gap.is_nan() {
         return Err(format!(
             "{what}: x = {x:?}, expected {expected:?} (gap {gap:.3e} > {tol:.1e})"

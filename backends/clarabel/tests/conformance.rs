@@ -3,7 +3,7 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sweeping_api::conformance::{random_instance, ReferenceProjector, Tolerances};
+use sweeping_api::conformance::{max_gap, random_instance, ReferenceProjector, Tolerances};
 use sweeping_api::{
     CrossCheck, ProjectionError, ProjectionProblem, Projector, SolveStatus, SparseRows,
 };
@@ -17,13 +17,6 @@ sweeping_api::conformance_tests!(
         certifies_infeasibility: true
     }
 );
-
-fn max_gap(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max)
-}
 
 #[test]
 fn agrees_with_reference_on_random_instances() {

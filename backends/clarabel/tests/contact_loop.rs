@@ -18,22 +18,13 @@
 
 #[path = "../../../tests/common/certified.rs"]
 mod certified;
-use certified::reference;
-use sweeping_api::{ProjectionProblem, Projector};
+use certified::{assert_is_the_projection, contact_loop_qp};
+use sweeping_api::Projector;
 use sweeping_clarabel::ClarabelProjector;
-
-fn load() -> ProjectionProblem {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/contact_loop_qp.json"
-    );
-    let text = std::fs::read_to_string(path).expect("read the contact-loop QP");
-    serde_json::from_str(&text).expect("parse the contact-loop QP")
-}
 
 #[test]
 fn contact_loop_is_polished_to_the_exact_projection() {
-    let problem = load();
+    let problem = contact_loop_qp();
     assert_eq!((problem.n_rows(), problem.dim()), (142, 300));
     let mut clarabel = ClarabelProjector::default();
     let sol = clarabel
@@ -46,24 +37,5 @@ fn contact_loop_is_polished_to_the_exact_projection() {
         "KKT residual {kkt:.3e}: the answer was not polished"
     );
 
-    let (x_ref, violation, cone_residual) = reference(&problem, &sol.x, 1e-7);
-    assert!(
-        violation <= 1e-9,
-        "reference violates a row by {violation:.3e}"
-    );
-    assert!(
-        cone_residual <= 1e-9,
-        "reference is not certified: NNLS residual {cone_residual:.3e}"
-    );
-    let gap = sol
-        .x
-        .iter()
-        .zip(&x_ref)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max);
-    eprintln!("contact loop: ‖x − x_ref‖∞ = {gap:.3e}, KKT {kkt:.3e}");
-    assert!(
-        gap <= 1e-8,
-        "Clarabel is {gap:.3e} from the exact projection"
-    );
+    assert_is_the_projection(&problem, &sol.x, "Clarabel on the contact loop");
 }

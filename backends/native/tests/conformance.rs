@@ -1,7 +1,7 @@
 //! The conformance kit (with and without the Clarabel fallback), agreement with Clarabel on
 //! random instances, the fallback path, and typed errors.
 
-use sweeping_api::conformance::{random_instance, Tolerances};
+use sweeping_api::conformance::{max_gap, random_instance, Tolerances};
 use sweeping_api::{ProjectionError, ProjectionProblem, Projector, SparseRows};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::{NativeProjector, NativeSettings};
@@ -39,13 +39,6 @@ mod with_fallback {
             certifies_infeasibility: true
         }
     );
-}
-
-fn max_gap(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max)
 }
 
 #[test]

@@ -13,43 +13,16 @@
 
 #[path = "../../../tests/common/certified.rs"]
 mod certified;
-use certified::reference;
+use certified::{assert_is_the_projection, contact_loop_qp};
+use sweeping_api::conformance::max_gap;
+use sweeping_api::Projector;
 use sweeping_api::RowKey;
-use sweeping_api::{ProjectionProblem, Projector};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::NativeProjector;
 
-fn load() -> ProjectionProblem {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/contact_loop_qp.json"
-    );
-    let text = std::fs::read_to_string(path).expect("read the contact-loop QP");
-    serde_json::from_str(&text).expect("parse the contact-loop QP")
-}
-
-fn check_against_reference(problem: &ProjectionProblem, x: &[f64], what: &str) {
-    let (x_ref, violation, cone_residual) = reference(problem, x, 1e-7);
-    assert!(
-        violation <= 1e-9,
-        "{what}: reference violates a row by {violation:.3e}"
-    );
-    assert!(
-        cone_residual <= 1e-9,
-        "{what}: reference is not certified: NNLS residual {cone_residual:.3e}"
-    );
-    let gap = x
-        .iter()
-        .zip(&x_ref)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max);
-    eprintln!("{what}: ‖x − x_ref‖∞ = {gap:.3e}");
-    assert!(gap <= 1e-8, "{what}: {gap:.3e} from the exact projection");
-}
-
 #[test]
 fn contact_loop_is_solved_exactly_without_fallback() {
-    let problem = load();
+    let problem = contact_loop_qp();
     assert_eq!((problem.n_rows(), problem.dim()), (142, 300));
     let mut native = NativeProjector::default();
     let sol = native
@@ -58,14 +31,9 @@ fn contact_loop_is_solved_exactly_without_fallback() {
     assert_eq!(sol.stats.fallbacks, 0);
     let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
     assert!(kkt <= 1e-10, "KKT residual {kkt:.3e}");
-    check_against_reference(&problem, &sol.x, "cold");
+    assert_is_the_projection(&problem, &sol.x, "cold");
     let clarabel = ClarabelProjector::default().project(&problem).unwrap();
-    let gap = sol
-        .x
-        .iter()
-        .zip(&clarabel.x)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max);
+    let gap = max_gap(&sol.x, &clarabel.x);
     assert!(gap <= 1e-8, "native and Clarabel differ by {gap:.3e}");
 
     // Warm: the same problem with keys, solved twice (the second starts from the first's
@@ -84,5 +52,5 @@ fn contact_loop_is_solved_exactly_without_fallback() {
     let second = warm.project(&keyed).unwrap();
     assert!(second.stats.warm_started);
     assert_eq!(second.stats.fallbacks, 0);
-    check_against_reference(&problem, &second.x, "warm");
+    assert_is_the_projection(&problem, &second.x, "warm");
 }

@@ -3,17 +3,10 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sweeping_api::conformance::random_instance;
+use sweeping_api::conformance::{max_gap, random_instance};
 use sweeping_api::{ProjectionProblem, Projector, SparseRows};
 use sweeping_native::NativeProjector;
 use sweeping_osqp::OsqpProjector;
-
-fn max_gap(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max)
-}
 
 /// `p` with every third row repeated, scaled by 2 (dependent rows, same set).
 fn with_copies(p: &ProjectionProblem) -> ProjectionProblem {

@@ -5,7 +5,7 @@
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sweeping_api::conformance::random_instance;
+use sweeping_api::conformance::{max_gap, random_instance};
 use sweeping_api::{ProjectionError, ProjectionProblem, Projector, RowKey, SparseRows};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::{NativeProjector, NativeSettings};
@@ -15,13 +15,6 @@ fn key(m: u64) -> RowKey {
         family: 3,
         member: m,
     }
-}
-
-fn max_gap(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max)
 }
 
 /// The rows `order` of `p` (in that order), with keys `key(original index)`, and `y` moved.

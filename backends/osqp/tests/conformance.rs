@@ -1,6 +1,6 @@
 //! The conformance kit and the OSQP-specific behaviour: warm start, rebuilds, statuses.
 
-use sweeping_api::conformance::{random_instance, ReferenceProjector, Tolerances};
+use sweeping_api::conformance::{max_gap, random_instance, ReferenceProjector, Tolerances};
 use sweeping_api::{
     Projection, ProjectionError, ProjectionProblem, Projector, SolveStatus, SparseRows,
 };
@@ -20,13 +20,6 @@ sweeping_api::conformance_tests!(
         certifies_infeasibility: true
     }
 );
-
-fn gap(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max)
-}
 
 fn kkt(p: &ProjectionProblem, sol: &Projection) -> f64 {
     p.kkt_residuals(&sol.x, &sol.multipliers).max()
@@ -80,7 +73,7 @@ fn agrees_with_reference_on_random_instances() {
             continue;
         };
         compared += 1;
-        let g = gap(&sol.x, &r.x);
+        let g = max_gap(&sol.x, &r.x);
         assert!(g <= 1e-6, "seed {seed} (n = {n}, m = {m}): gap {g:e}");
     }
     assert!(compared >= 70, "only {compared} instances compared");
@@ -112,7 +105,7 @@ fn warm_start_on_a_sequence_with_one_pattern() {
         // The same problem solved from scratch: same answer.
         let cold = OsqpProjector::default().project(&p).unwrap();
         assert!(!cold.stats.warm_started);
-        let g = gap(&sol.x, &cold.x);
+        let g = max_gap(&sol.x, &cold.x);
         assert!(g <= 1e-6, "step {k}: warm and cold answers differ by {g:e}");
     }
     assert!(solved >= 10, "only {solved} non-trivial steps");
@@ -389,7 +382,7 @@ fn loose_preset_is_fast_and_roughly_right() {
         let p = random_instance(300 + seed, 20, 30);
         let a = loose.project(&p).unwrap();
         let b = tight.project(&p).unwrap();
-        assert!(gap(&a.x, &b.x) < 0.1, "seed {seed}");
+        assert!(max_gap(&a.x, &b.x) < 0.1, "seed {seed}");
     }
     assert!(loose.tolerance() > tight.tolerance());
 }
@@ -427,12 +420,7 @@ fn keyed_warm_start_survives_a_changed_pattern() {
     assert!(warm.stats.warm_started, "keys must allow a warm start");
     let cold = OsqpProjector::default().project(&p).unwrap();
     assert!(!cold.stats.warm_started);
-    let gap = warm
-        .x
-        .iter()
-        .zip(&cold.x)
-        .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max);
+    let gap = max_gap(&warm.x, &cold.x);
     assert!(gap <= 1e-6, "warm and cold differ by {gap:.3e}");
     assert!(p.kkt_residuals(&warm.x, &warm.multipliers).max() <= osqp.tolerance());
 }
