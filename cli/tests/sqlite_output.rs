@@ -154,6 +154,20 @@ fn frame_data(conn: &Connection) -> Vec<(i64, i64)> {
         .collect()
 }
 
+/// The one value `sql` selects.
+fn scalar<T: rusqlite::types::FromSql>(conn: &Connection, sql: &str) -> T {
+    conn.query_row(sql, [], |r| r.get(0))
+        .unwrap_or_else(|e| panic!("{sql}: {e}"))
+}
+
+/// Opens the file at `path` and asserts SQLite finds it intact.
+fn open_intact(path: &Path) -> Connection {
+    let conn = Connection::open(path).unwrap();
+    let integrity: String = scalar(&conn, "PRAGMA integrity_check");
+    assert_eq!(integrity, "ok");
+    conn
+}
+
 fn metadata(conn: &Connection, key: &str) -> Option<String> {
     conn.query_row("SELECT value FROM metadata WHERE key = ?1", [key], |r| {
         r.get(0)
@@ -302,15 +316,11 @@ fn frames_ids_and_positions_match_the_run_and_people_who_left_are_not_written() 
     assert_eq!(fd.len(), 61);
     assert_eq!(frames_written, 61);
     assert!(fd.iter().enumerate().all(|(i, (f, _))| *f == i as i64));
-    let hash: i64 = conn
-        .query_row("SELECT hash FROM geometry", [], |r| r.get(0))
-        .unwrap();
+    let hash: i64 = scalar(&conn, "SELECT hash FROM geometry");
     assert!(fd.iter().all(|(_, h)| *h == hash));
     // Every row of every frame is exactly the run's present people, positions to the bit.
     let total: usize = expected.frames.values().map(Vec::len).sum();
-    let rows: i64 = conn
-        .query_row("SELECT count(*) FROM trajectory_data", [], |r| r.get(0))
-        .unwrap();
+    let rows: i64 = scalar(&conn, "SELECT count(*) FROM trajectory_data");
     assert_eq!(rows as usize, total);
     assert_eq!(rows_written as usize, total);
     for (frame, want) in &expected.frames {
@@ -322,11 +332,7 @@ fn frames_ids_and_positions_match_the_run_and_people_who_left_are_not_written() 
     let last = &expected.frames[&60];
     assert_eq!(first.len(), 12);
     assert_eq!(last.len(), final_present);
-    let distinct: i64 = conn
-        .query_row("SELECT count(DISTINCT id) FROM trajectory_data", [], |r| {
-            r.get(0)
-        })
-        .unwrap();
+    let distinct: i64 = scalar(&conn, "SELECT count(DISTINCT id) FROM trajectory_data");
     assert_eq!(distinct, 12);
     // Orientation: zero at frame 0, unit vectors (or zero when still) after.
     let mut st = conn
@@ -399,11 +405,7 @@ fn a_failed_run_leaves_a_valid_file_up_to_its_last_frame() {
         failure.error
     );
     drop(w);
-    let conn = Connection::open(&path).unwrap();
-    let integrity: String = conn
-        .query_row("PRAGMA integrity_check", [], |r| r.get(0))
-        .unwrap();
-    assert_eq!(integrity, "ok");
+    let conn = open_intact(&path);
     // Steps 1..=37 ran; frames are every 2 steps: 0..=18, all of them committed by on_finish.
     let fd = frame_data(&conn);
     assert_eq!(fd.len(), 19);
@@ -431,11 +433,7 @@ fn a_writer_that_dies_mid_transaction_leaves_the_last_commit() {
     // the connection closes with its transaction open, as SQLite does when a process dies.
     assert_eq!(w.frames_written(), 15);
     drop(w);
-    let conn = Connection::open(&path).unwrap();
-    let integrity: String = conn
-        .query_row("PRAGMA integrity_check", [], |r| r.get(0))
-        .unwrap();
-    assert_eq!(integrity, "ok");
+    let conn = open_intact(&path);
     let fd = frame_data(&conn);
     assert_eq!(
         fd.iter().map(|f| f.0).collect::<Vec<_>>(),
