@@ -1,7 +1,9 @@
 //! A newcomer's first hour (project issue #12), as a downstream crate writes it: three problems
 //! of our own and a custom backend, with nothing but `sweeping::…` paths.
 
-use sweeping::assumptions::{estimate_problem, samples_from_trajectory, CONVEXITY};
+use sweeping::assumptions::{
+    estimate_problem, samples_from_trajectory, AssumptionReport, CONVEXITY,
+};
 use sweeping::prelude::*;
 use sweeping::study::exact::{true_error_study, ExactCase};
 use sweeping::study::{fit_order, BoxError};
@@ -31,6 +33,40 @@ fn ellipse_problem() -> Problem {
     Problem::new(vec![0.5, 0.2], push).with_constraint("inside ellipse", InsideEllipse, [0, 1])
 }
 
+/// `h = 0.1` up to `t = 4` without the run-time violation guard: it would stop the run at the
+/// first step that ends outside the ellipse (ViolationTooLarge); switched off to see the outer
+/// approximation the warnings announce.
+fn unguarded() -> StepperSettings {
+    StepperSettings {
+        h: 0.1,
+        t_end: 4.0,
+        violation_tolerance: f64::INFINITY,
+        ..Default::default()
+    }
+}
+
+/// Runs `problem` on the default backend with `monitor` watching.
+fn run_monitored(
+    problem: &Problem,
+    settings: &StepperSettings,
+    monitor: &mut BoundsMonitor,
+) -> Result<Run, Box<RunFailure>> {
+    let mut backend = make_projector(BackendChoice::default()).unwrap();
+    Stepper::new(problem, settings.clone())
+        .unwrap()
+        .run(backend.as_mut(), &mut [monitor])
+}
+
+/// The assumptions estimated on the configurations `run` visited.
+fn estimate_on(problem: &Problem, run: &Run) -> Result<AssumptionReport, SweepError> {
+    estimate_problem(
+        problem,
+        &samples_from_trajectory(&run.trajectory),
+        &EstimateSettings::default(),
+        &mut ReferenceProjector::default(),
+    )
+}
+
 #[test]
 fn a_concave_constraint_stops_the_run_naming_it_and_its_curvature() {
     let problem = ellipse_problem();
@@ -41,16 +77,12 @@ fn a_concave_constraint_stops_the_run_naming_it_and_its_curvature() {
             ..Default::default()
         },
     );
-    let mut backend = make_projector(BackendChoice::default()).unwrap();
     let settings = StepperSettings {
         h: 0.1,
         t_end: 4.0,
         ..Default::default()
     };
-    let failure = Stepper::new(&problem, settings.clone())
-        .unwrap()
-        .run(backend.as_mut(), &mut [&mut monitor])
-        .unwrap_err();
+    let failure = run_monitored(&problem, &settings, &mut monitor).unwrap_err();
     let message = failure.error.to_string();
     println!("{message}");
     assert!(
@@ -70,20 +102,8 @@ fn a_concave_constraint_stops_the_run_naming_it_and_its_curvature() {
 fn under_warn_the_run_completes_and_ends_outside_the_ellipse() {
     let problem = ellipse_problem();
     let mut monitor = BoundsMonitor::new(&problem, MonitorSettings::default());
-    let mut backend = make_projector(BackendChoice::default()).unwrap();
-    // The run-time guard would stop the run at the first step that ends outside the ellipse
-    // (ViolationTooLarge); switched off here to see the outer approximation the warning
-    // announces.
-    let settings = StepperSettings {
-        h: 0.1,
-        t_end: 4.0,
-        violation_tolerance: f64::INFINITY,
-        ..Default::default()
-    };
-    let run = Stepper::new(&problem, settings.clone())
-        .unwrap()
-        .run(backend.as_mut(), &mut [&mut monitor])
-        .unwrap();
+    let settings = unguarded();
+    let run = run_monitored(&problem, &settings, &mut monitor).unwrap();
     let warnings = monitor.warnings();
     assert!(!warnings.is_empty());
     assert!(warnings.iter().all(|w| w.assumption == CONVEXITY));
@@ -111,21 +131,8 @@ fn under_warn_the_run_completes_and_ends_outside_the_ellipse() {
 #[test]
 fn estimate_problem_reports_failed_convexity_instead_of_prox_regularity() {
     let problem = ellipse_problem();
-    let run = problem
-        .solve(StepperSettings {
-            h: 0.1,
-            t_end: 4.0,
-            violation_tolerance: f64::INFINITY,
-            ..Default::default()
-        })
-        .unwrap();
-    let report = estimate_problem(
-        &problem,
-        &samples_from_trajectory(&run.trajectory),
-        &EstimateSettings::default(),
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap();
+    let run = problem.solve(unguarded()).unwrap();
+    let report = estimate_on(&problem, &run).unwrap();
     assert!(report.convexity_failed);
     assert!((report.min_curvature.as_ref().unwrap().value + 2.0).abs() < 1e-12);
     assert_eq!((report.eta, report.theta, report.r), (None, None, None));
@@ -191,20 +198,8 @@ fn the_same_region_from_affine_pieces_passes_every_check_and_stays_inside() {
             ..Default::default()
         },
     );
-    let mut backend = make_projector(BackendChoice::default()).unwrap();
-    // The run-time guard would stop the run at the first step that ends outside the ellipse
-    // (ViolationTooLarge); switched off here to see the outer approximation the warning
-    // announces.
-    let settings = StepperSettings {
-        h: 0.1,
-        t_end: 4.0,
-        violation_tolerance: f64::INFINITY,
-        ..Default::default()
-    };
-    let run = Stepper::new(&problem, settings.clone())
-        .unwrap()
-        .run(backend.as_mut(), &mut [&mut monitor])
-        .unwrap();
+    let settings = unguarded();
+    let run = run_monitored(&problem, &settings, &mut monitor).unwrap();
     // The affine claim was verified (D²g = 0), so second-order checks did run.
     assert!(monitor.second_order_checks() >= 1);
     println!(
@@ -216,13 +211,7 @@ fn the_same_region_from_affine_pieces_passes_every_check_and_stays_inside() {
         "{:.3e}",
         run.stats.max_violation
     );
-    let report = estimate_problem(
-        &problem,
-        &samples_from_trajectory(&run.trajectory),
-        &EstimateSettings::default(),
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap();
+    let report = estimate_on(&problem, &run).unwrap();
     assert!(!report.convexity_failed, "{}", report.table());
     assert_eq!(report.c, Some(f64::INFINITY)); // affine: smooth everywhere
     assert_eq!(report.eta, Some(f64::INFINITY)); // M = 0: Q(t) convex
@@ -440,12 +429,7 @@ fn measured_constants_then_a_wrong_bound_stops_the_run() -> TestResult {
         ..Default::default()
     };
     let run = problem.solve(settings.clone())?;
-    let report = estimate_problem(
-        &problem,
-        &samples_from_trajectory(&run.trajectory),
-        &EstimateSettings::default(),
-        &mut ReferenceProjector::default(),
-    )?;
+    let report = estimate_on(&problem, &run)?;
     // α = 1 (the wall), β = √2 (a pair: ∇g = (−1, 1)), M = 0 (affine), c = ∞.
     assert!((report.alpha.as_ref().unwrap().value - 1.0).abs() < 1e-12);
     assert!((report.beta.unwrap() - 2f64.sqrt()).abs() < 1e-12);
