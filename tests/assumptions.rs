@@ -1,7 +1,10 @@
 //! The constants of A0–A5 against values known by hand, the detection of wedged
 //! configurations, and the run-time monitor's policies.
 
+mod common;
+
 use approx::assert_abs_diff_eq;
+use common::estimate;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::SQRT_2;
@@ -12,16 +15,6 @@ use sweeping::assumptions::{
 };
 use sweeping::crowd::{DiskPairs, Motion, PersonShapes, Population, Shape};
 use sweeping::prelude::*;
-
-fn estimate(problem: &Problem, samples: &[(f64, Vec<f64>)]) -> AssumptionReport {
-    estimate_problem(
-        problem,
-        samples,
-        &EstimateSettings::default(),
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap()
-}
 
 fn wall(a: [f64; 2], b: [f64; 2]) -> (Shape, Motion) {
     (Shape::Segment { a, b }, Motion::Static)

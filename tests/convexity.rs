@@ -2,21 +2,25 @@
 //! and the loose ends of issue #12: bounds validated, the start checked whole, c = ∞ for affine
 //! constraints, a typed backend error, messages with rounded times, arithmetic spellings.
 
+mod common;
+
+use common::estimate;
 use sweeping::assumptions::{
-    estimate_problem, samples_from_trajectory, symmetric_min_eigenvalue, AssumptionReport,
-    AFFINE_CLAIM, CONVEXITY,
+    estimate_problem, samples_from_trajectory, symmetric_min_eigenvalue, AFFINE_CLAIM, CONVEXITY,
 };
 use sweeping::constraint::{linearize, second_order};
 use sweeping::prelude::*;
 
-fn estimate(problem: &Problem, samples: &[(f64, Vec<f64>)]) -> AssumptionReport {
-    estimate_problem(
-        problem,
-        samples,
-        &EstimateSettings::default(),
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap()
+/// Runs `problem` with step `h` up to `t_end` on the reference projector, `monitor` watching.
+fn watched_run(
+    problem: &Problem,
+    h: f64,
+    t_end: f64,
+    monitor: &mut BoundsMonitor,
+) -> Result<Run, Box<RunFailure>> {
+    Stepper::new(problem, settings(h, t_end))
+        .unwrap()
+        .run(&mut ReferenceProjector::default(), &mut [monitor])
 }
 
 fn error_monitor(problem: &Problem, bounds: Bounds) -> BoundsMonitor<'_> {
@@ -174,12 +178,7 @@ fn convex_and_affine_constraints_pass_and_keep_their_derived_constants() {
 
 #[test]
 fn a0_margin_of_affine_constraints_is_infinite_not_missing() {
-    let problem = Problem::new(vec![1.0], NoPerturbation).with_family(KernelFamily::single_with(
-        "wall",
-        RightOf,
-        [0],
-        0.0,
-    ));
+    let problem = point_right_of_wall(1.0, NoPerturbation);
     let report = estimate(&problem, &[(0.0, vec![0.2])]);
     assert_eq!(report.c, Some(f64::INFINITY));
     let line = report
@@ -217,10 +216,7 @@ fn a_false_affine_claim_is_caught_once_by_the_estimate_and_the_monitor() {
     );
 
     let mut monitor = error_monitor(&problem, Bounds::default());
-    let failure = Stepper::new(&problem, settings(0.1, 1.0))
-        .unwrap()
-        .run(&mut ReferenceProjector::default(), &mut [&mut monitor])
-        .unwrap_err();
+    let failure = watched_run(&problem, 0.1, 1.0, &mut monitor).unwrap_err();
     let SweepError::AssumptionViolated {
         assumption, detail, ..
     } = &failure.error
@@ -237,12 +233,7 @@ fn a_false_affine_claim_is_caught_once_by_the_estimate_and_the_monitor() {
 #[test]
 fn static_affine_problems_get_their_second_order_check() {
     // Before: the monitor skipped every static affine row, so M was never checked at all.
-    let problem = Problem::new(vec![1.0], pushed_1d(-1.0)).with_family(KernelFamily::single_with(
-        "wall",
-        RightOf,
-        [0],
-        0.0,
-    ));
+    let problem = point_right_of_wall(1.0, pushed_1d(-1.0));
     let mut monitor = error_monitor(
         &problem,
         Bounds {
@@ -250,10 +241,7 @@ fn static_affine_problems_get_their_second_order_check() {
             ..Default::default()
         },
     );
-    Stepper::new(&problem, settings(0.1, 2.0))
-        .unwrap()
-        .run(&mut ReferenceProjector::default(), &mut [&mut monitor])
-        .unwrap();
+    watched_run(&problem, 0.1, 2.0, &mut monitor).unwrap();
     assert_eq!(monitor.second_order_checks(), 1); // the affine claim, verified at the start
     assert_eq!(monitor.violation_count(), 0);
 }
@@ -262,16 +250,16 @@ fn pushed_1d(v: f64) -> impl Fn(f64, &[f64], &mut [f64]) + Send + Sync + 'static
     move |_t: f64, _q: &[f64], f: &mut [f64]| f[0] = v
 }
 
+/// A point at `x0` on a line, moved by `f`, kept right of a wall at 0.
+fn point_right_of_wall(x0: f64, f: impl Perturbation + 'static) -> Problem {
+    Problem::new(vec![x0], f).with_family(KernelFamily::single_with("wall", RightOf, [0], 0.0))
+}
+
 #[test]
 fn the_start_is_checked_however_far_from_contact() {
     // |∇g| = 1 > β = 0.5, with the point 5 away from the wall (the neighbourhood is 0.1):
     // before, nothing was checked at t = 0; now the run stops before its first step.
-    let problem = Problem::new(vec![5.0], pushed_1d(1.0)).with_family(KernelFamily::single_with(
-        "wall",
-        RightOf,
-        [0],
-        0.0,
-    ));
+    let problem = point_right_of_wall(5.0, pushed_1d(1.0));
     let mut monitor = error_monitor(
         &problem,
         Bounds {
@@ -279,10 +267,7 @@ fn the_start_is_checked_however_far_from_contact() {
             ..Default::default()
         },
     );
-    let failure = Stepper::new(&problem, settings(0.1, 1.0))
-        .unwrap()
-        .run(&mut ReferenceProjector::default(), &mut [&mut monitor])
-        .unwrap_err();
+    let failure = watched_run(&problem, 0.1, 1.0, &mut monitor).unwrap_err();
     assert_eq!(failure.partial.stats.steps, 0);
     let msg = failure.error.to_string();
     assert!(
@@ -300,10 +285,7 @@ fn concave_constraint_under_the_monitor_error_and_warn_and_off() {
     );
     // Error: stops at the start, naming the constraint, the eigenvalue and the point.
     let mut monitor = error_monitor(&problem, Bounds::default());
-    let failure = Stepper::new(&problem, settings(0.1, 2.0))
-        .unwrap()
-        .run(&mut ReferenceProjector::default(), &mut [&mut monitor])
-        .unwrap_err();
+    let failure = watched_run(&problem, 0.1, 2.0, &mut monitor).unwrap_err();
     let msg = failure.to_string();
     assert!(
         msg.contains(&format!("assumption {CONVEXITY} violated by inside disk")),

@@ -35,6 +35,21 @@ pub fn halvings(h0: f64, levels: usize) -> Vec<f64> {
     (0..levels).map(|i| h0 / f64::powi(2.0, i as i32)).collect()
 }
 
+/// The assumptions' constants estimated at `samples` with the default settings and the
+/// reference projector.
+pub fn estimate(
+    problem: &sweeping::problem::Problem,
+    samples: &[(f64, Vec<f64>)],
+) -> sweeping::assumptions::AssumptionReport {
+    sweeping::assumptions::estimate_problem(
+        problem,
+        samples,
+        &sweeping::assumptions::EstimateSettings::default(),
+        &mut sweeping::api::conformance::ReferenceProjector::default(),
+    )
+    .unwrap()
+}
+
 /// `[1.234e-3, …]`.
 pub fn sci(values: &[f64]) -> String {
     let v: Vec<String> = values.iter().map(|e| format!("{e:.3e}")).collect();
