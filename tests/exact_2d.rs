@@ -203,14 +203,7 @@ fn real_backends_agree_on_both_cases() {
     let reference = run(&pd, 0.05, T_DISK, &mut ReferenceProjector::default());
     for (choice, mut p) in common::real_backends() {
         let r = run(&pd, 0.05, T_DISK, &mut p);
-        let gap = r
-            .trajectory
-            .states
-            .iter()
-            .flatten()
-            .zip(reference.trajectory.states.iter().flatten())
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let gap = common::trajectory_gap(&r.trajectory, &reference.trajectory);
         // ~1e-8 per step, accumulated at worst over the steps.
         let tol = (1e-8 * r.stats.steps as f64).max(1e-7);
         assert!(gap <= tol, "{choice}, disk: {gap:.3e} from the reference");

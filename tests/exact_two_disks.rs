@@ -117,14 +117,7 @@ fn culling_changes_nothing() {
     for h in [0.37, 0.07, 0.01] {
         let a = run(0.37, h, true, &mut ReferenceProjector::default());
         let b = run(0.37, h, false, &mut ReferenceProjector::default());
-        let gap = a
-            .trajectory
-            .states
-            .iter()
-            .flatten()
-            .zip(b.trajectory.states.iter().flatten())
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max);
+        let gap = common::trajectory_gap(&a.trajectory, &b.trajectory);
         assert!(
             gap <= 1e-14,
             "h = {h}: culled and all-pairs differ by {gap:.3e}"

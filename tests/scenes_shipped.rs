@@ -1,14 +1,30 @@
 //! Every scene under `examples/scenes/` parses, builds, and runs a few steps without overlap
 //! or wall penetration; the full runs (long) are `#[ignore]`d.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use sweeping::api::conformance::ReferenceProjector;
 use sweeping::backends::make_projector;
-use sweeping::output::SummaryCollector;
+use sweeping::output::{RunSummary, SummaryCollector};
 use sweeping::scene::{Overrides, Scene};
 
 /// Overlap and penetration allowed after a step (solver tolerance).
 const TOL: f64 = 1e-6;
+
+/// No overlap nor wall penetration beyond [`TOL`] in the run of the scene at `path`.
+fn assert_within_tolerance(s: &RunSummary, path: &Path) {
+    assert!(
+        s.max_overlap <= TOL,
+        "{}: overlap {}",
+        path.display(),
+        s.max_overlap
+    );
+    assert!(
+        s.max_wall_penetration <= TOL,
+        "{}: penetration {}",
+        path.display(),
+        s.max_wall_penetration
+    );
+}
 
 fn scenes() -> Vec<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/scenes");
@@ -64,18 +80,7 @@ fn every_scene_builds_and_runs_a_few_steps_cleanly() {
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let s = summary.summary();
         assert_eq!(run.stats.steps, 5, "{}", path.display());
-        assert!(
-            s.max_overlap <= TOL,
-            "{}: overlap {}",
-            path.display(),
-            s.max_overlap
-        );
-        assert!(
-            s.max_wall_penetration <= TOL,
-            "{}: penetration {}",
-            path.display(),
-            s.max_wall_penetration
-        );
+        assert_within_tolerance(s, &path);
     }
 }
 
@@ -150,17 +155,6 @@ fn full_runs() {
                 s.people_remaining
             );
         }
-        assert!(
-            s.max_overlap <= TOL,
-            "{}: overlap {}",
-            path.display(),
-            s.max_overlap
-        );
-        assert!(
-            s.max_wall_penetration <= TOL,
-            "{}: {}",
-            path.display(),
-            s.max_wall_penetration
-        );
+        assert_within_tolerance(s, &path);
     }
 }

@@ -572,14 +572,7 @@ fn culled_pairs_match_all_pairs_on_a_small_crowd() {
             .unwrap()
     };
     let (a, b) = (run(true), run(false));
-    let gap = a
-        .trajectory
-        .states
-        .iter()
-        .flatten()
-        .zip(b.trajectory.states.iter().flatten())
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
+    let gap = common::trajectory_gap(&a.trajectory, &b.trajectory);
     assert!(gap <= 1e-8, "culled and all-pairs differ by {gap:.3e}");
     assert!(a.stats.max_active >= 2, "the crowd should be in contact");
     assert!(a.stats.rows < b.stats.rows);

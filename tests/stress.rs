@@ -252,17 +252,22 @@ fn run_one(
     Ok(())
 }
 
-fn stress(cases: u32, backends: &[BackendChoice]) {
-    let dir = scratch("stress");
-    let tally = std::cell::RefCell::new(Tally::default());
-    // A fixed seed: the counts printed (and quoted in the README) are reproducible.
+/// A proptest runner of `cases` cases with a fixed seed and no persisted failures: the counts
+/// printed (and quoted in the README) are reproducible.
+fn deterministic_runner(cases: u32) -> TestRunner {
     let config = Config {
         cases,
         failure_persistence: None,
         ..Config::default()
     };
     let rng = TestRng::deterministic_rng(config.rng_algorithm);
-    let mut runner = TestRunner::new_with_rng(config, rng);
+    TestRunner::new_with_rng(config, rng)
+}
+
+fn stress(cases: u32, backends: &[BackendChoice]) {
+    let dir = scratch("stress");
+    let tally = std::cell::RefCell::new(Tally::default());
+    let mut runner = deterministic_runner(cases);
     runner
         .run(&scene_strategy(), |s| {
             for &b in backends {
@@ -323,14 +328,7 @@ fn fuzz(cases: u32) {
         any::<prop::sample::Index>(),
         0usize..tokens.len(),
     );
-    // A fixed seed: the counts printed (and quoted in the README) are reproducible.
-    let config = Config {
-        cases,
-        failure_persistence: None,
-        ..Config::default()
-    };
-    let rng = TestRng::deterministic_rng(config.rng_algorithm);
-    let mut runner = TestRunner::new_with_rng(config, rng);
+    let mut runner = deterministic_runner(cases);
     runner
         .run(&prop::collection::vec(edit, 1..6), |edits| {
             let mut text = base.clone();

@@ -50,6 +50,17 @@ pub fn estimate(
     .unwrap()
 }
 
+/// The largest `|a − b|` over every coordinate of every recorded state of two runs, state by
+/// state in order.
+pub fn trajectory_gap(a: &sweeping::stepper::Trajectory, b: &sweeping::stepper::Trajectory) -> f64 {
+    a.states
+        .iter()
+        .flatten()
+        .zip(b.states.iter().flatten())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
 /// `[1.234e-3, …]`.
 pub fn sci(values: &[f64]) -> String {
     let v: Vec<String> = values.iter().map(|e| format!("{e:.3e}")).collect();
