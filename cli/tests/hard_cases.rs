@@ -19,6 +19,40 @@ fn assert_clean(name: &str, csv: &std::path::Path, g: &Geometry) -> common::chec
 }
 
 /// Item 1: people who left cannot walk back in through a wall of a U-shaped room.
+/// The text of the workspace's `examples/scenes/<name>.toml` (one level above this crate).
+fn shipped_scene(name: &str) -> String {
+    let path = format!(
+        "{}/../examples/scenes/{name}.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("reading {path}: {e}"))
+}
+
+/// Regression: the long test of the shipped scenes read them below this crate, where there are
+/// none, and so failed before running anything.
+#[test]
+fn the_shipped_scenes_the_long_test_runs_are_found() {
+    for name in ["paper-evacuation", "moving-wall"] {
+        assert!(shipped_scene(name).contains("[room]"), "{name}");
+    }
+}
+
+/// The geometry of `examples/scenes/moving-wall.toml`: a 6 × 3 room without exits, 40 people
+/// of radius 0.2, and the wall at x = 0.3 displaced by `motion`.
+fn moving_wall_geometry(motion: Box<dyn Fn(f64) -> [f64; 2]>) -> Geometry {
+    Geometry {
+        room: vec![[0., 0.], [6., 0.], [6., 3.], [0., 3.]],
+        exits: vec![],
+        obstacles: vec![Obstacle::Segment([0.3, 0.05], [0.3, 2.95], motion)],
+        radii: vec![0.2; 40],
+    }
+}
+
+/// The shipped scene's wall path: 0.4 m/s for 8 s, then still.
+fn shipped_wall_motion() -> Box<dyn Fn(f64) -> [f64; 2]> {
+    Box::new(|t: f64| [0.4 * t.min(8.0), 0.0])
+}
+
 #[test]
 fn once_left_always_left_in_a_u_shaped_room() {
     let scene = r#"
@@ -69,11 +103,7 @@ trajectory_every = 0.01
 /// Item 2: a moving wall cannot jump people when its step is longer than their distance.
 #[test]
 fn moving_wall_with_long_steps_fails_and_names_a_step_that_would_do() {
-    let scene = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../examples/scenes/moving-wall.toml"
-    ))
-    .unwrap();
+    let scene = shipped_scene("moving-wall");
     for h in ["1.0", "0.5"] {
         let run = sweep_run(&format!("moving-wall-{h}"), &scene, &["--h", h]);
         assert!(!run.success, "h = {h} completed:\n{}", run.output);
@@ -85,16 +115,7 @@ fn moving_wall_with_long_steps_fails_and_names_a_step_that_would_do() {
             run.output
         );
         // What was written before the failure is physically right.
-        let g = Geometry {
-            room: vec![[0., 0.], [6., 0.], [6., 3.], [0., 3.]],
-            exits: vec![],
-            obstacles: vec![Obstacle::Segment(
-                [0.3, 0.05],
-                [0.3, 2.95],
-                moving([0.4, 0.0]),
-            )],
-            radii: vec![0.2; 40],
-        };
+        let g = moving_wall_geometry(moving([0.4, 0.0]));
         assert_clean("moving wall", &run.out.join("trajectory.csv"), &g);
     }
 }
@@ -103,20 +124,10 @@ fn moving_wall_with_long_steps_fails_and_names_a_step_that_would_do() {
 /// 0.4 m/s for 8 s and the crowd is compressed, nobody jumped).
 #[test]
 fn moving_wall_at_an_accepted_step_runs_clean() {
-    let scene = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../examples/scenes/moving-wall.toml"
-    ))
-    .unwrap();
+    let scene = shipped_scene("moving-wall");
     let run = sweep_run("moving-wall-ok", &scene, &["--h", "0.1"]);
     assert!(run.success, "{}", run.output);
-    let path = |t: f64| [0.4 * t.min(8.0), 0.0];
-    let g = Geometry {
-        room: vec![[0., 0.], [6., 0.], [6., 3.], [0., 3.]],
-        exits: vec![],
-        obstacles: vec![Obstacle::Segment([0.3, 0.05], [0.3, 2.95], Box::new(path))],
-        radii: vec![0.2; 40],
-    };
+    let g = moving_wall_geometry(shipped_wall_motion());
     assert_clean("moving wall h = 0.1", &run.out.join("trajectory.csv"), &g);
 }
 
@@ -498,14 +509,7 @@ fn departures_are_reset_between_runs() {
 #[test]
 #[ignore = "long: whole runs of shipped scenes"]
 fn shipped_scenes_pass_the_independent_checker() {
-    let read = |name: &str| {
-        std::fs::read_to_string(format!(
-            "{}/examples/scenes/{name}.toml",
-            env!("CARGO_MANIFEST_DIR")
-        ))
-        .unwrap()
-    };
-    let run = sweep_run("shipped-paper", &read("paper-evacuation"), &[]);
+    let run = sweep_run("shipped-paper", &shipped_scene("paper-evacuation"), &[]);
     assert!(run.success, "{}", run.output);
     let g = Geometry {
         room: vec![[0., 0.], [10., 0.], [10., 10.], [0., 10.]],
@@ -520,18 +524,9 @@ fn shipped_scenes_pass_the_independent_checker() {
         f.times, f.max_overlap, f.max_penetration
     );
 
-    let run = sweep_run("shipped-wall", &read("moving-wall"), &[]);
+    let run = sweep_run("shipped-wall", &shipped_scene("moving-wall"), &[]);
     assert!(run.success, "{}", run.output);
-    let g = Geometry {
-        room: vec![[0., 0.], [6., 0.], [6., 3.], [0., 3.]],
-        exits: vec![],
-        obstacles: vec![Obstacle::Segment(
-            [0.3, 0.05],
-            [0.3, 2.95],
-            Box::new(|t: f64| [0.4 * t.min(8.0), 0.0]),
-        )],
-        radii: vec![0.2; 40],
-    };
+    let g = moving_wall_geometry(shipped_wall_motion());
     let f = assert_clean("moving wall", &run.out.join("trajectory.csv"), &g);
     eprintln!(
         "moving wall: {} times, max overlap {:.2e}, max penetration {:.2e}",
