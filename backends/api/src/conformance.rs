@@ -72,6 +72,78 @@ pub fn run_all(projector: &mut dyn Projector, tol: &Tolerances) -> Vec<(&'static
         .collect()
 }
 
+/// How [`agreement_on_random_instances`] draws its instances and judges the answers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Agreement {
+    /// Seed of instance 0 ([`random_instance`]); instance `k` uses `first_seed + k`.
+    pub first_seed: u64,
+    /// How many instances.
+    pub instances: u64,
+    /// Instance `k` has `n = 2 + (11 k mod n_spread)` coordinates…
+    pub n_spread: usize,
+    /// …and `m = 17 k mod m_spread` rows.
+    pub m_spread: usize,
+    /// Largest KKT residual allowed of the backend under test.
+    pub kkt: f64,
+    /// Largest ∞-norm distance allowed between the two answers.
+    pub gap: f64,
+}
+
+/// Solves a sequence of random instances with `under_test` and with `other`: every answer of
+/// `under_test` must exist, meet `agreement.kkt` and pass `also`; wherever `other` answers
+/// (a slow reference may run out of iterations on a degenerate instance), the two points must
+/// agree within `agreement.gap`. Returns how many instances were compared, or what failed
+/// first (naming the instance, `n` and `m`).
+///
+/// ```
+/// use sweeping_api::conformance::{agreement_on_random_instances, Agreement, ReferenceProjector};
+/// let agreement = Agreement {
+///     first_seed: 7, instances: 5, n_spread: 10, m_spread: 12, kkt: 1e-8, gap: 1e-6,
+/// };
+/// let compared = agreement_on_random_instances(
+///     &mut ReferenceProjector::default(),
+///     &mut ReferenceProjector::default(),
+///     &agreement,
+///     |_| Ok(()),
+/// )
+/// .unwrap();
+/// assert!(compared <= 5);
+/// ```
+///
+/// # Errors
+/// The first failure, as a message.
+pub fn agreement_on_random_instances(
+    under_test: &mut dyn Projector,
+    other: &mut dyn Projector,
+    agreement: &Agreement,
+    mut also: impl FnMut(&Projection) -> Result<(), String>,
+) -> Result<usize, String> {
+    let mut compared = 0;
+    for k in 0..agreement.instances {
+        let n = 2 + (k as usize * 11) % agreement.n_spread;
+        let m = (k as usize * 17) % agreement.m_spread;
+        let what = format!("instance {k} (n = {n}, m = {m})");
+        let problem = random_instance(agreement.first_seed + k, n, m);
+        let sol = under_test
+            .project(&problem)
+            .map_err(|e| format!("{what}: {e}"))?;
+        also(&sol).map_err(|e| format!("{what}: {e}"))?;
+        let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
+        if kkt > agreement.kkt {
+            return Err(format!("{what}: KKT residual {kkt:.3e}"));
+        }
+        let Ok(expected) = other.project(&problem) else {
+            continue;
+        };
+        compared += 1;
+        let gap = max_gap(&sol.x, &expected.x);
+        if gap > agreement.gap {
+            return Err(format!("{what}: gap {gap:.3e} from {}", other.name()));
+        }
+    }
+    Ok(compared)
+}
+
 fn solve(p: &mut dyn Projector, problem: &ProjectionProblem) -> Result<Projection, String> {
     let sol = p
         .project(problem)

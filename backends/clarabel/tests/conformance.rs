@@ -3,7 +3,10 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sweeping_api::conformance::{max_gap, random_instance, ReferenceProjector, Tolerances};
+use sweeping_api::conformance::{
+    agreement_on_random_instances, max_gap, random_instance, Agreement, ReferenceProjector,
+    Tolerances,
+};
 use sweeping_api::{
     CrossCheck, ProjectionError, ProjectionProblem, Projector, SolveStatus, SparseRows,
 };
@@ -20,29 +23,21 @@ sweeping_api::conformance_tests!(
 
 #[test]
 fn agrees_with_reference_on_random_instances() {
-    let mut clarabel = ClarabelProjector::default();
-    let mut reference = ReferenceProjector::default();
-    let mut compared = 0;
-    for seed in 0..150u64 {
-        let n = 2 + (seed as usize * 11) % 50;
-        let m = (seed as usize * 17) % 80;
-        let problem = random_instance(1000 + seed, n, m);
-        let sol = clarabel
-            .project(&problem)
-            .unwrap_or_else(|e| panic!("instance {seed} (n = {n}, m = {m}): {e}"));
-        let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
-        assert!(kkt <= 1e-7, "instance {seed}: KKT residual {kkt:.3e}");
-        // Hildreth's method stalls on a few degenerate instances; those are skipped.
-        let Ok(expected) = reference.project(&problem) else {
-            continue;
-        };
-        compared += 1;
-        let gap = max_gap(&sol.x, &expected.x);
-        assert!(
-            gap <= 1e-6,
-            "instance {seed} (n = {n}, m = {m}): gap {gap:.3e}"
-        );
-    }
+    // Hildreth's method stalls on a few degenerate instances; those are skipped.
+    let compared = agreement_on_random_instances(
+        &mut ClarabelProjector::default(),
+        &mut ReferenceProjector::default(),
+        &Agreement {
+            first_seed: 1000,
+            instances: 150,
+            n_spread: 50,
+            m_spread: 80,
+            kkt: 1e-7,
+            gap: 1e-6,
+        },
+        |_| Ok(()),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     assert!(compared >= 140, "only {compared} instances compared");
 }
 

@@ -1,7 +1,7 @@
 //! The conformance kit (with and without the Clarabel fallback), agreement with Clarabel on
 //! random instances, the fallback path, and typed errors.
 
-use sweeping_api::conformance::{max_gap, random_instance, Tolerances};
+use sweeping_api::conformance::{agreement_on_random_instances, max_gap, Agreement, Tolerances};
 use sweeping_api::{ProjectionError, ProjectionProblem, Projector, SparseRows};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::{NativeProjector, NativeSettings};
@@ -43,25 +43,25 @@ mod with_fallback {
 
 #[test]
 fn agrees_with_clarabel_on_random_instances_without_fallback() {
-    let mut native = NativeProjector::default();
-    let mut clarabel = ClarabelProjector::default();
-    for seed in 0..200u64 {
-        let n = 2 + (seed as usize * 11) % 50;
-        let m = (seed as usize * 17) % 80;
-        let problem = random_instance(5000 + seed, n, m);
-        let sol = native
-            .project(&problem)
-            .unwrap_or_else(|e| panic!("instance {seed} (n = {n}, m = {m}): {e}"));
-        assert_eq!(sol.stats.fallbacks, 0, "instance {seed}");
-        let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
-        assert!(kkt <= 1e-10, "instance {seed}: KKT residual {kkt:.3e}");
-        let expected = clarabel.project(&problem).unwrap();
-        let gap = max_gap(&sol.x, &expected.x);
-        assert!(
-            gap <= 1e-8,
-            "instance {seed} (n = {n}, m = {m}): gap {gap:.3e}"
-        );
-    }
+    let compared = agreement_on_random_instances(
+        &mut NativeProjector::default(),
+        &mut ClarabelProjector::default(),
+        &Agreement {
+            first_seed: 5000,
+            instances: 200,
+            n_spread: 50,
+            m_spread: 80,
+            kkt: 1e-10,
+            gap: 1e-8,
+        },
+        |sol| match sol.stats.fallbacks {
+            0 => Ok(()),
+            k => Err(format!("{k} fallbacks")),
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    // Clarabel answers every instance: all are compared.
+    assert_eq!(compared, 200);
 }
 
 /// A capped solver (one factorization per block) cannot finish a problem that needs rows to

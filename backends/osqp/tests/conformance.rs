@@ -1,6 +1,9 @@
 //! The conformance kit and the OSQP-specific behaviour: warm start, rebuilds, statuses.
 
-use sweeping_api::conformance::{max_gap, random_instance, ReferenceProjector, Tolerances};
+use sweeping_api::conformance::{
+    agreement_on_random_instances, max_gap, random_instance, Agreement, ReferenceProjector,
+    Tolerances,
+};
 use sweeping_api::{
     Projection, ProjectionError, ProjectionProblem, Projector, SolveStatus, SparseRows,
 };
@@ -56,26 +59,22 @@ fn perturbed(base: &ProjectionProblem, k: usize, scale_rows: bool) -> Projection
 #[test]
 fn agrees_with_reference_on_random_instances() {
     let mut osqp = OsqpProjector::default();
-    let mut reference = ReferenceProjector::default();
-    let mut compared = 0;
-    for seed in 0..80u64 {
-        let n = 2 + (seed as usize * 11) % 40;
-        let m = (seed as usize * 17) % 60;
-        let p = random_instance(10_000 + seed, n, m);
-        let sol = osqp.project(&p).unwrap();
-        assert!(
-            kkt(&p, &sol) <= osqp.tolerance(),
-            "seed {seed}: KKT {:e}",
-            kkt(&p, &sol)
-        );
-        // The reference (coordinate ascent) may run out of sweeps on a degenerate instance.
-        let Ok(r) = reference.project(&p) else {
-            continue;
-        };
-        compared += 1;
-        let g = max_gap(&sol.x, &r.x);
-        assert!(g <= 1e-6, "seed {seed} (n = {n}, m = {m}): gap {g:e}");
-    }
+    let tolerance = osqp.tolerance();
+    // The reference (coordinate ascent) may run out of sweeps on a degenerate instance.
+    let compared = agreement_on_random_instances(
+        &mut osqp,
+        &mut ReferenceProjector::default(),
+        &Agreement {
+            first_seed: 10_000,
+            instances: 80,
+            n_spread: 40,
+            m_spread: 60,
+            kkt: tolerance,
+            gap: 1e-6,
+        },
+        |_| Ok(()),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     assert!(compared >= 70, "only {compared} instances compared");
 }
 
