@@ -206,14 +206,10 @@ fn sqlite_writer(
     for note in &walkable.notes {
         eprintln!("note: trajectory.sqlite: {note}");
     }
-    Ok(sweeping::output::SqliteTrajectoryWriter::create(
+    Ok(sweeping::output::SqliteTrajectoryWriter::for_scene(
         out.join(TrajectoryFormat::Sqlite.file_name()),
         &walkable,
-        built.population.clone(),
-        built.problem.t0(),
-        built.settings.h,
-        built.output.trajectory_every,
-        &built.name,
+        built,
     )?)
 }
 

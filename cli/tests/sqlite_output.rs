@@ -57,16 +57,7 @@ fn temp_dir(name: &str) -> PathBuf {
 
 fn writer(b: &BuiltScene, path: &Path) -> SqliteTrajectoryWriter {
     let walkable = WalkableArea::of_scene(&b.geometry, &b.population).unwrap();
-    SqliteTrajectoryWriter::create(
-        path,
-        &walkable,
-        b.population.clone(),
-        b.problem.t0(),
-        b.settings.h,
-        b.output.trajectory_every,
-        &b.name,
-    )
-    .unwrap()
+    SqliteTrajectoryWriter::for_scene(path, &walkable, b).unwrap()
 }
 
 /// What the file should hold, kept independently of the writer: at every frame step, the

@@ -87,6 +87,27 @@ pub struct SqliteTrajectoryWriter {
 }
 
 impl SqliteTrajectoryWriter {
+    /// [`Self::create`] for a run of `built`: its people, start time, step, trajectory
+    /// interval and name.
+    ///
+    /// # Errors
+    /// As [`Self::create`].
+    pub fn for_scene(
+        path: impl Into<PathBuf>,
+        walkable: &WalkableArea,
+        built: &crate::scene::BuiltScene,
+    ) -> Result<Self, OutputError> {
+        Self::create(
+            path,
+            walkable,
+            built.population.clone(),
+            built.problem.t0(),
+            built.settings.h,
+            built.output.trajectory_every,
+            &built.name,
+        )
+    }
+
     /// Creates (or replaces) the file at `path` with the schema, the metadata and the walkable
     /// area, for a run of step `h` from `t0` writing a frame every `trajectory_every`
     /// seconds.
