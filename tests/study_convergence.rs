@@ -29,10 +29,10 @@ fn true_error_of(case: &dyn ExactCase, hs: &[f64]) -> ConvergenceReport {
 fn assert_rows_feasible(report: &ConvergenceReport, tol: f64) {
     for r in &report.rows {
         assert!(
-            r.max_violation < tol,
+            r.cost.max_violation < tol,
             "h = {}: violation {}",
             r.h,
-            r.max_violation
+            r.cost.max_violation
         );
     }
 }

@@ -8,7 +8,7 @@
 
 use super::{
     comparison_times, distances, map_runs, max_of, plot, run_sampled, ProblemFactory,
-    ReferenceSummary, StudyError,
+    ReferenceSummary, RunCost, StudyError,
 };
 use crate::backends::{BackendChoice, BackendError};
 use crate::stepper::StepperSettings;
@@ -98,16 +98,9 @@ pub struct WorkPrecisionRow {
     pub solver: String,
     /// `e_h` against the reference (NaN when the run failed).
     pub error: f64,
-    /// CPU seconds.
-    pub cpu_seconds: f64,
-    /// Wall seconds.
-    pub wall_seconds: f64,
-    /// Steps.
-    pub steps: usize,
-    /// Solver iterations.
-    pub iterations: u64,
-    /// Largest violation of the true constraints.
-    pub max_violation: f64,
+    /// What the run cost ([`RunCost::failed`] when it failed; flattened into the row's JSON).
+    #[serde(flatten)]
+    pub cost: RunCost,
     /// Why the run failed, if it did.
     pub failure: Option<String>,
 }
@@ -140,16 +133,17 @@ impl WorkPrecisionReport {
                 !ok.iter().any(|&j| {
                     let b = &self.rows[j];
                     j != i
-                        && b.cpu_seconds <= a.cpu_seconds
+                        && b.cost.cpu_seconds <= a.cost.cpu_seconds
                         && b.error <= a.error
-                        && (b.cpu_seconds < a.cpu_seconds || b.error < a.error)
+                        && (b.cost.cpu_seconds < a.cost.cpu_seconds || b.error < a.error)
                 })
             })
             .collect();
         front.sort_by(|&a, &b| {
             self.rows[a]
+                .cost
                 .cpu_seconds
-                .total_cmp(&self.rows[b].cpu_seconds)
+                .total_cmp(&self.rows[b].cost.cpu_seconds)
         });
         front
     }
@@ -159,7 +153,7 @@ impl WorkPrecisionReport {
         self.rows
             .iter()
             .filter(|r| r.failure.is_none() && r.error <= target)
-            .min_by(|a, b| a.cpu_seconds.total_cmp(&b.cpu_seconds))
+            .min_by(|a, b| a.cost.cpu_seconds.total_cmp(&b.cost.cpu_seconds))
     }
 
     /// Writes the table. Columns: `h`, `solver`, `error`, `cpu_seconds`, `wall_seconds`,
@@ -179,11 +173,11 @@ impl WorkPrecisionReport {
                 r.h,
                 r.solver,
                 r.error,
-                r.cpu_seconds,
-                r.wall_seconds,
-                r.steps,
-                r.iterations,
-                r.max_violation,
+                r.cost.cpu_seconds,
+                r.cost.wall_seconds,
+                r.cost.steps,
+                r.cost.iterations,
+                r.cost.max_violation,
                 u8::from(front.contains(&i)),
                 r.failure
                     .as_deref()
@@ -213,7 +207,7 @@ impl WorkPrecisionReport {
                     .rows
                     .iter()
                     .filter(|r| &r.solver == l && r.failure.is_none())
-                    .map(|r| (r.cpu_seconds, r.error))
+                    .map(|r| (r.cost.cpu_seconds, r.error))
                     .collect(),
                 fit: None,
             })
@@ -253,8 +247,8 @@ impl WorkPrecisionReport {
                     r.h,
                     r.solver,
                     r.error,
-                    r.cpu_seconds,
-                    r.steps,
+                    r.cost.cpu_seconds,
+                    r.cost.steps,
                     if front.contains(&i) { "*" } else { "" }
                 )),
                 Some(m) => s.push_str(&format!("{:>8} {:>16} failed: {m}\n", r.h, r.solver)),
@@ -265,7 +259,7 @@ impl WorkPrecisionReport {
             let r = &self.rows[i];
             s.push_str(&format!(
                 "  h = {:<7} {:<16} e_h = {:.3e} in {:.3} s\n",
-                r.h, r.solver, r.error, r.cpu_seconds
+                r.h, r.solver, r.error, r.cost.cpu_seconds
             ));
         }
         let finite: Vec<f64> = self
@@ -283,7 +277,7 @@ impl WorkPrecisionReport {
                 if let Some(r) = self.cheapest_below(decade) {
                     s.push_str(&format!(
                         "cheapest with e_h ≤ {decade:.0e}: h = {}, {} ({:.3} s)\n",
-                        r.h, r.solver, r.cpu_seconds
+                        r.h, r.solver, r.cost.cpu_seconds
                     ));
                 }
                 decade /= 10.0;
@@ -375,22 +369,14 @@ pub fn work_precision(
                 h: *h,
                 solver: solver.label(),
                 error: max_of(&distances(&run.samples, &reference.samples)),
-                cpu_seconds: run.cpu_seconds,
-                wall_seconds: run.wall_seconds,
-                steps: run.stats.steps,
-                iterations: run.stats.iterations,
-                max_violation: run.stats.max_violation,
+                cost: RunCost::of(&run),
                 failure: None,
             },
             Err(e) => WorkPrecisionRow {
                 h: *h,
                 solver: solver.label(),
                 error: f64::NAN,
-                cpu_seconds: f64::NAN,
-                wall_seconds: f64::NAN,
-                steps: 0,
-                iterations: 0,
-                max_violation: f64::NAN,
+                cost: RunCost::failed(),
                 failure: Some(e.to_string()),
             },
         })
