@@ -273,6 +273,24 @@ impl Problem {
         best.map(|(v, id)| (v, self.describe(id)))
     }
 
+    /// Checks that no constraint family reads a coordinate beyond `q`'s dimension.
+    ///
+    /// # Errors
+    /// [`SweepError::InvalidInput`] naming the first family that does.
+    pub(crate) fn check_family_dimensions(&self) -> Result<(), SweepError> {
+        for fam in &self.families {
+            if fam.min_dimension() > self.dim() {
+                return Err(SweepError::InvalidInput(format!(
+                    "constraint family `{}` reads coordinate {} but q has dimension {}",
+                    fam.name(),
+                    fam.min_dimension() - 1,
+                    self.dim()
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// Checks dimensions, finiteness and `q₀ ∈ Q(t₀)` up to `tolerance` (`gᵢ ≥ −tolerance`).
     ///
     /// # Errors
@@ -296,16 +314,7 @@ impl Problem {
                 self.t0
             )));
         }
-        for fam in &self.families {
-            if fam.min_dimension() > self.dim() {
-                return Err(SweepError::InvalidInput(format!(
-                    "constraint family `{}` reads coordinate {} but q has dimension {}",
-                    fam.name(),
-                    fam.min_dimension() - 1,
-                    self.dim()
-                )));
-            }
-        }
+        self.check_family_dimensions()?;
         let mut f = vec![0.0; self.dim()];
         self.perturbation.eval(self.t0, &self.q0, &mut f);
         if let Some(i) = f.iter().position(|v| !v.is_finite()) {

@@ -455,6 +455,30 @@ fn bad_samples_are_refused() {
     ));
 }
 
+/// A family reading past `q` is refused, naming it, by the estimate as by `validate` (one
+/// check serves both).
+#[test]
+fn a_family_reading_past_q_is_refused_by_the_estimate_and_by_validate() {
+    let problem = Problem::new(vec![1.0, 2.0], NoPerturbation).with_family(KernelFamily::single(
+        "far",
+        common::kernels::Floor,
+        [4],
+    ));
+    let expected = "constraint family `far` reads coordinate 4 but q has dimension 2";
+    let estimated = estimate_problem(
+        &problem,
+        &[(0.0, vec![1.0, 2.0])],
+        &EstimateSettings::default(),
+        &mut ReferenceProjector::default(),
+    );
+    for result in [estimated.map(|_| ()), problem.validate(1e-9)] {
+        match result {
+            Err(SweepError::InvalidInput(m)) => assert_eq!(m, expected),
+            other => panic!("expected InvalidInput, got {other:?}"),
+        }
+    }
+}
+
 // ---------------------------------------------------------------- run-time monitor
 
 /// Two people of radius 0.2 walking into each other at speed 1 each.

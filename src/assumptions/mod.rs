@@ -679,17 +679,7 @@ fn validate_estimate_inputs(
             )));
         }
     }
-    for fam in problem.families() {
-        if fam.min_dimension() > problem.dim() {
-            return Err(SweepError::InvalidInput(format!(
-                "constraint family `{}` reads coordinate {} but q has dimension {}",
-                fam.name(),
-                fam.min_dimension() - 1,
-                problem.dim()
-            )));
-        }
-    }
-    Ok(())
+    problem.check_family_dimensions()
 }
 
 /// The running extremes of the sampled quantities of A1–A5 (and of the curvature of §2),
