@@ -261,6 +261,24 @@ fn negative_step_from_the_command_line() {
 }
 
 #[test]
+fn infinite_horizon_from_the_command_line() {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n");
+    let e = error_with(
+        &text,
+        &Overrides {
+            t_end: Some(f64::INFINITY),
+            ..Default::default()
+        },
+    );
+    let m = e.to_string();
+    assert!(m.starts_with("bad.toml: --t-end:"), "{m}");
+    assert!(
+        m.contains("the horizon must be positive and finite, got inf"),
+        "{m}"
+    );
+}
+
+#[test]
 fn crowd_that_does_not_fit() {
     // Beyond the area bound: refused before any placement.
     let text = format!("{ROOM}[[crowds]]\ncount = 200\nradius = 0.2\n");

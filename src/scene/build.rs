@@ -69,30 +69,26 @@ pub(super) fn run_settings(
         .t_end
         .or(run.as_ref().and_then(|r| r.t_end))
         .unwrap_or(10.0);
-    if !(h.is_finite() && h > 0.0) {
-        let item = if overrides.h.is_some() {
-            "--h"
-        } else {
-            "[run] h"
-        };
-        return Err(cx.err(
+    // The error names the flag when the value came from the command line, else the key.
+    let positive = |value: f64, overridden: bool, flag: &str, key: &str, what: &str| {
+        if value.is_finite() && value > 0.0 {
+            return Ok(());
+        }
+        let item = if overridden { flag } else { key };
+        Err(cx.err(
             run_line,
             item,
-            format!("the time step must be positive and finite, got {h}"),
-        ));
-    }
-    if !(t_end.is_finite() && t_end > 0.0) {
-        let item = if overrides.t_end.is_some() {
-            "--t-end"
-        } else {
-            "[run] t_end"
-        };
-        return Err(cx.err(
-            run_line,
-            item,
-            format!("the horizon must be positive and finite, got {t_end}"),
-        ));
-    }
+            format!("{what} must be positive and finite, got {value}"),
+        ))
+    };
+    positive(h, overrides.h.is_some(), "--h", "[run] h", "the time step")?;
+    positive(
+        t_end,
+        overrides.t_end.is_some(),
+        "--t-end",
+        "[run] t_end",
+        "the horizon",
+    )?;
     let backend = overrides
         .backend
         .or(run.as_ref().and_then(|r| r.backend))
