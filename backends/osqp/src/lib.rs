@@ -614,19 +614,11 @@ fn read_status(status: Status<'_>) -> (Outcome, u32) {
     };
     let failure = |message: &str| Outcome::Error(OsqpProjector::backend_error(message));
     match status {
-        Status::Solved(ref s) => (
+        // Read an inaccurate answer too: when it is not accepted as such, `solve` still keeps
+        // it if its KKT residuals are within `tolerance()` (checked, not trusted).
+        Status::Solved(ref s) | Status::SolvedInaccurate(ref s) => (
             Outcome::Converged {
-                accurate: true,
-                d: s.x().to_vec(),
-                y_osqp: s.y().to_vec(),
-            },
-            status.iter(),
-        ),
-        // Read the answer either way: when it is not accepted as such, `solve` still keeps it
-        // if its KKT residuals are within `tolerance()` (checked, not trusted).
-        Status::SolvedInaccurate(ref s) => (
-            Outcome::Converged {
-                accurate: false,
+                accurate: matches!(status, Status::Solved(_)),
                 d: s.x().to_vec(),
                 y_osqp: s.y().to_vec(),
             },
