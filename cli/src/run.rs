@@ -248,23 +248,18 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
     if let Some(mib) = s.peak_memory_mib {
         println!("  peak memory: {mib:.0} MiB (resident, the whole process)");
     }
-    println!(
-        "  max overlap: {:.3e}{}",
-        s.max_overlap,
-        if s.max_overlap > 0.0 {
-            format!(" ({})", s.max_overlap_at)
+    // A positive worst value is followed by where it happened.
+    let worst = |value: f64, at: &str| {
+        if value > 0.0 {
+            format!("{value:.3e} ({at})")
         } else {
-            String::new()
+            format!("{value:.3e}")
         }
-    );
+    };
+    println!("  max overlap: {}", worst(s.max_overlap, &s.max_overlap_at));
     println!(
-        "  max wall penetration: {:.3e}{}",
-        s.max_wall_penetration,
-        if s.max_wall_penetration > 0.0 {
-            format!(" ({})", s.max_wall_penetration_at)
-        } else {
-            String::new()
-        }
+        "  max wall penetration: {}",
+        worst(s.max_wall_penetration, &s.max_wall_penetration_at)
     );
     if let Some(e) = &s.error {
         println!("  error: {e}");

@@ -129,6 +129,22 @@ fn moving_wall_at_an_accepted_step_runs_clean() {
     assert!(run.success, "{}", run.output);
     let g = moving_wall_geometry(shipped_wall_motion());
     assert_clean("moving wall h = 0.1", &run.out.join("trajectory.csv"), &g);
+    // The summary prints each worst value, and where it happened when it is positive.
+    for label in ["  max overlap: ", "  max wall penetration: "] {
+        let line = run
+            .output
+            .lines()
+            .find_map(|l| l.strip_prefix(label))
+            .unwrap_or_else(|| panic!("no `{label}` line in\n{}", run.output));
+        let (value, place) = line.split_once(' ').unwrap_or((line, ""));
+        let value: f64 = value.parse().unwrap_or_else(|e| panic!("`{line}`: {e}"));
+        assert!(value >= 0.0, "`{line}`");
+        assert_eq!(
+            value > 0.0,
+            place.starts_with('(') && place.ends_with(')'),
+            "`{line}`"
+        );
+    }
 }
 
 /// Item 2: a segment at 2 m/s with a person 0.6 m ahead and h = 0.5; a small disk at 30 m/s
