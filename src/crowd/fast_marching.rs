@@ -331,18 +331,22 @@ fn march(grid: &Grid, values: &mut [f64], known: &mut [bool], allowed: &[bool]) 
         }
         out
     };
+    // Lowers the trial value of each unknown, allowed neighbour of the known node `k`.
+    let relax = |k: usize, values: &mut [f64], known: &[bool], heap: &mut BinaryHeap<Entry>| {
+        for nb in neighbours(k) {
+            if nb != usize::MAX && !known[nb] && allowed[nb] {
+                let v = local_solve(grid, values, known, nb);
+                if v < values[nb] {
+                    values[nb] = v;
+                    heap.push(Entry(v, nb));
+                }
+            }
+        }
+    };
     // Trial values of the unknown neighbours of the known nodes.
     for k in 0..values.len() {
         if known[k] {
-            for nb in neighbours(k) {
-                if nb != usize::MAX && !known[nb] && allowed[nb] {
-                    let v = local_solve(grid, values, known, nb);
-                    if v < values[nb] {
-                        values[nb] = v;
-                        heap.push(Entry(v, nb));
-                    }
-                }
-            }
+            relax(k, values, known, &mut heap);
         }
     }
     while let Some(Entry(v, k)) = heap.pop() {
@@ -350,15 +354,7 @@ fn march(grid: &Grid, values: &mut [f64], known: &mut [bool], allowed: &[bool]) 
             continue;
         }
         known[k] = true;
-        for nb in neighbours(k) {
-            if nb != usize::MAX && !known[nb] && allowed[nb] {
-                let w = local_solve(grid, values, known, nb);
-                if w < values[nb] {
-                    values[nb] = w;
-                    heap.push(Entry(w, nb));
-                }
-            }
-        }
+        relax(k, values, known, &mut heap);
     }
 }
 
