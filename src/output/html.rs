@@ -120,31 +120,15 @@ impl AnimationWriter {
     fn frames_json(&self) -> String {
         let mut data = String::new();
         data.push_str("{\"t\":[");
-        data.push_str(
-            &self
-                .times
-                .iter()
-                .map(|t| format!("{t:.4}"))
-                .collect::<Vec<_>>()
-                .join(","),
-        );
+        data.push_str(&comma_separated(&self.times, |t| format!("{t:.4}")));
         data.push_str("],\"r\":[");
-        data.push_str(
-            &self
-                .population
-                .radii()
-                .iter()
-                .map(|r| format!("{r:.4}"))
-                .collect::<Vec<_>>()
-                .join(","),
-        );
+        data.push_str(&comma_separated(self.population.radii(), |r| {
+            format!("{r:.4}")
+        }));
         data.push_str("],\"g\":[");
-        data.push_str(
-            &(0..self.population.len())
-                .map(|i| (self.group_of.get(i).copied().unwrap_or(0) % PALETTE.len()).to_string())
-                .collect::<Vec<_>>()
-                .join(","),
-        );
+        data.push_str(&comma_separated(0..self.population.len(), |i| {
+            (self.group_of.get(i).copied().unwrap_or(0) % PALETTE.len()).to_string()
+        }));
         data.push_str("],\"f\":[");
         for (k, f) in self.frames.iter().enumerate() {
             if k > 0 {
@@ -165,22 +149,23 @@ impl AnimationWriter {
             data.push(']');
         }
         data.push_str("],\"o\":[");
-        for (k, f) in self.offsets.iter().enumerate() {
-            if k > 0 {
-                data.push(',');
-            }
-            data.push('[');
-            data.push_str(
-                &f.iter()
-                    .map(|o| format!("{:.4},{:.4}", o[0], o[1]))
-                    .collect::<Vec<_>>()
-                    .join(","),
-            );
-            data.push(']');
-        }
+        data.push_str(&comma_separated(&self.offsets, |f| {
+            format!(
+                "[{}]",
+                comma_separated(f, |o| format!("{:.4},{:.4}", o[0], o[1]))
+            )
+        }));
         data.push_str("]}");
         data
     }
+}
+
+/// `items` written by `write`, comma-separated: the inside of a JSON array.
+fn comma_separated<T>(
+    items: impl IntoIterator<Item = T>,
+    write: impl FnMut(T) -> String,
+) -> String {
+    items.into_iter().map(write).collect::<Vec<_>>().join(",")
 }
 
 /// A JavaScript array of the given strings, quoted (the palette's colours).
