@@ -4,7 +4,7 @@
 mod common;
 
 use approx::assert_abs_diff_eq;
-use common::estimate;
+use common::{estimate, estimate_with};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::SQRT_2;
@@ -189,13 +189,7 @@ fn probing_outside_q_finds_the_larger_curvature() {
         probe_depth: 0.1,
         ..Default::default()
     };
-    let r = estimate_problem(
-        &problem,
-        &[(0.0, q)],
-        &settings,
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap();
+    let r = estimate_with(&problem, &[(0.0, q)], &settings);
     // Moving 0.1 against the unit normal (−e, e)/√2 brings the centres √2·0.1 closer.
     assert_abs_diff_eq!(
         r.m_hess.unwrap().value,
@@ -371,13 +365,7 @@ fn custom_moving_ball_constants() {
         neighbourhood: 5.0,
         ..Default::default()
     };
-    let r = estimate_problem(
-        &problem,
-        &[(2.0, q)],
-        &settings,
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap();
+    let r = estimate_with(&problem, &[(2.0, q)], &settings);
     assert_abs_diff_eq!(r.alpha.as_ref().unwrap().value, 1.0, epsilon = 1e-12);
     // ∂ₜg = −v·n = −0.3.
     assert_abs_diff_eq!(r.beta_dt.as_ref().unwrap().value, 0.3, epsilon = 1e-12);

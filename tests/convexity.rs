@@ -4,9 +4,9 @@
 
 mod common;
 
-use common::estimate;
+use common::{estimate, estimate_with};
 use sweeping::assumptions::{
-    estimate_problem, samples_from_trajectory, symmetric_min_eigenvalue, AFFINE_CLAIM, CONVEXITY,
+    samples_from_trajectory, symmetric_min_eigenvalue, AFFINE_CLAIM, CONVEXITY,
 };
 use sweeping::constraint::{linearize, second_order};
 use sweeping::prelude::*;
@@ -509,16 +509,14 @@ fn crowd_constraints_are_convex_even_probed_outside_q() {
     let problem = Problem::new(q.clone(), NoPerturbation)
         .with_family(DiskPairs::new(pop.clone()))
         .with_family(PersonShapes::new("walls and obstacles", pop, shapes));
-    let report = estimate_problem(
+    let report = estimate_with(
         &problem,
         &[(0.0, q.clone()), (0.5, q)],
         &EstimateSettings {
             probe_depth: 0.05,
             ..Default::default()
         },
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap();
+    );
     assert!(!report.convexity_failed, "{}", report.table());
     assert!(report.min_curvature.unwrap().value > -1e-9);
     assert!(report.eta.is_some());

@@ -41,10 +41,19 @@ pub fn estimate(
     problem: &sweeping::problem::Problem,
     samples: &[(f64, Vec<f64>)],
 ) -> sweeping::assumptions::AssumptionReport {
+    estimate_with(problem, samples, &Default::default())
+}
+
+/// [`estimate`] with other settings.
+pub fn estimate_with(
+    problem: &sweeping::problem::Problem,
+    samples: &[(f64, Vec<f64>)],
+    settings: &sweeping::assumptions::EstimateSettings,
+) -> sweeping::assumptions::AssumptionReport {
     sweeping::assumptions::estimate_problem(
         problem,
         samples,
-        &sweeping::assumptions::EstimateSettings::default(),
+        settings,
         &mut sweeping::api::conformance::ReferenceProjector::default(),
     )
     .unwrap()
