@@ -245,32 +245,28 @@ fn zero_horizon() {
     assert_message(&error_of(&text), 6, &["[run] t_end", "positive"]);
 }
 
+/// The message of a one-person scene refused for `overrides` from the command line.
+fn command_line_error(overrides: Overrides) -> String {
+    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n");
+    error_with(&text, &overrides).to_string()
+}
+
 #[test]
 fn negative_step_from_the_command_line() {
-    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n");
-    let e = error_with(
-        &text,
-        &Overrides {
-            h: Some(-1.0),
-            ..Default::default()
-        },
-    );
-    let m = e.to_string();
+    let m = command_line_error(Overrides {
+        h: Some(-1.0),
+        ..Default::default()
+    });
     assert!(m.starts_with("bad.toml: --h:"), "{m}");
     assert!(m.contains("got -1"), "{m}");
 }
 
 #[test]
 fn infinite_horizon_from_the_command_line() {
-    let text = format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n");
-    let e = error_with(
-        &text,
-        &Overrides {
-            t_end: Some(f64::INFINITY),
-            ..Default::default()
-        },
-    );
-    let m = e.to_string();
+    let m = command_line_error(Overrides {
+        t_end: Some(f64::INFINITY),
+        ..Default::default()
+    });
     assert!(m.starts_with("bad.toml: --t-end:"), "{m}");
     assert!(
         m.contains("the horizon must be positive and finite, got inf"),
