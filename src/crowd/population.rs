@@ -23,6 +23,34 @@ impl Room {
         point_in_polygon(&self.vertices, p)
     }
 
+    /// `[x0, y0, x1, y1]` when the polygon is an axis-aligned rectangle of positive area
+    /// (four vertices, every edge horizontal or vertical), `None` otherwise.
+    pub fn as_axis_aligned_box(&self) -> Option<[f64; 4]> {
+        let v = &self.vertices;
+        if v.len() != 4 {
+            return None;
+        }
+        let axis_aligned =
+            (0..4).all(|i| v[i][0] == v[(i + 1) % 4][0] || v[i][1] == v[(i + 1) % 4][1]);
+        let (x0, x1) = (
+            v.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min),
+            v.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max),
+        );
+        let (y0, y1) = (
+            v.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min),
+            v.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max),
+        );
+        // Every vertex a corner of the bounding box, and all four corners present.
+        let corner = |p: &[f64; 2]| (p[0] == x0 || p[0] == x1) && (p[1] == y0 || p[1] == y1);
+        let corners = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+        (axis_aligned
+            && x0 < x1
+            && y0 < y1
+            && v.iter().all(corner)
+            && corners.iter().all(|c| v.contains(c)))
+        .then_some([x0, y0, x1, y1])
+    }
+
     /// Distance from `p` to the polygon's boundary.
     pub fn boundary_distance(&self, p: [f64; 2]) -> f64 {
         let v = &self.vertices;
@@ -108,6 +136,10 @@ pub struct Population {
     radii: Vec<f64>,
     max_radius: f64,
     room: Option<Room>,
+    /// The room itself when it is an axis-aligned rectangle `[x0, y0, x1, y1]`: a point
+    /// strictly inside is in the room without walking the polygon (presence is asked for every
+    /// person several times a step).
+    room_box: Option<[f64; 4]>,
     departed: Departures,
 }
 
@@ -120,12 +152,14 @@ impl Population {
             radii,
             max_radius,
             room: None,
+            room_box: None,
             departed,
         }
     }
 
     /// People whose disk is wholly outside `room` have left.
     pub fn with_room(mut self, room: Room) -> Self {
+        self.room_box = room.as_axis_aligned_box();
         self.room = Some(room);
         self
     }
@@ -181,7 +215,11 @@ impl Population {
                     return false;
                 }
                 let p = Self::position(q, i);
-                let inside = room.contains(p) || room.boundary_distance(p) < self.radii[i];
+                let in_box = self.room_box.is_some_and(|[x0, y0, x1, y1]| {
+                    x0 < p[0] && p[0] < x1 && y0 < p[1] && p[1] < y1
+                });
+                let inside =
+                    in_box || room.contains(p) || room.boundary_distance(p) < self.radii[i];
                 if !inside {
                     self.departed.set(i);
                 }
@@ -230,5 +268,60 @@ mod tests {
         assert!(pop.has_departed(0));
         pop.reset_departures();
         assert!(pop.is_present(&[5.0, 5.0], 0));
+    }
+
+    #[test]
+    fn only_axis_aligned_rectangles_are_boxes() {
+        let r = Room::rectangle(1.0, 2.0, 4.0, 3.0);
+        assert_eq!(r.as_axis_aligned_box(), Some([1.0, 2.0, 4.0, 3.0]));
+        // The same rectangle listed clockwise from another corner.
+        let mut v = r.vertices.clone();
+        v.reverse();
+        v.rotate_left(1);
+        assert_eq!(
+            Room { vertices: v }.as_axis_aligned_box(),
+            Some([1.0, 2.0, 4.0, 3.0])
+        );
+        for vertices in [
+            // A rotated square, a trapezoid, a bow tie of the box's corners, a triangle,
+            // a degenerate (flat) rectangle, an L-shaped hexagon.
+            vec![[1.0, 0.0], [2.0, 1.0], [1.0, 2.0], [0.0, 1.0]],
+            vec![[0.0, 0.0], [4.0, 0.0], [3.0, 1.0], [1.0, 1.0]],
+            vec![[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]],
+            vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+            vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 0.0]],
+            vec![
+                [0.0, 0.0],
+                [2.0, 0.0],
+                [2.0, 1.0],
+                [1.0, 1.0],
+                [1.0, 2.0],
+                [0.0, 2.0],
+            ],
+        ] {
+            assert_eq!(
+                Room {
+                    vertices: vertices.clone()
+                }
+                .as_axis_aligned_box(),
+                None,
+                "{vertices:?}"
+            );
+        }
+    }
+
+    proptest::proptest! {
+        /// The box shortcut answers exactly as the polygon walk does, near and on the walls.
+        #[test]
+        fn the_box_shortcut_agrees_with_the_polygon(
+            x in -1.0..11.0f64, y in -1.0..11.0f64, snap in 0usize..3,
+        ) {
+            // Points snapped onto a wall's line, where the even–odd rule is delicate.
+            let (x, y) = match snap { 1 => (10.0, y), 2 => (x, 0.0), _ => (x, y) };
+            let room = Room::rectangle(0.0, 0.0, 10.0, 10.0);
+            let walked = room.contains([x, y]) || room.boundary_distance([x, y]) < 0.2;
+            let pop = Population::new(vec![0.2]).with_room(room);
+            proptest::prop_assert_eq!(pop.is_present(&[x, y], 0), walked);
+        }
     }
 }
