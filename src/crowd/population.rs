@@ -40,15 +40,11 @@ impl Room {
             v.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min),
             v.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max),
         );
-        // Every vertex a corner of the bounding box, and all four corners present.
-        let corner = |p: &[f64; 2]| (p[0] == x0 || p[0] == x1) && (p[1] == y0 || p[1] == y1);
+        // All four corners of the bounding box among the four vertices (so every vertex is a
+        // corner), in an order whose edges are all axis-aligned: the boundary of the box.
         let corners = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
-        (axis_aligned
-            && x0 < x1
-            && y0 < y1
-            && v.iter().all(corner)
-            && corners.iter().all(|c| v.contains(c)))
-        .then_some([x0, y0, x1, y1])
+        (axis_aligned && x0 < x1 && y0 < y1 && corners.iter().all(|c| v.contains(c)))
+            .then_some([x0, y0, x1, y1])
     }
 
     /// Distance from `p` to the polygon's boundary.
@@ -290,6 +286,7 @@ mod tests {
             vec![[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]],
             vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
             vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 0.0]],
+            vec![[0.0, 0.0], [0.0, 1.0], [0.0, 1.0], [0.0, 0.0]],
             vec![
                 [0.0, 0.0],
                 [2.0, 0.0],
@@ -310,17 +307,52 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_disk_exactly_its_radius_outside_has_left() {
+        // 10.25 − 10 = 0.25 exactly: the disk touches the wall from outside.
+        let pop = Population::new(vec![0.25]).with_room(Room::rectangle(0.0, 0.0, 10.0, 10.0));
+        assert!(!pop.is_present(&[10.25, 5.0], 0));
+        let pop = Population::new(vec![0.25]).with_room(Room::rectangle(0.0, 0.0, 10.0, 10.0));
+        assert!(pop.is_present(&[10.2499, 5.0], 0));
+    }
+
+    #[test]
+    fn presence_in_a_room_that_is_no_rectangle_walks_the_polygon() {
+        // An L-shaped room: its corner (1.5, 1.5) is outside, (0.5, 1.5) deep inside.
+        let room = Room {
+            vertices: vec![
+                [0.0, 0.0],
+                [2.0, 0.0],
+                [2.0, 1.0],
+                [1.0, 1.0],
+                [1.0, 2.0],
+                [0.0, 2.0],
+            ],
+        };
+        let pop = Population::new(vec![0.1, 0.1]).with_room(room);
+        assert!(pop.is_present(&[0.5, 1.5, 1.5, 1.5], 0));
+        assert!(!pop.is_present(&[0.5, 1.5, 1.5, 1.5], 1));
+    }
+
     proptest::proptest! {
         /// The box shortcut answers exactly as the polygon walk does, near and on the walls.
         #[test]
         fn the_box_shortcut_agrees_with_the_polygon(
-            x in -1.0..11.0f64, y in -1.0..11.0f64, snap in 0usize..3,
+            x in -1.0..11.0f64, y in -1.0..11.0f64, snap in 0usize..5, radius in 0usize..2,
         ) {
-            // Points snapped onto a wall's line, where the even–odd rule is delicate.
-            let (x, y) = match snap { 1 => (10.0, y), 2 => (x, 0.0), _ => (x, y) };
+            // Points snapped onto a wall's line, where the even–odd rule is delicate, and
+            // radius 0, where only that rule decides.
+            let (x, y) = match snap {
+                1 => (10.0, y),
+                2 => (x, 0.0),
+                3 => (0.0, y),
+                4 => (x, 10.0),
+                _ => (x, y),
+            };
+            let r = [0.2, 0.0][radius];
             let room = Room::rectangle(0.0, 0.0, 10.0, 10.0);
-            let walked = room.contains([x, y]) || room.boundary_distance([x, y]) < 0.2;
-            let pop = Population::new(vec![0.2]).with_room(room);
+            let walked = room.contains([x, y]) || room.boundary_distance([x, y]) < r;
+            let pop = Population::new(vec![r]).with_room(room);
             proptest::prop_assert_eq!(pop.is_present(&[x, y], 0), walked);
         }
     }

@@ -17,7 +17,10 @@
 //!
 //! by an `LDLᵀ` factorization (QDLDL, with AMD ordering) of the quasi-definite matrix whose
 //! lower-right block is `−δI`, followed by iterative refinement against the unregularized
-//! matrix, started from the current `(d, λ)`. Refinement is the proximal-point method on the
+//! matrix, started from the current `(d, λ)`. Between steps the support changes by a few
+//! rows; up to `BORDER_MAX` (24) such changes are solved through the factor already made, by
+//! bordering it with the changed rows and a small dense Schur complement,
+//! instead of factoring again. Refinement is the proximal-point method on the
 //! multipliers, so on linearly dependent rows (a *contact loop*: a cycle of touching disks)
 //! it still converges to the unique `d` and to the least-squares `μ` nearest `λ`. Then:
 //!
@@ -50,6 +53,12 @@ const REPEATS: u32 = 3;
 const DELTA: f64 = 1e-9;
 /// Most refinement steps per factorization.
 const REFINE_STEPS: usize = 50;
+/// Refinement also stops when a step moves the first block by more than this fraction of the
+/// step before: on consistent equations it contracts by far more (the regularization `δ` is
+/// tiny against the rows' scale), so slower progress means inconsistent or nearly dependent
+/// rows. Running such refinements to [`REFINE_STEPS`] cost ten times more solves on the
+/// paper's evacuation without changing the number of active-set iterations.
+const REFINE_CONTRACTION: f64 = 0.1;
 /// Refinement stops when the residual of the unregularized system, or the change of its first
 /// block, falls below this, relative to `max(1, ‖right-hand side‖∞)`.
 const REFINE_TOL: f64 = 1e-13;
@@ -60,7 +69,7 @@ const ACTIVE_TOL: f64 = 1e-12;
 /// Where the method starts.
 #[derive(Debug, Clone)]
 pub struct Start {
-    /// The starting support (row indices, increasing).
+    /// The starting support (row indices, distinct, in any order).
     pub support: Vec<usize>,
     /// A positive starting multiplier per row of the support.
     pub lambda: Vec<f64>,
@@ -97,31 +106,77 @@ pub enum Failure {
     },
 }
 
+/// Row `r` of `A` with its columns sorted and repeats summed.
+fn merged_row(problem: &ProjectionProblem, r: usize) -> Vec<(usize, f64)> {
+    let mut row: Vec<(usize, f64)> = problem.a().row(r).collect();
+    row.sort_by_key(|&(c, _)| c);
+    let mut merged: Vec<(usize, f64)> = Vec::with_capacity(row.len());
+    for (c, v) in row {
+        match merged.last_mut() {
+            Some(last) if last.0 == c => last.1 += v,
+            _ => merged.push((c, v)),
+        }
+    }
+    merged
+}
+
 /// Rows of `A` restricted to `active`, each with its columns sorted and repeats summed.
 fn active_rows(problem: &ProjectionProblem, active: &[usize]) -> Vec<Vec<(usize, f64)>> {
-    active
-        .iter()
-        .map(|&r| {
-            let mut row: Vec<(usize, f64)> = problem.a().row(r).collect();
-            row.sort_by_key(|&(c, _)| c);
-            let mut merged: Vec<(usize, f64)> = Vec::with_capacity(row.len());
-            for (c, v) in row {
-                match merged.last_mut() {
-                    Some(last) if last.0 == c => last.1 += v,
-                    _ => merged.push((c, v)),
-                }
-            }
-            merged
-        })
-        .collect()
+    active.iter().map(|&r| merged_row(problem, r)).collect()
 }
 
 /// The KKT system `K₀ = [I A_Pᵀ; A_P 0]` of a set of rows `P`, with the `LDLᵀ` factors of its
 /// regularization `K_δ = [I A_Pᵀ; A_P −δI]`.
 struct ActiveSystem {
     n: usize,
+    /// The support, in the order of `rows` and of the unknowns `μ`.
+    support: Vec<usize>,
     rows: Vec<Vec<(usize, f64)>>,
     factor: Factor,
+    /// Rows removed from and added to the support of a sparse factor since it was made.
+    bordered: Option<Bordered>,
+}
+
+/// Most rows removed from or added to the support of a sparse factorization before it is
+/// made afresh: each one costs a solve with the old factor when it happens and `O(n + k)` per
+/// solve afterwards, a fresh factorization costs far more on the blocks where it matters.
+const BORDER_MAX: usize = 24;
+
+/// One change of the support since the sparse factorization of `K_δ` for the support `P₀`.
+enum Change {
+    /// A row joined: the system gains an unknown `u` with the column `[a; 0]` and `−δ` on the
+    /// diagonal.
+    Joined {
+        row: usize,
+        entries: Vec<(usize, f64)>,
+    },
+    /// The row at position `p` of `P₀` left: its multiplier is pinned to zero by a Lagrange
+    /// multiplier `ν` on the column `e_{n+p}`, which also frees its equation.
+    Left { position: usize },
+}
+
+/// The system of the current support solved through the factor of `K_δ(P₀)` by bordering:
+///
+/// ```text
+///     [ K_δ(P₀)  C ] [z]   [rhs]
+///     [ Cᵀ       D ] [w] = [ g ],   D = diag(−δ for a joined row, 0 for a left one),
+/// ```
+///
+/// `C` one column per [`Change`]. With `W = K_δ(P₀)⁻¹ C` and `S = D − Cᵀ W` (a small dense
+/// matrix, LU-factored), `w = S⁻¹(g − Cᵀ z₀)` and `z = z₀ − W w`, `z₀ = K_δ(P₀)⁻¹ rhs`. This
+/// is the exact solve of the regularized system of the current support, at the price of one
+/// solve with the old factor per change: a working set that changes by one row no longer
+/// costs a factorization.
+struct Bordered {
+    /// `P₀`, in the order of the factor.
+    base: Vec<usize>,
+    changes: Vec<Change>,
+    /// `W`, one column (length `n + |P₀|`) per change.
+    w: Vec<Vec<f64>>,
+    /// `S`, row-major, and its LU factors with the row permutation.
+    s: Vec<f64>,
+    lu: Vec<f64>,
+    pivots: Vec<usize>,
 }
 
 /// Supports of at most this many rows are factored densely, by the Schur complement
@@ -205,11 +260,25 @@ impl ActiveSystem {
             if let Some(l) = schur_cholesky(&rows) {
                 return Some(Self {
                     n,
+                    support: active.to_vec(),
                     rows,
                     factor: Factor::Dense(l),
+                    bordered: None,
                 });
             }
         }
+        Self::sparse(problem, active, order)
+    }
+
+    /// The sparse `LDLᵀ` of `K_δ` for the rows `active`, whatever their number; see
+    /// [`Self::new`].
+    fn sparse(
+        problem: &ProjectionProblem,
+        active: &[usize],
+        order: Option<&[usize]>,
+    ) -> Option<Self> {
+        let n = problem.dim();
+        let k = active.len();
         let (rows, kkt) = kkt_matrix(problem, active);
         let signs: Vec<i8> = (0..n + k).map(|i| if i < n { 1 } else { -1 }).collect();
         let mut builder = QDLDLSettingsBuilder::default();
@@ -237,8 +306,10 @@ impl ActiveSystem {
         let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
         Some(Self {
             n,
+            support: active.to_vec(),
             rows,
             factor: Factor::Sparse(Box::new(ldl)),
+            bordered: None,
         })
     }
 
@@ -246,7 +317,10 @@ impl ActiveSystem {
     /// `(A_P A_Pᵀ + δI) w = A_P f − g` and `u = f − A_Pᵀw`.
     fn solve_in_place(&mut self, v: &mut [f64]) {
         match &mut self.factor {
-            Factor::Sparse(ldl) => ldl.solve(v),
+            Factor::Sparse(ldl) => match &self.bordered {
+                None => ldl.solve(v),
+                Some(bordered) => bordered.solve(ldl, self.n, &self.support, v),
+            },
             Factor::Dense(l) => {
                 let (n, k) = (self.n, self.rows.len());
                 let (f, g) = v.split_at_mut(n);
@@ -273,6 +347,231 @@ impl ActiveSystem {
                         f[c] -= a * g[t];
                     }
                 }
+            }
+        }
+    }
+}
+
+impl ActiveSystem {
+    /// The system for the support `next`, made from this one without a factorization when
+    /// the factor is sparse, `next` is this support with rows removed and rows appended (the
+    /// order the method keeps), and at most [`BORDER_MAX`] changes separate it from the
+    /// factored support; `None` otherwise.
+    fn bordered_to(mut self, problem: &ProjectionProblem, next: &[usize]) -> Option<Self> {
+        let Factor::Sparse(ldl) = &mut self.factor else {
+            return None;
+        };
+        let n = self.n;
+        let bordered = self.bordered.get_or_insert_with(|| Bordered {
+            base: self.support.clone(),
+            changes: Vec::new(),
+            w: Vec::new(),
+            s: Vec::new(),
+            lu: Vec::new(),
+            pivots: Vec::new(),
+        });
+        let mut in_next = vec![false; problem.n_rows()];
+        next.iter().for_each(|&i| in_next[i] = true);
+        let kept: Vec<usize> = self
+            .support
+            .iter()
+            .copied()
+            .filter(|&i| in_next[i])
+            .collect();
+        if next.len() < kept.len() || next[..kept.len()] != kept[..] {
+            return None;
+        }
+        // Rows leaving: a joined row's change is undone, a row of P₀ gets a `Left` change.
+        let mut position = vec![usize::MAX; problem.n_rows()];
+        bordered
+            .base
+            .iter()
+            .enumerate()
+            .for_each(|(p, &i)| position[i] = p);
+        for &i in self.support.iter().filter(|&&i| !in_next[i]) {
+            match bordered
+                .changes
+                .iter()
+                .position(|c| matches!(c, Change::Joined { row, .. } if *row == i))
+            {
+                Some(c) => bordered.undo(c),
+                None => bordered.push(
+                    ldl,
+                    n,
+                    Change::Left {
+                        position: position[i],
+                    },
+                ),
+            }
+        }
+        for &i in &next[kept.len()..] {
+            let entries = merged_row(problem, i);
+            bordered.push(ldl, n, Change::Joined { row: i, entries });
+        }
+        if bordered.changes.len() > BORDER_MAX || !bordered.factor_s() {
+            return None;
+        }
+        self.rows = next.iter().map(|&i| merged_row(problem, i)).collect();
+        self.support = next.to_vec();
+        Some(self)
+    }
+}
+
+impl Bordered {
+    /// The column of `C` of a change, as `(index, value)` in the layout `[d; μ_{P₀}]`.
+    fn column(n: usize, change: &Change) -> Vec<(usize, f64)> {
+        match change {
+            Change::Joined { entries, .. } => entries.clone(),
+            Change::Left { position } => vec![(n + position, 1.0)],
+        }
+    }
+
+    /// `D`'s diagonal entry of a change.
+    fn diagonal(change: &Change) -> f64 {
+        match change {
+            Change::Joined { .. } => -DELTA,
+            Change::Left { .. } => 0.0,
+        }
+    }
+
+    /// Adds a change: its column of `W` (one solve with the old factor) and its row and
+    /// column of `S`.
+    fn push(&mut self, ldl: &mut QDLDLFactorisation<f64>, n: usize, change: Change) {
+        let size = n + self.base.len();
+        let column = Self::column(n, &change);
+        let mut w = vec![0.0; size];
+        column.iter().for_each(|&(i, v)| w[i] += v);
+        ldl.solve(&mut w);
+        let c = self.changes.len();
+        // S grows from c × c to (c + 1) × (c + 1): S_jk = D_jk − c_jᵀ w_k.
+        let mut s = vec![0.0; (c + 1) * (c + 1)];
+        for j in 0..c {
+            for k in 0..c {
+                s[j * (c + 1) + k] = self.s[j * c + k];
+            }
+        }
+        for j in 0..c {
+            let own = Self::column(n, &self.changes[j]);
+            let value = -own.iter().map(|&(i, v)| v * w[i]).sum::<f64>();
+            s[j * (c + 1) + c] = value;
+            s[c * (c + 1) + j] = value;
+        }
+        s[c * (c + 1) + c] =
+            Self::diagonal(&change) - column.iter().map(|&(i, v)| v * w[i]).sum::<f64>();
+        self.s = s;
+        self.w.push(w);
+        self.changes.push(change);
+    }
+
+    /// Removes change `c` (a joined row leaving again).
+    fn undo(&mut self, c: usize) {
+        let old = self.changes.len();
+        self.changes.remove(c);
+        self.w.remove(c);
+        let new = old - 1;
+        let mut s = Vec::with_capacity(new * new);
+        for j in (0..old).filter(|&j| j != c) {
+            for k in (0..old).filter(|&k| k != c) {
+                s.push(self.s[j * old + k]);
+            }
+        }
+        self.s = s;
+    }
+
+    /// LU factors of `S` with partial pivoting; `false` when a pivot vanishes.
+    fn factor_s(&mut self) -> bool {
+        let c = self.changes.len();
+        self.lu = self.s.clone();
+        self.pivots = (0..c).collect();
+        let scale = self.s.iter().fold(0.0, |acc: f64, v| acc.max(v.abs()));
+        for k in 0..c {
+            let (p, best) = (k..c)
+                .map(|i| (i, self.lu[i * c + k].abs()))
+                .fold((k, -1.0), |acc, x| if x.1 > acc.1 { x } else { acc });
+            if best.is_nan() || best <= 1e-14 * scale {
+                return false;
+            }
+            if p != k {
+                for j in 0..c {
+                    self.lu.swap(k * c + j, p * c + j);
+                }
+                self.pivots.swap(k, p);
+            }
+            let pivot = self.lu[k * c + k];
+            for i in k + 1..c {
+                let factor = self.lu[i * c + k] / pivot;
+                self.lu[i * c + k] = factor;
+                for j in k + 1..c {
+                    self.lu[i * c + j] -= factor * self.lu[k * c + j];
+                }
+            }
+        }
+        true
+    }
+
+    /// `v ← K_δ⁻¹ v` for the current support `support` (rows of `P₀` that stayed, in their
+    /// order, then the joined rows in the order they joined).
+    fn solve(&self, ldl: &mut QDLDLFactorisation<f64>, n: usize, support: &[usize], v: &mut [f64]) {
+        let base = self.base.len();
+        let c = self.changes.len();
+        // Where each unknown of the current layout lives: a position of P₀, or a change.
+        let mut left = vec![false; base];
+        for change in &self.changes {
+            if let Change::Left { position } = change {
+                left[*position] = true;
+            }
+        }
+        let stayed: Vec<usize> = (0..base).filter(|&p| !left[p]).collect();
+        debug_assert_eq!(stayed.len() + (c - (base - stayed.len())), support.len());
+        // z₀ = K_δ(P₀)⁻¹ [f; g_{P₀}], with zero for the rows that left.
+        let mut z = vec![0.0; n + base];
+        z[..n].copy_from_slice(&v[..n]);
+        for (t, &p) in stayed.iter().enumerate() {
+            z[n + p] = v[n + t];
+        }
+        ldl.solve(&mut z);
+        // g − Cᵀ z₀, then w = S⁻¹ (…) by the LU factors.
+        let mut joined_slot = stayed.len();
+        let mut w = vec![0.0; c];
+        for (j, change) in self.changes.iter().enumerate() {
+            let g = match change {
+                Change::Joined { .. } => {
+                    let g = v[n + joined_slot];
+                    joined_slot += 1;
+                    g
+                }
+                Change::Left { .. } => 0.0,
+            };
+            w[j] = g - Self::column(n, change)
+                .iter()
+                .map(|&(i, a)| a * z[i])
+                .sum::<f64>();
+        }
+        let mut y: Vec<f64> = self.pivots.iter().map(|&p| w[p]).collect();
+        for i in 0..c {
+            for k in 0..i {
+                y[i] -= self.lu[i * c + k] * y[k];
+            }
+        }
+        for i in (0..c).rev() {
+            for k in i + 1..c {
+                y[i] -= self.lu[i * c + k] * y[k];
+            }
+            y[i] /= self.lu[i * c + i];
+        }
+        // z = z₀ − W w.
+        for (wj, column) in y.iter().zip(&self.w) {
+            z.iter_mut().zip(column).for_each(|(zi, ci)| *zi -= wj * ci);
+        }
+        v[..n].copy_from_slice(&z[..n]);
+        for (t, &p) in stayed.iter().enumerate() {
+            v[n + t] = z[n + p];
+        }
+        let mut slot = stayed.len();
+        for (j, change) in self.changes.iter().enumerate() {
+            if let Change::Joined { .. } = change {
+                v[n + slot] = y[j];
+                slot += 1;
             }
         }
     }
@@ -352,6 +651,7 @@ impl ActiveSystem {
         let mut kv = vec![0.0; rhs.len()];
         let mut step = vec![0.0; rhs.len()];
         let mut steps = 0;
+        let mut last_moved = f64::INFINITY;
         loop {
             self.apply(v, &mut kv);
             let (mut first, mut second): (f64, f64) = (0.0, 0.0);
@@ -378,10 +678,14 @@ impl ActiveSystem {
             let moved = step[..n].iter().fold(0.0, |acc: f64, s| acc.max(s.abs()));
             v.iter_mut().zip(&step).for_each(|(vi, si)| *vi += si);
             steps += 1;
-            if moved <= tol {
-                // The first block has converged; one more pass measures the residual.
+            if moved <= tol || (steps >= 2 && moved > REFINE_CONTRACTION * last_moved) {
+                // The first block has converged, or converges too slowly to be worth it: the
+                // equations are inconsistent (or nearly so, rows nearly dependent), the
+                // residual will be the ray along which the method drops a row, and the answer
+                // of the method is checked anyway. One more pass measures the residual.
                 steps = REFINE_STEPS;
             }
+            last_moved = moved;
         }
     }
 }
@@ -453,8 +757,12 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
     let mut visits: HashMap<Vec<usize>, u32> = HashMap::new();
     let mut in_support = vec![false; m];
     let mut ad = vec![0.0; m];
+    // The system of the previous iteration, carried to the next support by bordering.
+    let mut held: Option<ActiveSystem> = None;
     for factorizations in 1..=cap {
-        let count = visits.entry(support.clone()).or_insert(0);
+        let mut key = support.clone();
+        key.sort_unstable();
+        let count = visits.entry(key).or_insert(0);
         *count += 1;
         if *count >= REPEATS {
             if proper {
@@ -468,9 +776,14 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
             support.clear();
             lambda.clear();
             d.iter_mut().for_each(|v| *v = 0.0);
+            held = None;
         }
-        let mut system = ActiveSystem::new(problem, &support, order.as_deref())
-            .ok_or(Failure::Numerical("factorization"))?;
+        let reused = held.take().and_then(|h| h.bordered_to(problem, &support));
+        let mut system = match reused {
+            Some(system) => system,
+            None => ActiveSystem::new(problem, &support, order.as_deref())
+                .ok_or(Failure::Numerical("factorization"))?,
+        };
         let k = support.len();
         let rhs: Vec<f64> = std::iter::repeat_n(0.0, n)
             .chain(support.iter().map(|&i| r[i]))
@@ -479,6 +792,7 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
         let refined = system
             .refine(&rhs, &mut v)
             .ok_or(Failure::Numerical("refinement"))?;
+        held = Some(system);
         d.copy_from_slice(&v[..n]);
         let mu: Vec<f64> = v[n..].iter().map(|v| -v).collect();
 
@@ -539,8 +853,8 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
         // cycle with adding them back.
         aggressive = false;
         let mut joined: Vec<(usize, f64)> = support.iter().copied().zip(lambda).collect();
+        // Joining rows go last: the factored system then only has rows appended.
         joined.extend(joining_rows(&violated, &r, &ad, &join, proper)?);
-        joined.sort_unstable_by_key(|&(i, _)| i);
         (support, lambda) = joined.into_iter().unzip();
         debug_assert!(support.len() > k);
     }
@@ -673,6 +987,97 @@ mod tests {
         // hold.
         let r2 = vec![1.0, 0.0, 0.0, -1.0];
         assert!(!farkas(&p, &[1, 3], &[1.0, 1.0], &r2));
+    }
+
+    /// 40 unknowns, 34 rows of three entries each, clearly independent: `K_δ` is well
+    /// conditioned, so a solve of it is accurate to rounding.
+    fn random_problem() -> ProjectionProblem {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let n = 40;
+        // Row i has its own unknown i (entry 1) and two random ones (entries below ½).
+        let rows: Vec<Vec<(usize, f64)>> = (0..34)
+            .map(|i| {
+                let mut row = vec![(i, 1.0)];
+                row.extend((0..2).map(|_| (rng.gen_range(0..n), rng.gen_range(-0.5..0.5))));
+                row
+            })
+            .collect();
+        let a = SparseRows::from_rows(n, &rows);
+        let y: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let b: Vec<f64> = (0..34).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        ProjectionProblem::new(y, a, b).unwrap()
+    }
+
+    /// The solutions of `K₀ v = rhs` for `support` (consistent: the rows are independent),
+    /// refined from zero through a fresh sparse factorization and through `system`; both
+    /// refinements must meet their tolerance.
+    fn both_solves(
+        p: &ProjectionProblem,
+        system: &mut ActiveSystem,
+        support: &[usize],
+    ) -> (Vec<f64>, Vec<f64>) {
+        let size = p.dim() + support.len();
+        let rhs: Vec<f64> = (0..size).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut fresh = ActiveSystem::sparse(p, support, None).unwrap();
+        let (mut a, mut b) = (vec![0.0; size], vec![0.0; size]);
+        assert!(fresh.refine(&rhs, &mut a).unwrap().solved);
+        assert!(system.refine(&rhs, &mut b).unwrap().solved);
+        (a, b)
+    }
+
+    #[test]
+    fn a_bordered_factor_solves_what_a_fresh_factorization_solves() {
+        let p = random_problem();
+        let base: Vec<usize> = (0..26).collect();
+        let system = ActiveSystem::sparse(&p, &base, None).unwrap();
+        // Rows 3 and 10 leave, 27 and 30 join (appended, in that order).
+        let next: Vec<usize> = (0..26)
+            .filter(|&i| i != 3 && i != 10)
+            .chain([27, 30])
+            .collect();
+        let mut system = system.bordered_to(&p, &next).expect("two changes each way");
+        let (fresh, bordered) = both_solves(&p, &mut system, &next);
+        let gap = fresh
+            .iter()
+            .zip(&bordered)
+            .fold(0.0, |m: f64, (a, b)| m.max((a - b).abs()));
+        assert!(gap < 1e-11, "gap {gap:e}");
+        // A joined row leaves again (its change is undone), a row of the base leaves, one more
+        // joins.
+        let next: Vec<usize> = next
+            .iter()
+            .copied()
+            .filter(|&i| i != 27 && i != 5)
+            .chain([33])
+            .collect();
+        let mut system = system.bordered_to(&p, &next).expect("still few changes");
+        assert_eq!(system.bordered.as_ref().map(|b| b.changes.len()), Some(5));
+        let (fresh, bordered) = both_solves(&p, &mut system, &next);
+        let gap = fresh
+            .iter()
+            .zip(&bordered)
+            .fold(0.0, |m: f64, (a, b)| m.max((a - b).abs()));
+        assert!(gap < 1e-11, "gap {gap:e}");
+    }
+
+    #[test]
+    fn a_bordered_factor_refuses_a_reordered_support_or_too_many_changes() {
+        let p = random_problem();
+        let base: Vec<usize> = (0..26).collect();
+        let mut swapped = base.clone();
+        swapped.swap(0, 1);
+        let system = ActiveSystem::sparse(&p, &base, None).unwrap();
+        assert!(system.bordered_to(&p, &swapped).is_none());
+        // BORDER_MAX + 1 rows leave.
+        let fewer: Vec<usize> = base[BORDER_MAX + 1..].to_vec();
+        let system = ActiveSystem::sparse(&p, &base, None).unwrap();
+        assert!(system.bordered_to(&p, &fewer).is_none());
+        // A dense factor is not bordered.
+        let small: Vec<usize> = (0..4).collect();
+        let system = ActiveSystem::new(&p, &small, None).unwrap();
+        assert!(matches!(system.factor, Factor::Dense(_)));
+        assert!(system.bordered_to(&p, &small[..3]).is_none());
     }
 
     #[test]
