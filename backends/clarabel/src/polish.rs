@@ -12,12 +12,12 @@
 use crate::active_set::{self, Start};
 use sweeping_api::ProjectionProblem;
 
-/// Most active-set steps (each costs one factorization).
-const FACTORIZATIONS: u32 = 40;
+/// Most active-set iterations.
+const ITERATIONS: u32 = 40;
 
 /// The projection finished from the interior-point multipliers `z` and slacks `s`, as
-/// `(x, λ)`; `None` when the active-set method does not converge within [`FACTORIZATIONS`]
-/// factorizations or certifies the set empty (the interior-point answer then stands on its
+/// `(x, λ)`; `None` when the active-set method does not converge within [`ITERATIONS`]
+/// iterations or certifies the set empty (the interior-point answer then stands on its
 /// own residuals).
 pub(crate) fn polish(
     problem: &ProjectionProblem,
@@ -40,7 +40,7 @@ pub(crate) fn polish(
         lambda,
         join,
     };
-    active_set::solve(problem, start, FACTORIZATIONS)
+    active_set::solve(problem, start, ITERATIONS)
         .ok()
         .map(|outcome| (outcome.x, outcome.lambda))
 }

@@ -14,9 +14,7 @@
 //!    unregularized one, which copes with linearly dependent rows (contact loops). It starts
 //!    from the rows active at the previous step, matched by their [`RowKey`]s (rows may
 //!    appear, vanish or be reordered) with their previous multipliers; in a block without a
-//!    remembered row (or without keys), from the rows violated at `y`. A fill-reducing
-//!    ordering is computed once per block and restricted to each working set (25 % less
-//!    projection time on the paper's evacuation than ordering every factorization afresh).
+//!    remembered row (or without keys), from the rows violated at `y`.
 //!    A working set factored three times means rounding on dependent rows made this
 //!    many-rows-at-once variant cycle: the block restarts as Lawson–Hanson proper (empty
 //!    support, the steepest violated row joining one at a time), and a second cycle stops it.
@@ -24,7 +22,7 @@
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
 //!    coordinates ~10², where rounding alone is ~1e-14 × 10²). A block that fails the check,
-//!    or hits [`NativeSettings::max_factorizations`], or whose factorization fails, is handed
+//!    or hits [`NativeSettings::max_iterations`], or whose factorization fails, is handed
 //!    to the fallback backend given to [`NativeProjector::with_fallback`] (the root crate
 //!    passes Clarabel), and counted in [`SolveStats::fallbacks`]; without a fallback it is a
 //!    [`ProjectionError::NotConverged`]. Infeasibility is reported only with a checked Farkas
@@ -70,16 +68,17 @@ pub const NAME: &str = "native";
 pub struct NativeSettings {
     /// Largest KKT residual accepted, relative to `max(1, ‖y‖∞, ‖b‖∞)`. Default `1e-10`.
     pub kkt_tolerance: f64,
-    /// Most factorizations per block before the block goes to the fallback; `0` means
-    /// [`DEFAULT_FACTORIZATIONS`] with a fallback and `40 + rows of the block / 2` without one
+    /// Most active-set iterations per block before the block goes to the fallback; `0` means
+    /// [`DEFAULT_ITERATIONS`] with a fallback and `40 + rows of the block / 2` without one
     /// (then the method must converge on its own). Default `0`.
     ///
     /// The active-set method wins when the active set changes by a few rows per step (a crowd
     /// walking, a queue at a door) and loses to an interior point when it changes by hundreds
-    /// (a jam forming): each change costs it a factorization. The cap bounds what a jammed
-    /// step can cost before Clarabel takes the block (`sweep bench --start jammed` in the
-    /// README measures both sides).
-    pub max_factorizations: u32,
+    /// (a jam forming): each change costs it an iteration (a solve through a bordered factor,
+    /// a fresh factorization after 24 changes). The cap bounds what a jammed step can cost
+    /// before Clarabel takes the block (`sweep bench --start jammed` in the README measures
+    /// both sides).
+    pub max_iterations: u32,
     /// Start from the previous step's active rows, matched by row keys. Default `true`.
     pub warm_start: bool,
 }
@@ -88,14 +87,14 @@ impl Default for NativeSettings {
     fn default() -> Self {
         Self {
             kkt_tolerance: 1e-10,
-            max_factorizations: 0,
+            max_iterations: 0,
             warm_start: true,
         }
     }
 }
 
-/// The cap on factorizations per block when [`NativeSettings::max_factorizations`] is `0`.
-pub const DEFAULT_FACTORIZATIONS: u32 = 16;
+/// The cap on iterations per block when [`NativeSettings::max_iterations`] is `0`.
+pub const DEFAULT_ITERATIONS: u32 = 16;
 
 /// The native backend; see the [crate documentation](crate).
 pub struct NativeProjector {
@@ -151,7 +150,7 @@ impl NativeProjector {
         }
     }
 
-    /// Solves one block: a certified answer, or the reason it failed with the factorizations
+    /// Solves one block: a certified answer, or the reason it failed with the iterations
     /// spent.
     fn solve_block(
         &self,
@@ -176,7 +175,7 @@ impl NativeProjector {
             .collect();
         // With remembered rows, start from them alone: the rows violated at y join after the
         // first solve if the point still violates them. Also starting from every violated
-        // row cost 1.8 × the factorizations on the paper's evacuation (25,777 against 14,266
+        // row cost 1.8 × the iterations on the paper's evacuation (25,777 against 14,266
         // over its first 12 s), most of them dropping rows one at a time.
         let any_remembered = remembered.iter().any(Option::is_some);
         let support: Vec<usize> = (0..m)
@@ -184,8 +183,8 @@ impl NativeProjector {
             .collect();
         let warm = support.iter().any(|&i| remembered[i].is_some());
         let lambda = support.iter().map(|&i| join[i]).collect();
-        let cap = match self.settings.max_factorizations {
-            0 if self.fallback.is_some() => DEFAULT_FACTORIZATIONS,
+        let cap = match self.settings.max_iterations {
+            0 if self.fallback.is_some() => DEFAULT_ITERATIONS,
             0 => 40 + u32::try_from(m / 2).unwrap_or(u32::MAX / 4),
             c => c,
         };
@@ -201,10 +200,7 @@ impl NativeProjector {
         .map_err(|f| (f, cap))?;
         let kkt = block.kkt_residuals(&outcome.x, &outcome.lambda).max();
         if kkt.is_nan() || kkt > tol {
-            return Err((
-                Failure::Numerical("KKT check failed"),
-                outcome.factorizations,
-            ));
+            return Err((Failure::Numerical("KKT check failed"), outcome.iterations));
         }
         Ok(Projection {
             x: outcome.x,
@@ -212,7 +208,7 @@ impl NativeProjector {
             stats: SolveStats {
                 backend: NAME.to_string(),
                 status: SolveStatus::Solved,
-                iterations: outcome.factorizations,
+                iterations: outcome.iterations,
                 solve_seconds: 0.0,
                 setup_seconds: 0.0,
                 warm_started: warm,

@@ -82,7 +82,7 @@ fn capped_solver_falls_back_and_counts() {
     let p =
         ProjectionProblem::new(vec![-1.0, 0.0, -1.0, 0.0], rows, vec![0.0, 0.5, 0.0, 0.5]).unwrap();
     let capped = NativeSettings {
-        max_factorizations: 1,
+        max_iterations: 1,
         ..NativeSettings::default()
     };
     // Without a fallback: a typed error naming the block.
