@@ -266,6 +266,16 @@ mod tests {
         assert!(pop.is_present(&[5.0, 5.0], 0));
     }
 
+    /// An L-shaped hexagon: the unit squares at (0, 0), (1, 0) and (0, 1).
+    const L_SHAPED: [[f64; 2]; 6] = [
+        [0.0, 0.0],
+        [2.0, 0.0],
+        [2.0, 1.0],
+        [1.0, 1.0],
+        [1.0, 2.0],
+        [0.0, 2.0],
+    ];
+
     #[test]
     fn only_axis_aligned_rectangles_are_boxes() {
         let r = Room::rectangle(1.0, 2.0, 4.0, 3.0);
@@ -280,21 +290,14 @@ mod tests {
         );
         for vertices in [
             // A rotated square, a trapezoid, a bow tie of the box's corners, a triangle,
-            // a degenerate (flat) rectangle, an L-shaped hexagon.
+            // two flat rectangles, an L-shaped hexagon.
             vec![[1.0, 0.0], [2.0, 1.0], [1.0, 2.0], [0.0, 1.0]],
             vec![[0.0, 0.0], [4.0, 0.0], [3.0, 1.0], [1.0, 1.0]],
             vec![[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]],
             vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
             vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 0.0]],
             vec![[0.0, 0.0], [0.0, 1.0], [0.0, 1.0], [0.0, 0.0]],
-            vec![
-                [0.0, 0.0],
-                [2.0, 0.0],
-                [2.0, 1.0],
-                [1.0, 1.0],
-                [1.0, 2.0],
-                [0.0, 2.0],
-            ],
+            L_SHAPED.to_vec(),
         ] {
             assert_eq!(
                 Room {
@@ -320,14 +323,7 @@ mod tests {
     fn presence_in_a_room_that_is_no_rectangle_walks_the_polygon() {
         // An L-shaped room: its corner (1.5, 1.5) is outside, (0.5, 1.5) deep inside.
         let room = Room {
-            vertices: vec![
-                [0.0, 0.0],
-                [2.0, 0.0],
-                [2.0, 1.0],
-                [1.0, 1.0],
-                [1.0, 2.0],
-                [0.0, 2.0],
-            ],
+            vertices: L_SHAPED.to_vec(),
         };
         let pop = Population::new(vec![0.1, 0.1]).with_room(room);
         assert!(pop.is_present(&[0.5, 1.5, 1.5, 1.5], 0));
