@@ -957,23 +957,25 @@ mod tests {
         assert!(!farkas(&p, &[1, 3], &[1.0, 1.0], &r2));
     }
 
-    /// 40 unknowns, 34 rows of three entries each, clearly independent: `K_δ` is well
-    /// conditioned, so a solve of it is accurate to rounding.
+    /// 40 unknowns, 34 rows of three entries each, clearly independent (`K_δ` is well
+    /// conditioned, so a solve of it is accurate to rounding), and row 34, a copy of row 3.
     fn random_problem() -> ProjectionProblem {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         let n = 40;
-        // Row i has its own unknown i (entry 1) and two random ones (entries below ½).
-        let rows: Vec<Vec<(usize, f64)>> = (0..34)
+        // Row i has its own unknown i (entry 1) and two random ones (entries below ½); row 34
+        // repeats row 3.
+        let mut rows: Vec<Vec<(usize, f64)>> = (0..34)
             .map(|i| {
                 let mut row = vec![(i, 1.0)];
                 row.extend((0..2).map(|_| (rng.gen_range(0..n), rng.gen_range(-0.5..0.5))));
                 row
             })
             .collect();
+        rows.push(rows[3].clone());
         let a = SparseRows::from_rows(n, &rows);
         let y: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
-        let b: Vec<f64> = (0..34).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let b: Vec<f64> = (0..35).map(|_| rng.gen_range(-1.0..1.0)).collect();
         ProjectionProblem::new(y, a, b).unwrap()
     }
 
@@ -1017,6 +1019,116 @@ mod tests {
         assert_eq!(system.bordered.as_ref().map(|b| b.changes.len()), Some(5));
         let gap = solve_gap(&p, &mut system, &next);
         assert!(gap < 1e-11, "gap {gap:e}");
+    }
+
+    /// `K_δ⁻¹ v` for `support` by a fresh factorization and by `system`, without refinement:
+    /// the largest difference relative to the largest entry. Both solve the same regularized
+    /// system, so only rounding separates them; an error in the bordering (its Schur
+    /// complement, pivoting or back-substitution) shows here even where refinement would hide
+    /// it.
+    fn raw_solve_gap(p: &ProjectionProblem, system: &mut ActiveSystem, support: &[usize]) -> f64 {
+        let size = p.dim() + support.len();
+        let v: Vec<f64> = (0..size).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut fresh = ActiveSystem::sparse(p, support).unwrap();
+        let (mut a, mut b) = (v.clone(), v);
+        fresh.solve_in_place(&mut a);
+        system.solve_in_place(&mut b);
+        let scale = a.iter().fold(0.0, |m: f64, x| m.max(x.abs()));
+        a.iter()
+            .zip(&b)
+            .fold(0.0, |m: f64, (a, b)| m.max((a - b).abs()))
+            / scale
+    }
+
+    #[test]
+    fn a_bordered_solve_is_the_regularized_solve_of_the_new_support() {
+        let p = random_problem();
+        let base: Vec<usize> = (0..26).collect();
+        let mut system = ActiveSystem::sparse(&p, &base).unwrap();
+        let mut support = base;
+        // Rows leave and join one or two at a time, a joined row leaving again in between,
+        // eight changes in the end (so that the Schur complement mixes both kinds).
+        for (leave, join) in [
+            (vec![3], vec![27]),
+            (vec![10, 27], vec![30, 31]),
+            (vec![0], vec![]),
+            (vec![], vec![33, 26]),
+            (vec![25, 31], vec![32]),
+        ] {
+            support.retain(|i| !leave.contains(i));
+            support.extend(join);
+            system = system.bordered_to(&p, &support).expect("few changes");
+            let gap = raw_solve_gap(&p, &mut system, &support);
+            assert!(gap < 1e-6, "{support:?}: gap {gap:e}");
+        }
+        assert_eq!(system.bordered.as_ref().map(|b| b.changes.len()), Some(8));
+    }
+
+    #[test]
+    fn a_bordered_solve_pivots_when_a_row_is_replaced_by_its_copy() {
+        // Row 34 (a copy of row 3) joins: its entry of the Schur complement is only −δ. Then
+        // row 3 leaves, and the complement [[−δ, ≈ −1], [≈ −1, s]] must be pivoted.
+        let p = random_problem();
+        let base: Vec<usize> = (0..26).collect();
+        let system = ActiveSystem::sparse(&p, &base).unwrap();
+        let mut support = base.clone();
+        support.push(34);
+        let system = system.bordered_to(&p, &support).expect("one change");
+        support.retain(|&i| i != 3);
+        let mut system = system.bordered_to(&p, &support).expect("two changes");
+        assert_ne!(system.bordered.as_ref().map(|b| b.pivots[0]), Some(0));
+        let gap = raw_solve_gap(&p, &mut system, &support);
+        assert!(gap < 1e-6, "gap {gap:e}");
+    }
+
+    /// A `Bordered` with `S` given (row-major `c × c`) and `c` placeholder changes.
+    fn with_schur(s: Vec<f64>, c: usize) -> Bordered {
+        Bordered {
+            base: Vec::new(),
+            changes: (0..c).map(|position| Change::Left { position }).collect(),
+            w: Vec::new(),
+            s,
+            lu: Vec::new(),
+            pivots: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn the_schur_complement_is_lu_factored_with_row_pivoting() {
+        // Pivoting needed at the second column only: P S = L U checked entry by entry.
+        let s = vec![4.0, 1.0, 2.0, 1.0, 0.3, 1.0, 2.0, 2.0, 1.0];
+        let mut b = with_schur(s.clone(), 3);
+        assert!(b.factor_s());
+        let c = 3;
+        for i in 0..c {
+            for j in 0..c {
+                let lu: f64 = (0..c)
+                    .map(|k| {
+                        let l = match k.cmp(&i) {
+                            std::cmp::Ordering::Less => b.lu[i * c + k],
+                            std::cmp::Ordering::Equal => 1.0,
+                            std::cmp::Ordering::Greater => 0.0,
+                        };
+                        let u = if k <= j { b.lu[k * c + j] } else { 0.0 };
+                        l * u
+                    })
+                    .sum();
+                let ps = s[b.pivots[i] * c + j];
+                assert!((lu - ps).abs() < 1e-12, "({i}, {j}): {lu} against {ps}");
+            }
+        }
+        assert_eq!(b.pivots, vec![0, 2, 1]);
+        // A singular complement is refused.
+        let mut b = with_schur(vec![1.0, 2.0, 2.0, 4.0], 2);
+        assert!(!b.factor_s());
+    }
+
+    #[test]
+    fn a_bordered_factor_takes_up_to_border_max_changes() {
+        let p = random_problem();
+        let base: Vec<usize> = (0..26).collect();
+        let system = ActiveSystem::sparse(&p, &base).unwrap();
+        assert!(system.bordered_to(&p, &base[BORDER_MAX..]).is_some());
     }
 
     #[test]
