@@ -382,25 +382,34 @@ impl ActiveSystem {
                 ),
             }
         }
+        // The rows that stay keep their merged entries; joining rows are merged once.
+        let mut rows: Vec<Vec<(usize, f64)>> = self
+            .support
+            .iter()
+            .zip(std::mem::take(&mut self.rows))
+            .filter(|(i, _)| in_next[**i])
+            .map(|(_, row)| row)
+            .collect();
         for &i in &next[kept.len()..] {
             let entries = merged_row(problem, i);
+            rows.push(entries.clone());
             bordered.push(ldl, n, Change::Joined { row: i, entries });
         }
         if bordered.changes.len() > BORDER_MAX || !bordered.factor_s() {
             return None;
         }
-        self.rows = next.iter().map(|&i| merged_row(problem, i)).collect();
+        self.rows = rows;
         self.support = next.to_vec();
         Some(self)
     }
 }
 
 impl Bordered {
-    /// The column of `C` of a change, as `(index, value)` in the layout `[d; μ_{P₀}]`.
-    fn column(n: usize, change: &Change) -> Vec<(usize, f64)> {
+    /// `cᵀz` for the column `c` of `C` of a change, `z` in the layout `[d; μ_{P₀}]`.
+    fn column_dot(n: usize, change: &Change, z: &[f64]) -> f64 {
         match change {
-            Change::Joined { entries, .. } => entries.clone(),
-            Change::Left { position } => vec![(n + position, 1.0)],
+            Change::Joined { entries, .. } => entries.iter().map(|&(i, a)| a * z[i]).sum(),
+            Change::Left { position } => z[n + position],
         }
     }
 
@@ -416,9 +425,11 @@ impl Bordered {
     /// column of `S`.
     fn push(&mut self, ldl: &mut QDLDLFactorisation<f64>, n: usize, change: Change) {
         let size = n + self.base.len();
-        let column = Self::column(n, &change);
         let mut w = vec![0.0; size];
-        column.iter().for_each(|&(i, v)| w[i] += v);
+        match &change {
+            Change::Joined { entries, .. } => entries.iter().for_each(|&(i, a)| w[i] += a),
+            Change::Left { position } => w[n + position] = 1.0,
+        }
         ldl.solve(&mut w);
         let c = self.changes.len();
         // S grows from c × c to (c + 1) × (c + 1): S_jk = D_jk − c_jᵀ w_k.
@@ -429,13 +440,11 @@ impl Bordered {
             }
         }
         for j in 0..c {
-            let own = Self::column(n, &self.changes[j]);
-            let value = -own.iter().map(|&(i, v)| v * w[i]).sum::<f64>();
+            let value = -Self::column_dot(n, &self.changes[j], &w);
             s[j * (c + 1) + c] = value;
             s[c * (c + 1) + j] = value;
         }
-        s[c * (c + 1) + c] =
-            Self::diagonal(&change) - column.iter().map(|&(i, v)| v * w[i]).sum::<f64>();
+        s[c * (c + 1) + c] = Self::diagonal(&change) - Self::column_dot(n, &change, &w);
         self.s = s;
         self.w.push(w);
         self.changes.push(change);
@@ -520,10 +529,7 @@ impl Bordered {
                 }
                 Change::Left { .. } => 0.0,
             };
-            w[j] = g - Self::column(n, change)
-                .iter()
-                .map(|&(i, a)| a * z[i])
-                .sum::<f64>();
+            w[j] = g - Self::column_dot(n, change, &z);
         }
         let mut y: Vec<f64> = self.pivots.iter().map(|&p| w[p]).collect();
         for i in 0..c {
