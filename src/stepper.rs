@@ -179,6 +179,10 @@ pub struct StepReport {
     /// solves (see [`sweeping_api::SolveStats::fallbacks`]).
     #[serde(default)]
     pub fallbacks: u32,
+    /// Sub-problems the backend's first method did not converge on and its own second method
+    /// solved, summed over the solves (see [`sweeping_api::SolveStats::rescues`]).
+    #[serde(default)]
+    pub rescues: u32,
     /// Seconds per stage.
     pub times: StageTimes,
     /// `max(0, −minᵢ gᵢ(t_{k+1}, q_{k+1}))`: how far the new configuration is outside the true
@@ -206,6 +210,9 @@ pub struct RunStats {
     /// Backend fallbacks, summed.
     #[serde(default)]
     pub fallbacks: u64,
+    /// Backend rescues (its own second method), summed.
+    #[serde(default)]
+    pub rescues: u64,
     /// Solves, summed (more than `steps` when culling proofs failed).
     pub solves: u64,
     /// Rows assembled, summed over steps.
@@ -229,6 +236,7 @@ impl RunStats {
         self.times.add(&r.times);
         self.iterations += u64::from(r.iterations);
         self.fallbacks += u64::from(r.fallbacks);
+        self.rescues += u64::from(r.rescues);
         self.solves += r.solves as u64;
         self.rows += r.rows as u64;
         self.max_rows = self.max_rows.max(r.rows);
@@ -905,6 +913,7 @@ impl<'p> Stepper<'p> {
         let mut solves = 0usize;
         let mut iterations = 0u32;
         let mut fallbacks = 0u32;
+        let mut rescues = 0u32;
         let solution: Projection = loop {
             self.assemble(t_next, &mut times)?;
             let tp = Instant::now();
@@ -934,6 +943,7 @@ impl<'p> Stepper<'p> {
             solves += 1;
             iterations += sol.stats.iterations;
             fallbacks += sol.stats.fallbacks;
+            rescues += sol.stats.rescues;
             if let Some(i) = sol.x.iter().position(|v| !v.is_finite()) {
                 return Err(SweepError::NonFinite {
                     step: self.k,
@@ -1007,6 +1017,7 @@ impl<'p> Stepper<'p> {
             solves,
             iterations,
             fallbacks,
+            rescues,
             times,
             max_violation,
             worst_constraint,

@@ -242,8 +242,8 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         m.total, m.effects, m.broad_phase, m.assembly, m.projection, m.check
     );
     println!(
-        "  solver iterations: {} over {} solves (max rows {}, max active {}, fallbacks {})",
-        s.solver_iterations, s.solves, s.max_rows, s.max_active, s.fallbacks
+        "  solver iterations: {} over {} solves (max rows {}, max active {}, interior-point rescues {}, fallbacks {})",
+        s.solver_iterations, s.solves, s.max_rows, s.max_active, s.rescues, s.fallbacks
     );
     if let Some(mib) = s.peak_memory_mib {
         println!("  peak memory: {mib:.0} MiB (resident, the whole process)");

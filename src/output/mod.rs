@@ -300,6 +300,10 @@ pub struct RunSummary {
     /// Sub-problems the backend handed to its fallback (native backend), summed.
     #[serde(default)]
     pub fallbacks: u64,
+    /// Sub-problems the backend's first method did not converge on and its own second
+    /// method solved (native backend: active set, then interior point), summed.
+    #[serde(default)]
+    pub rescues: u64,
     /// The process's peak resident memory at the end of the run, in MiB (`None` where the
     /// platform does not report it).
     #[serde(default)]
@@ -449,6 +453,7 @@ impl Observer for SummaryCollector<'_> {
         s.solver_iterations = st.iterations;
         s.solves = st.solves;
         s.fallbacks = st.fallbacks;
+        s.rescues = st.rescues;
         s.max_rows = st.max_rows;
         s.max_active = st.max_active;
         self.record(r.t, q);

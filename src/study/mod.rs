@@ -1044,6 +1044,7 @@ mod tests {
             solves: 1,
             iterations: 0,
             fallbacks: 0,
+            rescues: 0,
             times: Default::default(),
             max_violation: 0.0,
             worst_constraint: None,
@@ -1056,6 +1057,7 @@ mod tests {
                 setup_seconds: 0.0,
                 warm_started: false,
                 fallbacks: 0,
+                rescues: 0,
             },
         };
         s.on_step(&report(0.5), &[1.0, 3.0]).unwrap();

@@ -163,7 +163,7 @@ impl Blocks {
 
     /// The answer of the whole problem from one answer per block (in the order of
     /// [`Blocks::blocks`]): unknowns outside every block keep `y`, rows outside every block get
-    /// multiplier `0`. Statistics are summed (iterations, seconds, fallbacks); the status is
+    /// multiplier `0`. Statistics are summed (iterations, seconds, fallbacks, rescues); the status is
     /// the weakest of the blocks', `warm_started` whether any block was.
     ///
     /// # Panics
@@ -198,6 +198,7 @@ impl Blocks {
             stats.setup_seconds += s.setup_seconds;
             stats.warm_started |= s.warm_started;
             stats.fallbacks = stats.fallbacks.saturating_add(s.fallbacks);
+            stats.rescues = stats.rescues.saturating_add(s.rescues);
         }
         Projection {
             x,

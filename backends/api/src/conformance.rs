@@ -529,6 +529,7 @@ impl Projector for ReferenceProjector {
                             setup_seconds: 0.0,
                             warm_started: false,
                             fallbacks: 0,
+                            rescues: 0,
                         },
                     });
                 }

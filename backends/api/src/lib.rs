@@ -327,6 +327,11 @@ pub struct SolveStats {
     /// fallback backend (the native backend's count; `0` for the others).
     #[serde(default)]
     pub fallbacks: u32,
+    /// How many (sub-)problems the backend's first method did not converge on and its own
+    /// second method solved (the native backend: active set, then interior point; `0` for
+    /// the others).
+    #[serde(default)]
+    pub rescues: u32,
 }
 
 impl SolveStats {
@@ -341,6 +346,7 @@ impl SolveStats {
             setup_seconds: 0.0,
             warm_started: false,
             fallbacks: 0,
+            rescues: 0,
         }
     }
 }
@@ -433,7 +439,7 @@ pub enum ProjectionError {
 ///                     stats: SolveStats {
 ///                         backend: self.name().into(), status: SolveStatus::Solved,
 ///                         iterations: 0, solve_seconds: 0.0, setup_seconds: 0.0,
-///                         warm_started: false, fallbacks: 0,
+///                         warm_started: false, fallbacks: 0, rescues: 0,
 ///                     },
 ///                 })
 ///             }

@@ -528,6 +528,7 @@ impl Projector for ClarabelProjector {
                 setup_seconds,
                 warm_started: false,
                 fallbacks: 0,
+                rescues: 0,
             },
         })
     }

@@ -1,7 +1,7 @@
 //! The native projection backend of `sweeping`: an active-set method on the dual of the
 //! projection, per contact cluster, warm-started across steps, and certified.
 //!
-//! [`NativeProjector`] solves `min ½‖x − y‖² s.t. A x ≥ b` in three moves.
+//! [`NativeProjector`] solves `min ½‖x − y‖² s.t. A x ≥ b` in four moves.
 //!
 //! 1. **Blocks.** [`sweeping_api::Blocks`] splits the rows into connected components (rows
 //!    sharing an unknown). Unknowns touched by no row keep `x = y`; on a crowd most people
@@ -18,11 +18,19 @@
 //!    A working set factored three times means rounding on dependent rows made this
 //!    many-rows-at-once variant cycle: the block restarts as Lawson–Hanson proper (empty
 //!    support, the steepest violated row joining one at a time), and a second cycle stops it.
-//! 3. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
+//! 3. **Interior-point rescue.** The active-set method pays an iteration per row that joins
+//!    or leaves; when a jam forms, or a queue's contact loops make rows join and leave again,
+//!    it runs out of [`NativeSettings::max_iterations`]. The block is then solved by a
+//!    primal–dual interior-point method of this crate (Mehrotra's predictor–corrector on the
+//!    normal equations `(I + AᵀWA) Δd = …`, positive definite whatever the rows, ordered and
+//!    analysed once per block), stopped at a relative accuracy of `1e-8`, and finished
+//!    exactly by the active-set method from the rows whose multiplier exceeds their slack —
+//!    the way Clarabel's answers are polished. Counted in [`SolveStats::rescues`].
+//! 4. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
 //!    coordinates ~10², where rounding alone is ~1e-14 × 10²). A block that fails the check,
-//!    or hits [`NativeSettings::max_iterations`], or whose factorization fails, is handed
+//!    or that the rescue does not finish either, or whose factorization fails, is handed
 //!    to the fallback backend given to [`NativeProjector::with_fallback`] (the root crate
 //!    passes Clarabel), and counted in [`SolveStats::fallbacks`]; without a fallback it is a
 //!    [`ProjectionError::NotConverged`]. Infeasibility is reported only with a checked Farkas
@@ -60,6 +68,8 @@ use sweeping_api::{
 };
 use sweeping_clarabel::active_set::{self, Failure, Start};
 
+mod interior_point;
+
 /// The name this backend reports in statistics and errors.
 pub const NAME: &str = "native";
 
@@ -68,19 +78,23 @@ pub const NAME: &str = "native";
 pub struct NativeSettings {
     /// Largest KKT residual accepted, relative to `max(1, ‖y‖∞, ‖b‖∞)`. Default `1e-10`.
     pub kkt_tolerance: f64,
-    /// Most active-set iterations per block before the block goes to the fallback; `0` means
-    /// [`DEFAULT_ITERATIONS`] with a fallback and `40 + rows of the block / 2` without one
-    /// (then the method must converge on its own). Default `0`.
+    /// Most active-set iterations per block from the warm start before the block goes to the
+    /// interior-point rescue (or, with that off, to the fallback); `0` means
+    /// [`DEFAULT_ITERATIONS`] with the rescue or a fallback, and `40 + rows of the block / 2`
+    /// with neither (then the method must converge on its own). Default `0`.
     ///
     /// The active-set method wins when the active set changes by a few rows per step (a crowd
     /// walking, a queue at a door) and loses to an interior point when it changes by hundreds
     /// (a jam forming): each change costs it an iteration (a solve through a bordered factor,
-    /// a fresh factorization after 24 changes). The cap bounds what a jammed step can cost
-    /// before Clarabel takes the block (`sweep bench --start jammed` in the README measures
-    /// both sides).
+    /// a fresh factorization after 24 changes). The cap bounds what it spends before the
+    /// interior point takes over (`sweep bench --start jammed` in the README measures both).
     pub max_iterations: u32,
     /// Start from the previous step's active rows, matched by row keys. Default `true`.
     pub warm_start: bool,
+    /// When the active-set method does not converge within its cap (or cycles), solve the
+    /// block by the interior-point method of this crate and finish from its guess, before
+    /// any fallback. Default `true`.
+    pub interior_point: bool,
 }
 
 impl Default for NativeSettings {
@@ -89,12 +103,24 @@ impl Default for NativeSettings {
             kkt_tolerance: 1e-10,
             max_iterations: 0,
             warm_start: true,
+            interior_point: true,
         }
     }
 }
 
 /// The cap on iterations per block when [`NativeSettings::max_iterations`] is `0`.
 pub const DEFAULT_ITERATIONS: u32 = 16;
+
+/// Relative accuracy (duality measure and residuals, against `max(1, ‖b − Ay‖∞)`) at which
+/// the interior-point rescue hands over to the active-set method.
+const INTERIOR_POINT_TOLERANCE: f64 = 1e-8;
+/// Most interior-point iterations of a rescue (it needs 8–17 on crowds).
+const INTERIOR_POINT_ITERATIONS: u32 = 60;
+/// Most active-set iterations when finishing from the interior-point guess (or
+/// `40 + rows / 2` when larger). On a jam the guess holds the rows of contact loops, which
+/// leave one per iteration; an iteration there costs a solve through a bordered factor, far
+/// less than handing the block on.
+const POLISH_ITERATIONS: u32 = 300;
 
 /// The native backend; see the [crate documentation](crate).
 pub struct NativeProjector {
@@ -183,24 +209,36 @@ impl NativeProjector {
             .collect();
         let warm = support.iter().any(|&i| remembered[i].is_some());
         let lambda = support.iter().map(|&i| join[i]).collect();
+        let rescue = self.settings.interior_point;
         let cap = match self.settings.max_iterations {
-            0 if self.fallback.is_some() => DEFAULT_ITERATIONS,
+            0 if self.fallback.is_some() || rescue => DEFAULT_ITERATIONS,
             0 => 40 + u32::try_from(m / 2).unwrap_or(u32::MAX / 4),
             c => c,
         };
-        let outcome = active_set::solve(
-            block,
-            Start {
-                support,
-                lambda,
-                join,
-            },
-            cap,
-        )
-        .map_err(|f| (f, cap))?;
+        let start = Start {
+            support,
+            lambda,
+            join,
+        };
+        let (outcome, rescued) = match active_set::solve(block, start, cap) {
+            Ok(outcome) => (outcome, false),
+            Err(Failure::Cap(_) | Failure::Cycling(_)) if rescue => {
+                // The cold multipliers, for a rescue that must start over.
+                let cold = (0..m).map(|i| own_multiplier(block, i, r[i])).collect();
+                let outcome = rescue_by_interior_point(block, &r, cold)
+                    .map_err(|(failure, spent)| (failure, cap.saturating_add(spent)))?;
+                (outcome, true)
+            }
+            Err(failure) => return Err((failure, cap)),
+        };
+        let iterations = if rescued {
+            outcome.iterations.saturating_add(cap)
+        } else {
+            outcome.iterations
+        };
         let kkt = block.kkt_residuals(&outcome.x, &outcome.lambda).max();
         if kkt.is_nan() || kkt > tol {
-            return Err((Failure::Numerical("KKT check failed"), outcome.iterations));
+            return Err((Failure::Numerical("KKT check failed"), iterations));
         }
         Ok(Projection {
             x: outcome.x,
@@ -208,14 +246,67 @@ impl NativeProjector {
             stats: SolveStats {
                 backend: NAME.to_string(),
                 status: SolveStatus::Solved,
-                iterations: outcome.iterations,
+                iterations,
                 solve_seconds: 0.0,
                 setup_seconds: 0.0,
                 warm_started: warm,
                 fallbacks: 0,
+                rescues: u32::from(rescued),
             },
         })
     }
+}
+
+/// The block solved by the interior-point method of [`interior_point`] to a relative
+/// accuracy of [`INTERIOR_POINT_TOLERANCE`], then finished exactly by the active-set method
+/// from the rows whose multiplier exceeds their slack (as Clarabel's answers are polished).
+/// When the interior point does not converge (its iterates diverge on an empty set), the
+/// active-set method starts from the rows violated at `y` instead, with `cold` multipliers,
+/// and certifies what it finds (a Farkas certificate on an empty set). On failure, the
+/// reason and the iterations spent (both methods).
+fn rescue_by_interior_point(
+    block: &ProjectionProblem,
+    r: &[f64],
+    cold: Vec<f64>,
+) -> Result<active_set::Outcome, (Failure, u32)> {
+    let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
+    let iterate = interior_point::solve(
+        block.a(),
+        r,
+        INTERIOR_POINT_TOLERANCE * scale,
+        INTERIOR_POINT_ITERATIONS,
+    );
+    let spent = iterate.as_ref().map_or(0, |it| it.iterations);
+    let start = match iterate {
+        Some(it) if it.converged => {
+            let support: Vec<usize> = (0..block.n_rows())
+                .filter(|&i| it.lambda[i] > it.slack[i])
+                .collect();
+            let lambda = support.iter().map(|&i| it.lambda[i]).collect();
+            Start {
+                support,
+                lambda,
+                join: it.lambda,
+            }
+        }
+        _ => {
+            let support: Vec<usize> = (0..block.n_rows()).filter(|&i| r[i] > 0.0).collect();
+            let lambda = support.iter().map(|&i| cold[i]).collect();
+            Start {
+                support,
+                lambda,
+                join: cold,
+            }
+        }
+    };
+    let rows = u32::try_from(block.n_rows() / 2).unwrap_or(u32::MAX / 4);
+    let cap = POLISH_ITERATIONS.max(40 + rows);
+    active_set::solve(block, start, cap)
+        .map(|mut outcome| {
+            outcome.iterations = outcome.iterations.saturating_add(spent);
+            outcome
+        })
+        .map_err(|failure| (failure, cap.saturating_add(spent)))
 }
 
 impl Projector for NativeProjector {

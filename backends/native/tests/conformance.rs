@@ -64,10 +64,59 @@ fn agrees_with_clarabel_on_random_instances_without_fallback() {
     assert_eq!(compared, 200);
 }
 
-/// A capped solver (one factorization per block) cannot finish a problem that needs rows to
-/// join: the block goes to the fallback, is counted, and the answer is the fallback's.
+/// The kit with the active set capped at one iteration, so that every block that needs more
+/// goes through the interior-point rescue: its answers are held to the same tolerances.
+mod rescued {
+    use super::*;
+    sweeping_api::conformance_tests!(
+        NativeProjector::new(NativeSettings {
+            max_iterations: 1,
+            ..NativeSettings::default()
+        }),
+        Tolerances {
+            kkt: 1e-10,
+            point: 1e-7,
+            certifies_infeasibility: true
+        }
+    );
+}
+
 #[test]
-fn capped_solver_falls_back_and_counts() {
+fn rescued_answers_agree_with_clarabel_on_random_instances() {
+    let mut rescued = 0;
+    let compared = agreement_on_random_instances(
+        &mut NativeProjector::new(NativeSettings {
+            max_iterations: 1,
+            ..NativeSettings::default()
+        }),
+        &mut ClarabelProjector::default(),
+        &Agreement {
+            first_seed: 7000,
+            instances: 200,
+            n_spread: 50,
+            m_spread: 80,
+            kkt: 1e-10,
+            gap: 1e-8,
+        },
+        |sol| {
+            rescued += sol.stats.rescues;
+            match sol.stats.fallbacks {
+                0 => Ok(()),
+                k => Err(format!("{k} fallbacks")),
+            }
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(compared, 200);
+    // One iteration is rarely enough: most instances went through the rescue.
+    assert!(rescued > 100, "only {rescued} rescues");
+}
+
+/// A capped solver (one factorization per block) cannot finish a problem that needs rows to
+/// join: the interior point rescues the blocks, or (with the rescue off) the block goes to
+/// the fallback, is counted, and the answer is the fallback's.
+#[test]
+fn capped_solver_is_rescued_or_falls_back_and_counts() {
     // Two independent wedges (blocks); projecting onto each needs more than one step from the
     // violated rows: y violates only the first row of each, the second becomes violated after.
     let rows = SparseRows::from_rows(
@@ -81,11 +130,19 @@ fn capped_solver_falls_back_and_counts() {
     );
     let p =
         ProjectionProblem::new(vec![-1.0, 0.0, -1.0, 0.0], rows, vec![0.0, 0.5, 0.0, 0.5]).unwrap();
-    let capped = NativeSettings {
+    let rescue = NativeProjector::new(NativeSettings {
         max_iterations: 1,
         ..NativeSettings::default()
+    })
+    .project(&p)
+    .unwrap();
+    assert_eq!((rescue.stats.rescues, rescue.stats.fallbacks), (2, 0));
+    let capped = NativeSettings {
+        max_iterations: 1,
+        interior_point: false,
+        ..NativeSettings::default()
     };
-    // Without a fallback: a typed error naming the block.
+    // Without the rescue or a fallback: a typed error naming the block.
     match NativeProjector::new(capped.clone()).project(&p) {
         Err(ProjectionError::NotConverged {
             backend, status, ..
@@ -100,8 +157,9 @@ fn capped_solver_falls_back_and_counts() {
     assert_eq!(sol.stats.fallbacks, 2, "both blocks fell back");
     assert_eq!(sol.stats.backend, "native");
     let exact = NativeProjector::default().project(&p).unwrap();
-    assert_eq!(exact.stats.fallbacks, 0);
+    assert_eq!((exact.stats.fallbacks, exact.stats.rescues), (0, 0));
     assert!(max_gap(&sol.x, &exact.x) <= 1e-8);
+    assert!(max_gap(&rescue.x, &exact.x) <= 1e-12);
     assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-8);
 }
 

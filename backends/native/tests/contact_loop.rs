@@ -18,7 +18,7 @@ use sweeping_api::conformance::max_gap;
 use sweeping_api::Projector;
 use sweeping_api::RowKey;
 use sweeping_clarabel::ClarabelProjector;
-use sweeping_native::NativeProjector;
+use sweeping_native::{NativeProjector, NativeSettings};
 
 #[test]
 fn contact_loop_is_solved_exactly_without_fallback() {
@@ -53,4 +53,22 @@ fn contact_loop_is_solved_exactly_without_fallback() {
     assert!(second.stats.warm_started);
     assert_eq!(second.stats.fallbacks, 0);
     assert_is_the_projection(&problem, &second.x, "warm");
+}
+
+/// The interior-point rescue on the contact loop: its guess holds every row of the loop, and
+/// the active-set finish must still reach the exact projection.
+#[test]
+fn contact_loop_is_solved_exactly_by_the_interior_point_rescue() {
+    let problem = contact_loop_qp();
+    let mut rescue = NativeProjector::new(NativeSettings {
+        max_iterations: 1,
+        ..NativeSettings::default()
+    });
+    let sol = rescue
+        .project(&problem)
+        .expect("the rescue solves the loop");
+    assert_eq!((sol.stats.rescues, sol.stats.fallbacks), (1, 0));
+    let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
+    assert!(kkt <= 1e-10, "KKT residual {kkt:.3e}");
+    assert_is_the_projection(&problem, &sol.x, "rescued");
 }

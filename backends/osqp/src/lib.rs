@@ -588,6 +588,7 @@ impl OsqpProjector {
                         setup_seconds,
                         warm_started: reusable || keyed_warm,
                         fallbacks: 0,
+                        rescues: 0,
                     },
                 })
             }

@@ -326,6 +326,7 @@ impl Projector for Cyclic {
                         setup_seconds: 0.0,
                         warm_started: false,
                         fallbacks: 0,
+                        rescues: 0,
                     },
                 });
             }

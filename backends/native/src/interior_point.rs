@@ -1,0 +1,481 @@
+//! A primal–dual interior-point method (Mehrotra's predictor–corrector) for one block of the
+//! projection, on the normal equations: the identifier the active-set method is started from
+//! when its own warm start does not converge.
+//!
+//! With `d = x − y` and `r = b − A y`, the projection is `min ½‖d‖²` subject to
+//! `A d − s = r`, `s ≥ 0`; its KKT conditions are `d = Aᵀλ`, `A d − s = r`, `λ ∘ s = 0`,
+//! `λ, s ≥ 0`. A Newton step on them with `λ ∘ s = σμ` eliminates `Δs = A Δd + r_p` and
+//! `Δλ = −r_c/s − W (A Δd + r_p)`, `W = diag(λ/s)`, leaving
+//!
+//! ```text
+//!     (I + AᵀWA) Δd = −r_d − Aᵀ(W r_p + r_c/s),
+//! ```
+//!
+//! an `n × n` symmetric positive definite system (the identity comes from the objective, so
+//! it is never singular, whatever the rows: contact loops included). Its pattern is that of
+//! `I + AᵀA` at every iteration, so it is ordered and analysed once per block and only
+//! refactored numerically after that. A general interior-point solver factors the
+//! `(n + m)`-square KKT matrix instead, with `m` (the candidate rows) about twice `n` on a jam.
+//!
+//! Interior points cannot be warm-started usefully, and they approach weakly active rows only
+//! like `√μ`; so this method stops at a modest accuracy and the active-set method finishes
+//! from the rows whose multiplier exceeds their slack, exactly, as it polishes Clarabel's
+//! answers.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
+use sweeping_api::SparseRows;
+
+/// Fraction of the step to the boundary that an iteration takes.
+const TO_BOUNDARY: f64 = 0.99;
+
+/// Where the method stopped.
+#[derive(Debug, Clone)]
+pub(crate) struct Iterate {
+    /// The multipliers `λ > 0`.
+    pub lambda: Vec<f64>,
+    /// The slacks `s = A d − r > 0` (up to the primal residual).
+    pub slack: Vec<f64>,
+    /// Interior-point iterations (one factorization each).
+    pub iterations: u32,
+    /// Whether the duality measure and both residuals reached the tolerance.
+    pub converged: bool,
+}
+
+/// The normal matrix `I + AᵀWA`, its pattern fixed, and its factorization.
+struct NormalMatrix {
+    /// Upper triangle, compressed by columns.
+    csc: CscMatrix<f64>,
+    /// For each row of `A`, for each pair `k ≤ l` of its entries, where `aₖ aₗ` adds up…
+    slots: Vec<usize>,
+    /// …and `aₖ aₗ` itself.
+    coefficients: Vec<f64>,
+    /// Where each row's pairs start in `slots`.
+    row_slots: Vec<usize>,
+    /// Where the diagonal entries are.
+    diagonal: Vec<usize>,
+    factor: Option<QDLDLFactorisation<f64>>,
+}
+
+impl NormalMatrix {
+    fn new(a: &SparseRows) -> Self {
+        let n = a.n_cols();
+        let (ptr, idx) = (a.row_ptr(), a.col_idx());
+        // Every (row ≤ column) pair that a row of A touches, and the diagonal.
+        let mut pairs: Vec<(usize, usize)> = (0..n).map(|j| (j, j)).collect();
+        for i in 0..a.n_rows() {
+            for k in ptr[i]..ptr[i + 1] {
+                for l in ptr[i]..ptr[i + 1] {
+                    let (p, q) = (idx[k], idx[l]);
+                    if p <= q {
+                        pairs.push((q, p));
+                    }
+                }
+            }
+        }
+        // Sorted by column, then row: the order of a CSC matrix.
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut colptr = vec![0usize; n + 1];
+        for &(col, _) in &pairs {
+            colptr[col + 1] += 1;
+        }
+        for j in 0..n {
+            colptr[j + 1] += colptr[j];
+        }
+        let rowval: Vec<usize> = pairs.iter().map(|&(_, row)| row).collect();
+        let position = |row: usize, col: usize| -> usize {
+            let range = colptr[col]..colptr[col + 1];
+            range.start
+                + rowval[range]
+                    .binary_search(&row)
+                    .expect("every pair was entered in the pattern")
+        };
+        let val = a.values();
+        let (mut slots, mut coefficients, mut row_slots) = (Vec::new(), Vec::new(), vec![0]);
+        for i in 0..a.n_rows() {
+            for k in ptr[i]..ptr[i + 1] {
+                for l in ptr[i]..ptr[i + 1] {
+                    let (p, q) = (idx[k], idx[l]);
+                    if p <= q {
+                        slots.push(position(p, q));
+                        coefficients.push(val[k] * val[l]);
+                    }
+                }
+            }
+            row_slots.push(slots.len());
+        }
+        let diagonal = (0..n).map(|j| position(j, j)).collect();
+        let nnz = rowval.len();
+        Self {
+            csc: CscMatrix::new(n, n, colptr, rowval, vec![0.0; nnz]),
+            slots,
+            coefficients,
+            row_slots,
+            diagonal,
+            factor: None,
+        }
+    }
+
+    /// Fills `I + AᵀWA` and factors it. `false` when the factorization fails.
+    fn factor(&mut self, w: &[f64]) -> bool {
+        if !w.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        let values = &mut self.csc.nzval;
+        values.iter_mut().for_each(|v| *v = 0.0);
+        self.diagonal.iter().for_each(|&p| values[p] = 1.0);
+        for (i, &wi) in w.iter().enumerate() {
+            let range = self.row_slots[i]..self.row_slots[i + 1];
+            for (&slot, &c) in self.slots[range.clone()]
+                .iter()
+                .zip(&self.coefficients[range])
+            {
+                values[slot] += wi * c;
+            }
+        }
+        match self.factor.as_mut() {
+            Some(ldl) => {
+                let all: Vec<usize> = (0..values.len()).collect();
+                ldl.update_values(&all, values);
+                ldl.refactor().is_ok()
+            }
+            None => {
+                let mut builder = QDLDLSettingsBuilder::default();
+                builder.Dsigns(vec![1; self.csc.n]);
+                let Ok(settings) = builder.build() else {
+                    return false;
+                };
+                match QDLDLFactorisation::new(&self.csc, Some(settings)) {
+                    Ok(ldl) => {
+                        self.factor = Some(ldl);
+                        true
+                    }
+                    Err(_) => false,
+                }
+            }
+        }
+    }
+
+    fn solve(&mut self, v: &mut [f64]) {
+        if let Some(ldl) = self.factor.as_mut() {
+            ldl.solve(v);
+        }
+    }
+}
+
+/// The largest `α` with `v + α Δv ≥ 0` (infinite when `Δv ≥ 0`).
+fn step_to_boundary(v: &[f64], dv: &[f64]) -> f64 {
+    v.iter()
+        .zip(dv)
+        .filter(|(_, &d)| d < 0.0)
+        .map(|(&x, &d)| -x / d)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// A Newton direction `(Δd, Δλ, Δs)` for the complementarity target `r_c` (`λ ∘ s` minus
+/// what it should become), at the factored `W`.
+#[allow(clippy::too_many_arguments)]
+fn direction(
+    a: &SparseRows,
+    matrix: &mut NormalMatrix,
+    slack: &[f64],
+    w: &[f64],
+    r_d: &[f64],
+    r_p: &[f64],
+    r_c: &[f64],
+    out: (&mut [f64], &mut [f64], &mut [f64]),
+) {
+    let (dd, dl, ds) = out;
+    let m = slack.len();
+    // rhs = −r_d − Aᵀ(W r_p + r_c/s).
+    let t: Vec<f64> = (0..m).map(|i| w[i] * r_p[i] + r_c[i] / slack[i]).collect();
+    a.mul_transpose_vec(&t, dd);
+    dd.iter_mut().zip(r_d).for_each(|(v, rd)| *v = -*v - rd);
+    matrix.solve(dd);
+    // Δs = A Δd + r_p; Δλ = −r_c/s − W Δs.
+    a.mul_vec(dd, ds);
+    for i in 0..m {
+        ds[i] += r_p[i];
+        dl[i] = -r_c[i] / slack[i] - w[i] * ds[i];
+    }
+}
+
+/// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` until the duality measure `μ` and both
+/// residuals are at most `tolerance` (absolute), or `max_iterations`. `None` when a
+/// factorization fails or the iterates stop being finite.
+pub(crate) fn solve(
+    a: &SparseRows,
+    r: &[f64],
+    tolerance: f64,
+    max_iterations: u32,
+) -> Option<Iterate> {
+    let (m, n) = (a.n_rows(), a.n_cols());
+    if m == 0 {
+        return None;
+    }
+    let mut matrix = NormalMatrix::new(a);
+    // Start (Mehrotra's heuristic): the least-squares point d̂ = argmin ½‖d‖² + ½‖Ad − r‖²,
+    // whose λ̂ = r − A d̂ makes it dual feasible (d̂ = Aᵀλ̂) with s = −λ̂, then both shifted
+    // into the positive orthant and balanced.
+    if !matrix.factor(&vec![1.0; m]) {
+        return None;
+    }
+    let mut d = vec![0.0; n];
+    a.mul_transpose_vec(r, &mut d);
+    matrix.solve(&mut d);
+    let mut ad = vec![0.0; m];
+    a.mul_vec(&d, &mut ad);
+    let mut slack: Vec<f64> = ad.iter().zip(r).map(|(v, ri)| v - ri).collect();
+    let mut lambda: Vec<f64> = slack.iter().map(|s| -s).collect();
+    let shift = |v: &mut Vec<f64>| {
+        let low = v.iter().fold(f64::INFINITY, |acc, &x| acc.min(x));
+        let by = (-1.5 * low).max(0.0);
+        v.iter_mut().for_each(|x| *x += by);
+    };
+    shift(&mut slack);
+    shift(&mut lambda);
+    let product: f64 = slack.iter().zip(&lambda).map(|(s, l)| s * l).sum();
+    let (sum_s, sum_l): (f64, f64) = (slack.iter().sum(), lambda.iter().sum());
+    let floor = tolerance.max(f64::MIN_POSITIVE);
+    let by_s = if sum_l > 0.0 {
+        0.5 * product / sum_l
+    } else {
+        1.0
+    };
+    let by_l = if sum_s > 0.0 {
+        0.5 * product / sum_s
+    } else {
+        1.0
+    };
+    slack.iter_mut().for_each(|s| *s = (*s + by_s).max(floor));
+    lambda.iter_mut().for_each(|l| *l = (*l + by_l).max(floor));
+
+    let (mut r_d, mut r_p, mut r_c) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+    let (mut dd, mut dl, mut ds) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+    let mut w = vec![0.0; m];
+    let mut at_lambda = vec![0.0; n];
+    for iterations in 1..=max_iterations {
+        // Residuals: r_d = d − Aᵀλ, r_p = A d − s − r, and μ = sᵀλ / m.
+        a.mul_transpose_vec(&lambda, &mut at_lambda);
+        r_d.iter_mut()
+            .zip(&d)
+            .zip(&at_lambda)
+            .for_each(|((v, di), ai)| *v = di - ai);
+        a.mul_vec(&d, &mut ad);
+        for i in 0..m {
+            r_p[i] = ad[i] - slack[i] - r[i];
+        }
+        let mu = slack.iter().zip(&lambda).map(|(s, l)| s * l).sum::<f64>() / m as f64;
+        let worst = |v: &[f64]| v.iter().fold(0.0f64, |acc, x| acc.max(x.abs()));
+        if mu <= tolerance && worst(&r_p) <= tolerance && worst(&r_d) <= tolerance {
+            return Some(Iterate {
+                lambda,
+                slack,
+                iterations,
+                converged: true,
+            });
+        }
+        for i in 0..m {
+            w[i] = lambda[i] / slack[i];
+        }
+        if !matrix.factor(&w) {
+            return None;
+        }
+        // Predictor: the affine-scaling direction (target λ ∘ s = 0).
+        for i in 0..m {
+            r_c[i] = slack[i] * lambda[i];
+        }
+        direction(
+            a,
+            &mut matrix,
+            &slack,
+            &w,
+            &r_d,
+            &r_p,
+            &r_c,
+            (&mut dd, &mut dl, &mut ds),
+        );
+        let alpha = step_to_boundary(&slack, &ds)
+            .min(step_to_boundary(&lambda, &dl))
+            .min(1.0);
+        let mu_affine = slack
+            .iter()
+            .zip(&ds)
+            .zip(lambda.iter().zip(&dl))
+            .map(|((s, dsi), (l, dli))| (s + alpha * dsi) * (l + alpha * dli))
+            .sum::<f64>()
+            / m as f64;
+        let sigma = (mu_affine / mu).clamp(0.0, 1.0).powi(3);
+        // Corrector: the second-order term of the predictor, and centring.
+        for i in 0..m {
+            r_c[i] = slack[i] * lambda[i] + ds[i] * dl[i] - sigma * mu;
+        }
+        direction(
+            a,
+            &mut matrix,
+            &slack,
+            &w,
+            &r_d,
+            &r_p,
+            &r_c,
+            (&mut dd, &mut dl, &mut ds),
+        );
+        let alpha = (TO_BOUNDARY
+            * step_to_boundary(&slack, &ds).min(step_to_boundary(&lambda, &dl)))
+        .min(1.0);
+        for j in 0..n {
+            d[j] += alpha * dd[j];
+        }
+        for i in 0..m {
+            slack[i] = (slack[i] + alpha * ds[i]).max(f64::MIN_POSITIVE);
+            lambda[i] = (lambda[i] + alpha * dl[i]).max(f64::MIN_POSITIVE);
+        }
+        if !d.iter().chain(&slack).chain(&lambda).all(|v| v.is_finite()) {
+            return None;
+        }
+    }
+    Some(Iterate {
+        lambda,
+        slack,
+        iterations: max_iterations,
+        converged: false,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sweeping_api::conformance::{max_gap, random_instance, ReferenceProjector};
+    use sweeping_api::{ProjectionProblem, Projector};
+
+    fn residual(p: &ProjectionProblem) -> Vec<f64> {
+        let mut ay = vec![0.0; p.n_rows()];
+        p.a().mul_vec(p.y(), &mut ay);
+        ay.iter().zip(p.b()).map(|(v, b)| b - v).collect()
+    }
+
+    #[test]
+    fn the_normal_matrix_is_the_identity_plus_a_transpose_w_a() {
+        let p = random_instance(3, 12, 30);
+        let (a, n) = (p.a(), p.dim());
+        let w: Vec<f64> = (0..p.n_rows()).map(|i| 0.5 + (i % 7) as f64).collect();
+        let mut matrix = NormalMatrix::new(a);
+        assert!(matrix.factor(&w));
+        // The dense I + AᵀWA, from its definition.
+        let mut dense = vec![vec![0.0; n]; n];
+        (0..n).for_each(|j| dense[j][j] = 1.0);
+        for (i, &wi) in w.iter().enumerate() {
+            for (p_, u) in a.row(i) {
+                for (q, v) in a.row(i) {
+                    dense[p_][q] += wi * u * v;
+                }
+            }
+        }
+        // Every stored entry is the upper triangle's, and nothing non-zero is missing.
+        let csc = &matrix.csc;
+        let mut stored = vec![vec![false; n]; n];
+        for col in 0..n {
+            for k in csc.colptr[col]..csc.colptr[col + 1] {
+                let row = csc.rowval[k];
+                assert!(row <= col, "entry ({row}, {col}) below the diagonal");
+                assert!((csc.nzval[k] - dense[row][col]).abs() < 1e-12);
+                stored[row][col] = true;
+            }
+        }
+        for (row, line) in dense.iter().enumerate() {
+            for (col, v) in line.iter().enumerate().skip(row) {
+                assert!(
+                    stored[row][col] || *v == 0.0,
+                    "({row}, {col}) = {v} missing"
+                );
+            }
+        }
+        // And the factor solves the dense system.
+        let rhs: Vec<f64> = (0..n).map(|j| (j as f64).sin()).collect();
+        let mut x = rhs.clone();
+        matrix.solve(&mut x);
+        for j in 0..n {
+            let hx: f64 = (0..n).map(|k| dense[j][k] * x[k]).sum();
+            assert!(
+                (hx - rhs[j]).abs() < 1e-10,
+                "row {j}: {hx} against {}",
+                rhs[j]
+            );
+        }
+    }
+
+    #[test]
+    fn converges_to_the_projection_on_random_instances() {
+        for seed in 0..40u64 {
+            let (n, m) = (2 + (seed as usize * 7) % 30, 1 + (seed as usize * 13) % 45);
+            let p = random_instance(seed, n, m);
+            let r = residual(&p);
+            let tol = 1e-11;
+            let it = solve(p.a(), &r, tol, 80).expect("factorizations succeed");
+            assert!(it.converged, "seed {seed}: {} iterations", it.iterations);
+            assert!(it.lambda.iter().chain(&it.slack).all(|&v| v > 0.0));
+            // x = y + Aᵀλ against the reference projection: an interior point is off by about
+            // √μ on weakly active rows.
+            let mut d = vec![0.0; n];
+            p.a().mul_transpose_vec(&it.lambda, &mut d);
+            let x: Vec<f64> = p.y().iter().zip(&d).map(|(y, d)| y + d).collect();
+            let reference = ReferenceProjector::default().project(&p).unwrap();
+            let gap = max_gap(&x, &reference.x);
+            assert!(gap < 1e-4, "seed {seed}: {gap:.2e} from the reference");
+            let kkt = p.kkt_residuals(&x, &it.lambda);
+            assert!(kkt.primal <= 10.0 * tol, "seed {seed}: {kkt:?}");
+            assert!(kkt.complementarity <= 1e-8, "seed {seed}: {kkt:?}");
+        }
+    }
+
+    #[test]
+    fn dependent_rows_do_not_break_the_factorization() {
+        // The same row three times and a row that is the sum of two others: AᵀWA is singular
+        // where A is, the identity keeps the normal matrix definite.
+        let a = SparseRows::from_rows(
+            3,
+            &[
+                vec![(0, 1.0), (1, 1.0)],
+                vec![(0, 1.0), (1, 1.0)],
+                vec![(0, 1.0), (1, 1.0)],
+                vec![(1, 1.0), (2, 1.0)],
+                vec![(0, 1.0), (1, 2.0), (2, 1.0)],
+            ],
+        );
+        let r = [1.0, 1.0, 1.0, 1.0, 2.0];
+        let it = solve(&a, &r, 1e-12, 80).expect("factorizations succeed");
+        assert!(it.converged);
+        let mut d = vec![0.0; 3];
+        a.mul_transpose_vec(&it.lambda, &mut d);
+        // The projection of 0 onto {x₀ + x₁ ≥ 1, x₁ + x₂ ≥ 1} is (1/3, 2/3, 1/3).
+        for (got, want) in d.iter().zip([1.0 / 3.0, 2.0 / 3.0, 1.0 / 3.0]) {
+            assert!((got - want).abs() < 1e-5, "{d:?}");
+        }
+    }
+
+    #[test]
+    fn an_empty_set_stops_without_converging() {
+        // x₀ + x₁ ≥ 1, −x₀ ≥ 0, −x₁ ≥ 0: no point satisfies all three.
+        let a = SparseRows::from_rows(
+            2,
+            &[vec![(0, 1.0), (1, 1.0)], vec![(0, -1.0)], vec![(1, -1.0)]],
+        );
+        let r = [1.0, 0.0, 0.0];
+        if let Some(it) = solve(&a, &r, 1e-10, 30) {
+            assert!(!it.converged);
+            assert_eq!(it.iterations, 30);
+        }
+    }
+
+    #[test]
+    fn no_rows_is_no_problem_to_solve() {
+        assert!(solve(&SparseRows::new(3), &[], 1e-10, 10).is_none());
+    }
+
+    #[test]
+    fn the_step_to_the_boundary_stops_at_the_first_zero() {
+        assert_eq!(step_to_boundary(&[1.0, 2.0, 3.0], &[-2.0, -1.0, 5.0]), 0.5);
+        assert_eq!(step_to_boundary(&[1.0, 2.0], &[0.0, 1.0]), f64::INFINITY);
+    }
+}
