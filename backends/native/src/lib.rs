@@ -111,15 +111,17 @@ impl Default for NativeSettings {
 /// The cap on iterations per block when [`NativeSettings::max_iterations`] is `0`.
 pub const DEFAULT_ITERATIONS: u32 = 16;
 
-/// Relative accuracy (duality measure and residuals, against `max(1, ‖b − Ay‖∞)`) at which
-/// the interior-point rescue hands over to the active-set method.
-const INTERIOR_POINT_TOLERANCE: f64 = 1e-8;
+/// Relative accuracies (duality measure and residuals, against `max(1, ‖b − Ay‖∞)`) at which
+/// the interior-point rescue hands over to the active-set method: the first, and the second
+/// when the finish from the first runs out of iterations.
+const INTERIOR_POINT_TOLERANCES: [f64; 2] = [1e-8, 1e-11];
 /// Most interior-point iterations of a rescue (it needs 8–17 on crowds).
 const INTERIOR_POINT_ITERATIONS: u32 = 60;
-/// Most active-set iterations when finishing from the interior-point guess (or
-/// `40 + rows / 2` when larger). On a jam the guess holds the rows of contact loops, which
-/// leave one per iteration; an iteration there costs a solve through a bordered factor, far
-/// less than handing the block on.
+/// Most active-set iterations when finishing from an interior-point guess. On a jam the
+/// guess holds rows of contact loops that are nearly but not quite tight, which leave one per
+/// iteration; an iteration there costs a solve through a bordered factor, far less than
+/// handing the block on. (From a cold start, after an interior point that diverged, `40 +
+/// rows / 2` when larger.)
 const POLISH_ITERATIONS: u32 = 300;
 
 /// The native backend; see the [crate documentation](crate).
@@ -258,49 +260,66 @@ impl NativeProjector {
 }
 
 /// The block solved by the interior-point method of [`interior_point`] to a relative
-/// accuracy of [`INTERIOR_POINT_TOLERANCE`], then finished exactly by the active-set method
-/// from the rows whose multiplier exceeds their slack (as Clarabel's answers are polished).
-/// When the interior point does not converge (its iterates diverge on an empty set), the
-/// active-set method starts from the rows violated at `y` instead, with `cold` multipliers,
-/// and certifies what it finds (a Farkas certificate on an empty set). On failure, the
-/// reason and the iterations spent (both methods).
+/// accuracy of [`INTERIOR_POINT_TOLERANCES`]`[0]`, then finished exactly by the active-set
+/// method from the rows whose multiplier exceeds their slack (as Clarabel's answers are
+/// polished); when that finish runs out of [`POLISH_ITERATIONS`], again from a tighter
+/// interior point, whose guess holds fewer rows that are nearly but not quite tight. When the
+/// interior point does not converge (its iterates diverge on an empty set), the active-set
+/// method starts from the rows violated at `y` instead, with `cold` multipliers, and
+/// certifies what it finds (a Farkas certificate on an empty set). On failure, the reason and
+/// the iterations spent (both methods).
 fn rescue_by_interior_point(
     block: &ProjectionProblem,
     r: &[f64],
     cold: Vec<f64>,
 ) -> Result<active_set::Outcome, (Failure, u32)> {
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
-    let iterate = interior_point::solve(
-        block.a(),
-        r,
-        INTERIOR_POINT_TOLERANCE * scale,
-        INTERIOR_POINT_ITERATIONS,
-    );
-    let spent = iterate.as_ref().map_or(0, |it| it.iterations);
-    let start = match iterate {
-        Some(it) if it.converged => {
-            let support: Vec<usize> = (0..block.n_rows())
-                .filter(|&i| it.lambda[i] > it.slack[i])
-                .collect();
-            let lambda = support.iter().map(|&i| it.lambda[i]).collect();
-            Start {
-                support,
-                lambda,
-                join: it.lambda,
-            }
-        }
-        _ => {
+    let mut spent = 0u32;
+    let mut last = Failure::Cap(POLISH_ITERATIONS);
+    for tolerance in INTERIOR_POINT_TOLERANCES {
+        let iterate =
+            interior_point::solve(block.a(), r, tolerance * scale, INTERIOR_POINT_ITERATIONS);
+        spent = spent.saturating_add(iterate.as_ref().map_or(0, |it| it.iterations));
+        let Some(it) = iterate.filter(|it| it.converged) else {
             let support: Vec<usize> = (0..block.n_rows()).filter(|&i| r[i] > 0.0).collect();
             let lambda = support.iter().map(|&i| cold[i]).collect();
-            Start {
+            let start = Start {
                 support,
                 lambda,
                 join: cold,
+            };
+            let rows = u32::try_from(block.n_rows() / 2).unwrap_or(u32::MAX / 4);
+            let cap = POLISH_ITERATIONS.max(40 + rows);
+            return finish(block, start, cap, spent);
+        };
+        let support: Vec<usize> = (0..block.n_rows())
+            .filter(|&i| it.lambda[i] > it.slack[i])
+            .collect();
+        let lambda = support.iter().map(|&i| it.lambda[i]).collect();
+        let start = Start {
+            support,
+            lambda,
+            join: it.lambda,
+        };
+        match finish(block, start, POLISH_ITERATIONS, spent) {
+            Ok(outcome) => return Ok(outcome),
+            Err((failure @ (Failure::Cap(_) | Failure::Cycling(_)), total)) => {
+                spent = total;
+                last = failure;
             }
+            Err(other) => return Err(other),
         }
-    };
-    let rows = u32::try_from(block.n_rows() / 2).unwrap_or(u32::MAX / 4);
-    let cap = POLISH_ITERATIONS.max(40 + rows);
+    }
+    Err((last, spent))
+}
+
+/// The active-set method from `start`, its iterations added to the `spent` ones.
+fn finish(
+    block: &ProjectionProblem,
+    start: Start,
+    cap: u32,
+    spent: u32,
+) -> Result<active_set::Outcome, (Failure, u32)> {
     active_set::solve(block, start, cap)
         .map(|mut outcome| {
             outcome.iterations = outcome.iterations.saturating_add(spent);
