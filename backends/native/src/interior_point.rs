@@ -173,31 +173,41 @@ fn step_to_boundary(v: &[f64], dv: &[f64]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// A Newton direction `(Δd, Δλ, Δs)` for the complementarity target `r_c` (`λ ∘ s` minus
-/// what it should become), at the factored `W`.
-#[allow(clippy::too_many_arguments)]
-fn direction(
-    a: &SparseRows,
-    matrix: &mut NormalMatrix,
-    slack: &[f64],
-    w: &[f64],
-    r_d: &[f64],
-    r_p: &[f64],
-    r_c: &[f64],
-    out: (&mut [f64], &mut [f64], &mut [f64]),
-) {
-    let (dd, dl, ds) = out;
-    let m = slack.len();
-    // rhs = −r_d − Aᵀ(W r_p + r_c/s).
-    let t: Vec<f64> = (0..m).map(|i| w[i] * r_p[i] + r_c[i] / slack[i]).collect();
-    a.mul_transpose_vec(&t, dd);
-    dd.iter_mut().zip(r_d).for_each(|(v, rd)| *v = -*v - rd);
-    matrix.solve(dd);
-    // Δs = A Δd + r_p; Δλ = −r_c/s − W Δs.
-    a.mul_vec(dd, ds);
-    for i in 0..m {
-        ds[i] += r_p[i];
-        dl[i] = -r_c[i] / slack[i] - w[i] * ds[i];
+/// The Newton system at one iterate: the rows, the slacks, `W = diag(λ/s)` (factored in
+/// the caller's [`NormalMatrix`]) and the dual and primal residuals.
+struct Newton<'a> {
+    a: &'a SparseRows,
+    slack: &'a [f64],
+    w: &'a [f64],
+    r_d: &'a [f64],
+    r_p: &'a [f64],
+}
+
+impl Newton<'_> {
+    /// The direction `(Δd, Δλ, Δs)` for the complementarity residual `r_c` (`λ ∘ s` minus
+    /// what it should become).
+    fn direction(
+        &self,
+        matrix: &mut NormalMatrix,
+        r_c: &[f64],
+        (dd, dl, ds): (&mut [f64], &mut [f64], &mut [f64]),
+    ) {
+        let m = self.slack.len();
+        // rhs = −r_d − Aᵀ(W r_p + r_c/s).
+        let t: Vec<f64> = (0..m)
+            .map(|i| self.w[i] * self.r_p[i] + r_c[i] / self.slack[i])
+            .collect();
+        self.a.mul_transpose_vec(&t, dd);
+        dd.iter_mut()
+            .zip(self.r_d)
+            .for_each(|(v, rd)| *v = -*v - rd);
+        matrix.solve(dd);
+        // Δs = A Δd + r_p; Δλ = −r_c/s − W Δs.
+        self.a.mul_vec(dd, ds);
+        for i in 0..m {
+            ds[i] += self.r_p[i];
+            dl[i] = -r_c[i] / self.slack[i] - self.w[i] * ds[i];
+        }
     }
 }
 
@@ -282,20 +292,18 @@ pub(crate) fn solve(
         if !matrix.factor(&w) {
             return None;
         }
+        let newton = Newton {
+            a,
+            slack: &slack,
+            w: &w,
+            r_d: &r_d,
+            r_p: &r_p,
+        };
         // Predictor: the affine-scaling direction (target λ ∘ s = 0).
         for i in 0..m {
             r_c[i] = slack[i] * lambda[i];
         }
-        direction(
-            a,
-            &mut matrix,
-            &slack,
-            &w,
-            &r_d,
-            &r_p,
-            &r_c,
-            (&mut dd, &mut dl, &mut ds),
-        );
+        newton.direction(&mut matrix, &r_c, (&mut dd, &mut dl, &mut ds));
         let alpha = step_to_boundary(&slack, &ds)
             .min(step_to_boundary(&lambda, &dl))
             .min(1.0);
@@ -311,16 +319,7 @@ pub(crate) fn solve(
         for i in 0..m {
             r_c[i] = slack[i] * lambda[i] + ds[i] * dl[i] - sigma * mu;
         }
-        direction(
-            a,
-            &mut matrix,
-            &slack,
-            &w,
-            &r_d,
-            &r_p,
-            &r_c,
-            (&mut dd, &mut dl, &mut ds),
-        );
+        newton.direction(&mut matrix, &r_c, (&mut dd, &mut dl, &mut ds));
         let alpha = (TO_BOUNDARY
             * step_to_boundary(&slack, &ds).min(step_to_boundary(&lambda, &dl)))
         .min(1.0);
