@@ -211,31 +211,21 @@ impl Newton<'_> {
     }
 }
 
-/// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` until the duality measure `μ` and both
-/// residuals are at most `tolerance` (absolute), or `max_iterations`. `None` when a
-/// factorization fails or the iterates stop being finite.
-pub(crate) fn solve(
+/// Mehrotra's starting point: the least-squares `d̂ = argmin ½‖d‖² + ½‖Ad − r‖²` (written to
+/// `d`, with `A d̂` to `ad`; `matrix` holds `I + AᵀA`), whose `λ̂ = r − A d̂` makes it dual
+/// feasible (`d̂ = Aᵀλ̂`) with `s = −λ̂`; both are shifted into the positive orthant (by 1.5 ×
+/// their most negative entry) and then balanced (each by `½ sᵀλ` over the other's sum), and
+/// kept at least `tolerance`. Returns `(s, λ)`.
+fn starting_point(
     a: &SparseRows,
     r: &[f64],
+    matrix: &mut NormalMatrix,
     tolerance: f64,
-    max_iterations: u32,
-) -> Option<Iterate> {
-    let (m, n) = (a.n_rows(), a.n_cols());
-    if m == 0 {
-        return None;
-    }
-    let mut matrix = NormalMatrix::new(a);
-    // Start (Mehrotra's heuristic): the least-squares point d̂ = argmin ½‖d‖² + ½‖Ad − r‖²,
-    // whose λ̂ = r − A d̂ makes it dual feasible (d̂ = Aᵀλ̂) with s = −λ̂, then both shifted
-    // into the positive orthant and balanced.
-    if !matrix.factor(&vec![1.0; m]) {
-        return None;
-    }
-    let mut d = vec![0.0; n];
-    a.mul_transpose_vec(r, &mut d);
-    matrix.solve(&mut d);
-    let mut ad = vec![0.0; m];
-    a.mul_vec(&d, &mut ad);
+    (d, ad): (&mut [f64], &mut [f64]),
+) -> (Vec<f64>, Vec<f64>) {
+    a.mul_transpose_vec(r, d);
+    matrix.solve(d);
+    a.mul_vec(d, ad);
     let mut slack: Vec<f64> = ad.iter().zip(r).map(|(v, ri)| v - ri).collect();
     let mut lambda: Vec<f64> = slack.iter().map(|s| -s).collect();
     let shift = |v: &mut Vec<f64>| {
@@ -260,6 +250,29 @@ pub(crate) fn solve(
     };
     slack.iter_mut().for_each(|s| *s = (*s + by_s).max(floor));
     lambda.iter_mut().for_each(|l| *l = (*l + by_l).max(floor));
+    (slack, lambda)
+}
+
+/// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` until the duality measure `μ` and both
+/// residuals are at most `tolerance` (absolute), or `max_iterations`. `None` when a
+/// factorization fails or the iterates stop being finite.
+pub(crate) fn solve(
+    a: &SparseRows,
+    r: &[f64],
+    tolerance: f64,
+    max_iterations: u32,
+) -> Option<Iterate> {
+    let (m, n) = (a.n_rows(), a.n_cols());
+    if m == 0 {
+        return None;
+    }
+    let mut matrix = NormalMatrix::new(a);
+    if !matrix.factor(&vec![1.0; m]) {
+        return None;
+    }
+    let mut d = vec![0.0; n];
+    let mut ad = vec![0.0; m];
+    let (mut slack, mut lambda) = starting_point(a, r, &mut matrix, tolerance, (&mut d, &mut ad));
 
     let (mut r_d, mut r_p, mut r_c) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
     let (mut dd, mut dl, mut ds) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
@@ -406,6 +419,7 @@ mod tests {
 
     #[test]
     fn converges_to_the_projection_on_random_instances() {
+        let mut most = 0;
         for seed in 0..40u64 {
             let (n, m) = (2 + (seed as usize * 7) % 30, 1 + (seed as usize * 13) % 45);
             let p = random_instance(seed, n, m);
@@ -413,6 +427,7 @@ mod tests {
             let tol = 1e-11;
             let it = solve(p.a(), &r, tol, 80).expect("factorizations succeed");
             assert!(it.converged, "seed {seed}: {} iterations", it.iterations);
+            most = most.max(it.iterations);
             assert!(it.lambda.iter().chain(&it.slack).all(|&v| v > 0.0));
             // x = y + Aᵀλ against the reference projection: an interior point is off by about
             // √μ on weakly active rows.
@@ -426,6 +441,9 @@ mod tests {
             assert!(kkt.primal <= 10.0 * tol, "seed {seed}: {kkt:?}");
             assert!(kkt.complementarity <= 1e-8, "seed {seed}: {kkt:?}");
         }
+        // Mehrotra's predictor–corrector from its starting point needs 15 at most here (a
+        // count, not a time: deterministic); a worse start or a broken corrector needs more.
+        assert!(most <= 20, "{most} iterations");
     }
 
     #[test]
@@ -465,6 +483,29 @@ mod tests {
             assert!(!it.converged);
             assert_eq!(it.iterations, 30);
         }
+    }
+
+    #[test]
+    fn the_starting_point_is_mehrotras() {
+        // Two copies of x ≥ …: r = (2, −1). I + AᵀA = 3 and Aᵀr = 1, so d̂ = 1/3; s = A d̂ − r
+        // = (−5/3, 4/3), λ = −s; shifted by 1.5 × their lowest: s = (5/6, 23/6),
+        // λ = (11/3, 2/3); sᵀλ = 101/18, so s gains ½ sᵀλ / Σλ = 101/156 and λ gains
+        // ½ sᵀλ / Σs = 101/168.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, 1.0)]]);
+        let mut matrix = NormalMatrix::new(&a);
+        assert!(matrix.factor(&[1.0, 1.0]));
+        let (mut d, mut ad) = (vec![0.0], vec![0.0; 2]);
+        let (s, l) = starting_point(&a, &[2.0, -1.0], &mut matrix, 1e-12, (&mut d, &mut ad));
+        let close =
+            |got: &[f64], want: &[f64]| got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-14);
+        assert!(close(&d, &[1.0 / 3.0]), "{d:?}");
+        assert!(close(&ad, &[1.0 / 3.0, 1.0 / 3.0]), "{ad:?}");
+        let (bs, bl) = (101.0 / 156.0, 101.0 / 168.0);
+        assert!(close(&s, &[5.0 / 6.0 + bs, 23.0 / 6.0 + bs]), "{s:?}");
+        assert!(close(&l, &[11.0 / 3.0 + bl, 2.0 / 3.0 + bl]), "{l:?}");
+        // Nothing to balance (r = 0): both start at 1.
+        let (s, l) = starting_point(&a, &[0.0, 0.0], &mut matrix, 1e-12, (&mut d, &mut ad));
+        assert_eq!((s, l), (vec![1.0; 2], vec![1.0; 2]));
     }
 
     #[test]
