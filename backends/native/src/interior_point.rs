@@ -54,6 +54,8 @@ struct NormalMatrix {
     row_slots: Vec<usize>,
     /// Where the diagonal entries are.
     diagonal: Vec<usize>,
+    /// `0..nnz`: every entry, for QDLDL's value update.
+    every_entry: Vec<usize>,
     factor: Option<QDLDLFactorisation<f64>>,
 }
 
@@ -113,6 +115,7 @@ impl NormalMatrix {
             coefficients,
             row_slots,
             diagonal,
+            every_entry: (0..nnz).collect(),
             factor: None,
         }
     }
@@ -136,8 +139,7 @@ impl NormalMatrix {
         }
         match self.factor.as_mut() {
             Some(ldl) => {
-                let all: Vec<usize> = (0..values.len()).collect();
-                ldl.update_values(&all, values);
+                ldl.update_values(&self.every_entry, values);
                 ldl.refactor().is_ok()
             }
             None => {
