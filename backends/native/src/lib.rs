@@ -23,9 +23,16 @@
 //!    it runs out of [`NativeSettings::max_iterations`]. The block is then solved by a
 //!    primal–dual interior-point method of this crate (Mehrotra's predictor–corrector on the
 //!    normal equations `(I + AᵀWA) Δd = …`, positive definite whatever the rows, ordered and
-//!    analysed once per block), stopped at a relative accuracy of `1e-8`, and finished
-//!    exactly by the active-set method from the rows whose multiplier exceeds their slack —
-//!    the way Clarabel's answers are polished. Counted in [`SolveStats::rescues`].
+//!    analysed once per block) to a relative accuracy of `1e-12`, first on the rows that could
+//!    plausibly be tight (those whose slack at `y` is at most half the largest violation, a
+//!    third of a jam's rows, which makes its factorizations many times cheaper). Its
+//!    iterate is the answer if it passes the KKT check, with a hundredth of the tolerance and
+//!    against every row of the block; otherwise the active-set method finishes exactly from
+//!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished), and
+//!    if that runs out too, the interior point runs again on every row. A block rescued three
+//!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
+//!    except at powers of two, which find out when the jam is over. Counted in
+//!    [`SolveStats::rescues`].
 //! 4. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
@@ -64,7 +71,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 use sweeping_api::{
     Blocks, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
-    SolveStatus,
+    SolveStatus, SparseRows,
 };
 use sweeping_clarabel::active_set::{self, Failure, Start};
 
@@ -88,6 +95,8 @@ pub struct NativeSettings {
     /// (a jam forming): each change costs it an iteration (a solve through a bordered factor,
     /// a fresh factorization after 24 changes). The cap bounds what it spends before the
     /// interior point takes over (`sweep bench --start jammed` in the README measures both).
+    /// A block whose rows were rescued at the last three or more solves in a row is rescued
+    /// without the attempt, except when that count is a power of two.
     pub max_iterations: u32,
     /// Start from the previous step's active rows, matched by row keys. Default `true`.
     pub warm_start: bool,
@@ -111,12 +120,32 @@ impl Default for NativeSettings {
 /// The cap on iterations per block when [`NativeSettings::max_iterations`] is `0`.
 pub const DEFAULT_ITERATIONS: u32 = 16;
 
-/// Relative accuracies (duality measure and residuals, against `max(1, ‖b − Ay‖∞)`) at which
-/// the interior-point rescue hands over to the active-set method: the first, and the second
-/// when the finish from the first runs out of iterations.
-const INTERIOR_POINT_TOLERANCES: [f64; 2] = [1e-8, 1e-11];
-/// Most interior-point iterations of a rescue (it needs 8–17 on crowds).
+/// Relative accuracy (duality measure and residuals, against `max(1, ‖b − Ay‖∞)`) to which
+/// the interior-point rescue runs. There its iterate often passes the KKT check as it is (see
+/// [`certified_iterate`]), and when it does not, the active-set finish from it is shorter:
+/// stopping at `1e-8` and always finishing made jammed steps several times slower (the
+/// finish spends an iteration on each nearly tight row of a contact loop that leaves).
+const INTERIOR_POINT_TOLERANCE: f64 = 1e-12;
+/// An interior point that stopped short of [`INTERIOR_POINT_TOLERANCE`] (its iteration cap,
+/// rounding) but reached this relative accuracy is still a good guess to finish from;
+/// beyond it, its iterates are taken to diverge (an empty set).
+const INTERIOR_POINT_GUESS: f64 = 1e-8;
+/// Most interior-point iterations of a rescue (it needs 8–25 on crowds).
 const INTERIOR_POINT_ITERATIONS: u32 = 60;
+/// The first rescue leaves out of the interior point the rows whose slack at `y`, as a
+/// distance (`−rᵢ/‖aᵢ‖`), exceeds this fraction of the largest violation at `y` (`rⱼ/‖aⱼ‖`):
+/// rows that only a push of half the largest one could make tight. On a jam that keeps about
+/// a third of the rows, and the normal matrix's factorization, which dominates the interior
+/// point, costs several times less (its fill falls faster than its rows). Nothing rests on it: the answer is
+/// checked against every row, and a row it missed is added by the active-set finish, or by a
+/// second interior point on every row.
+const SCREEN_FRACTION: f64 = 0.5;
+/// An interior point's iterate is accepted as the answer only if its KKT residuals are within
+/// this fraction of the certificate's tolerance (so `1e-12` relative by default): an answer
+/// the check would only just accept leaves people overlapping by ~1e-9, where the exact
+/// active-set answer leaves ~1e-12, and the finish is cheap against that. Multipliers below
+/// their slack and below this fraction of the tolerance are set to zero first.
+const CLEAN_FRACTION: f64 = 1e-2;
 /// Most active-set iterations when finishing from an interior-point guess. On a jam the
 /// guess holds rows of contact loops that are nearly but not quite tight, which leave one per
 /// iteration; an iteration there costs a solve through a bordered factor, far less than
@@ -131,6 +160,9 @@ pub struct NativeProjector {
     fallback: Option<Box<dyn Projector>>,
     /// Multipliers of the rows active at the previous solve, by key.
     previous: HashMap<RowKey, f64>,
+    /// For the rows active at the previous solve in a block that the interior point rescued,
+    /// how many solves in a row their block has been rescued (see [`goes_straight_to_rescue`]).
+    rescued: HashMap<RowKey, u32>,
 }
 
 impl Default for NativeProjector {
@@ -167,6 +199,7 @@ impl NativeProjector {
             settings,
             fallback: None,
             previous: HashMap::new(),
+            rescued: HashMap::new(),
         }
     }
 
@@ -180,10 +213,13 @@ impl NativeProjector {
 
     /// Solves one block: a certified answer, or the reason it failed with the iterations
     /// spent.
+    ///
+    /// `straight`: skip the active-set attempt and rescue at once.
     fn solve_block(
         &self,
         block: &ProjectionProblem,
         tol: f64,
+        straight: bool,
     ) -> Result<Projection, (Failure, u32)> {
         let m = block.n_rows();
         let mut r = vec![0.0; m];
@@ -222,12 +258,17 @@ impl NativeProjector {
             lambda,
             join,
         };
-        let (outcome, rescued) = match active_set::solve(block, start, cap) {
+        let (first, cap) = if rescue && straight {
+            (Err(Failure::Cap(0)), 0)
+        } else {
+            (active_set::solve(block, start, cap), cap)
+        };
+        let (outcome, rescued) = match first {
             Ok(outcome) => (outcome, false),
             Err(Failure::Cap(_) | Failure::Cycling(_)) if rescue => {
                 // The cold multipliers, for a rescue that must start over.
                 let cold = (0..m).map(|i| own_multiplier(block, i, r[i])).collect();
-                let outcome = rescue_by_interior_point(block, &r, cold)
+                let outcome = rescue_by_interior_point(block, &r, cold, tol)
                     .map_err(|(failure, spent)| (failure, cap.saturating_add(spent)))?;
                 (outcome, true)
             }
@@ -259,47 +300,81 @@ impl NativeProjector {
     }
 }
 
+/// Whether a block whose rows' block was rescued at the last `streak` solves in a row is
+/// rescued at once, without the active-set attempt: from the third solve in a row on, except
+/// when `streak` is a power of two.
+///
+/// On a jam the active set changes by hundreds of rows step after step, and the attempt
+/// (up to [`DEFAULT_ITERATIONS`] iterations, each a fresh factorization) cost as much as the
+/// rescue itself at N = 5000; on a queue at a door rescues come one to a few in a row. The
+/// attempts at powers of two find out, at a cost logarithmic in the length of the jam, when
+/// the active set is back to changing slowly.
+fn goes_straight_to_rescue(streak: u32) -> bool {
+    streak > 2 && !streak.is_power_of_two()
+}
+
 /// The block solved by the interior-point method of [`interior_point`] to a relative
-/// accuracy of [`INTERIOR_POINT_TOLERANCES`]`[0]`, then finished exactly by the active-set
-/// method from the rows whose multiplier exceeds their slack (as Clarabel's answers are
-/// polished); when that finish runs out of [`POLISH_ITERATIONS`], again from a tighter
-/// interior point, whose guess holds fewer rows that are nearly but not quite tight. When the
-/// interior point does not converge (its iterates diverge on an empty set), the active-set
-/// method starts from the rows violated at `y` instead, with `cold` multipliers, and
-/// certifies what it finds (a Farkas certificate on an empty set). On failure, the reason and
-/// the iterations spent (both methods).
+/// accuracy of [`INTERIOR_POINT_TOLERANCE`], first on the rows that [`SCREEN_FRACTION`]
+/// keeps, then (when that answer fails and rows were left out) on every row.
+///
+/// Each interior point's iterate is tried as the answer ([`certified_iterate`]); when it fails
+/// the KKT check at `tol`, the active-set method finishes from the rows whose multiplier
+/// exceeds their slack (as Clarabel's answers are polished), up to [`POLISH_ITERATIONS`].
+/// When an interior point does not even reach [`INTERIOR_POINT_GUESS`] (its iterates diverge
+/// on an empty set), the active-set method starts from the rows violated at `y` instead, with
+/// `cold` multipliers, and certifies what it finds (a Farkas certificate on an empty set). On
+/// failure, the reason and the iterations spent (both methods).
 fn rescue_by_interior_point(
     block: &ProjectionProblem,
     r: &[f64],
     cold: Vec<f64>,
+    tol: f64,
 ) -> Result<active_set::Outcome, (Failure, u32)> {
+    let m = block.n_rows();
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
+    let screened = screened_rows(block, r);
+    let every_row: Vec<usize> = (0..m).collect();
+    let attempts: &[&[usize]] = if screened.len() < m {
+        &[&screened, &every_row]
+    } else {
+        &[&every_row]
+    };
     let mut spent = 0u32;
     let mut last = Failure::Cap(POLISH_ITERATIONS);
-    for tolerance in INTERIOR_POINT_TOLERANCES {
-        let iterate =
-            interior_point::solve(block.a(), r, tolerance * scale, INTERIOR_POINT_ITERATIONS);
+    for rows in attempts {
+        let iterate = solve_rows(block, r, rows, INTERIOR_POINT_TOLERANCE * scale);
         spent = spent.saturating_add(iterate.as_ref().map_or(0, |it| it.iterations));
-        let Some(it) = iterate.filter(|it| it.converged) else {
-            let support: Vec<usize> = (0..block.n_rows()).filter(|&i| r[i] > 0.0).collect();
+        let Some(it) = iterate.filter(|it| it.accuracy <= INTERIOR_POINT_GUESS * scale) else {
+            // A subset of the rows of a non-empty set is not empty either: an interior point
+            // that diverges on the screened rows diverges on all of them.
+            let support: Vec<usize> = (0..m).filter(|&i| r[i] > 0.0).collect();
             let lambda = support.iter().map(|&i| cold[i]).collect();
             let start = Start {
                 support,
                 lambda,
                 join: cold,
             };
-            let rows = u32::try_from(block.n_rows() / 2).unwrap_or(u32::MAX / 4);
+            let rows = u32::try_from(m / 2).unwrap_or(u32::MAX / 4);
             let cap = POLISH_ITERATIONS.max(40 + rows);
             return finish(block, start, cap, spent);
         };
-        let support: Vec<usize> = (0..block.n_rows())
-            .filter(|&i| it.lambda[i] > it.slack[i])
-            .collect();
+        if it.converged {
+            if let Some(outcome) = certified_iterate(block, &it, tol, spent) {
+                return Ok(outcome);
+            }
+        }
+        let support: Vec<usize> = (0..m).filter(|&i| it.lambda[i] > it.slack[i]).collect();
         let lambda = support.iter().map(|&i| it.lambda[i]).collect();
+        let join = it
+            .lambda
+            .iter()
+            .zip(&cold)
+            .map(|(&l, &c)| if l > 0.0 { l } else { c })
+            .collect();
         let start = Start {
             support,
             lambda,
-            join: it.lambda,
+            join,
         };
         match finish(block, start, POLISH_ITERATIONS, spent) {
             Ok(outcome) => return Ok(outcome),
@@ -311,6 +386,98 @@ fn rescue_by_interior_point(
         }
     }
     Err((last, spent))
+}
+
+/// The rows of `block` that the first interior point of a rescue keeps (see
+/// [`SCREEN_FRACTION`]): every row whose slack at `y`, as a distance, is at most that fraction
+/// of the largest violation. Violated rows are always kept.
+fn screened_rows(block: &ProjectionProblem, r: &[f64]) -> Vec<usize> {
+    let distance: Vec<f64> = (0..block.n_rows())
+        .map(|i| {
+            let norm = block.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
+            if norm > 0.0 {
+                r[i] / norm
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect();
+    let largest = distance
+        .iter()
+        .filter(|d| d.is_finite())
+        .fold(0.0, |acc: f64, &d| acc.max(d));
+    (0..block.n_rows())
+        .filter(|&i| distance[i] >= -SCREEN_FRACTION * largest)
+        .collect()
+}
+
+/// The interior point on `rows` of `block` alone, its iterate spread back over every row
+/// (a row left out: multiplier 0, slack ∞).
+fn solve_rows(
+    block: &ProjectionProblem,
+    r: &[f64],
+    rows: &[usize],
+    tolerance: f64,
+) -> Option<interior_point::Iterate> {
+    let m = block.n_rows();
+    if rows.len() == m {
+        return interior_point::solve(block.a(), r, tolerance, INTERIOR_POINT_ITERATIONS);
+    }
+    let mut a = SparseRows::new(block.dim());
+    for &i in rows {
+        a.push_row(block.a().row(i));
+    }
+    let r_kept: Vec<f64> = rows.iter().map(|&i| r[i]).collect();
+    let it = interior_point::solve(&a, &r_kept, tolerance, INTERIOR_POINT_ITERATIONS)?;
+    let (mut lambda, mut slack) = (vec![0.0; m], vec![f64::INFINITY; m]);
+    for (t, &i) in rows.iter().enumerate() {
+        lambda[i] = it.lambda[t];
+        slack[i] = it.slack[t];
+    }
+    Some(interior_point::Iterate {
+        lambda,
+        slack,
+        ..it
+    })
+}
+
+/// A converged interior point taken as the answer, if it passes the KKT check at
+/// [`CLEAN_FRACTION`]` × tol`.
+///
+/// The multipliers of rows that are not tight, about `μ/sᵢ`, are below their slack; those
+/// also below [`CLEAN_FRACTION`]` × tol` are set to zero, so that the answer's support is the
+/// rows in contact and the next step's warm start is not handed every candidate row. Rows
+/// below their slack with larger multipliers are kept: on a degenerate row (tight with a
+/// zero multiplier) both approach zero like `√μ`, and dropping them would move `x` by about
+/// that much. `x` is then `y + Aᵀλ`, so stationarity holds to rounding; feasibility and
+/// complementarity are what the check decides.
+fn certified_iterate(
+    block: &ProjectionProblem,
+    it: &interior_point::Iterate,
+    tol: f64,
+    spent: u32,
+) -> Option<active_set::Outcome> {
+    let lambda: Vec<f64> = it
+        .lambda
+        .iter()
+        .zip(&it.slack)
+        .map(|(&l, &s)| {
+            if l > s || l > CLEAN_FRACTION * tol {
+                l
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mut x = vec![0.0; block.dim()];
+    block.a().mul_transpose_vec(&lambda, &mut x);
+    x.iter_mut().zip(block.y()).for_each(|(xi, yi)| *xi += yi);
+    let kkt = block.kkt_residuals(&x, &lambda).max();
+    (kkt <= CLEAN_FRACTION * tol).then_some(active_set::Outcome {
+        x,
+        lambda,
+        iterations: spent,
+    })
 }
 
 /// The active-set method from `start`, its iterations added to the `spent` ones.
@@ -356,6 +523,7 @@ impl Projector for NativeProjector {
         if ay.iter().zip(problem.b()).all(|(ayi, bi)| ayi >= bi) {
             if problem.row_keys().is_some() {
                 self.previous.clear();
+                self.rescued.clear();
             }
             return Ok(Projection::identity(problem, NAME));
         }
@@ -371,9 +539,16 @@ impl Projector for NativeProjector {
         }
         let setup_seconds = setup_start.elapsed().as_secs_f64();
         let solve_start = Instant::now();
-        let mut answers = Vec::with_capacity(blocks.blocks().len());
+        let mut answers: Vec<Projection> = Vec::with_capacity(blocks.blocks().len());
+        let mut rescued_blocks = Vec::with_capacity(blocks.blocks().len());
         for (index, block) in blocks.blocks().iter().enumerate() {
-            let answer = match self.solve_block(&block.problem, tol) {
+            let streak = block.problem.row_keys().map_or(0, |keys| {
+                keys.iter()
+                    .filter_map(|k| self.rescued.get(k))
+                    .fold(0, |acc, &s| acc.max(s))
+            });
+            let straight = goes_straight_to_rescue(streak);
+            let answer = match self.solve_block(&block.problem, tol, straight) {
                 Ok(answer) => answer,
                 Err((Failure::Infeasible { rows }, _)) => {
                     let global: Vec<usize> = rows.iter().map(|&t| block.rows[t]).collect();
@@ -405,6 +580,7 @@ impl Projector for NativeProjector {
                     }
                 },
             };
+            rescued_blocks.push((answer.stats.rescues > 0).then_some(streak + 1));
             answers.push(answer);
         }
         let mut answer = blocks.stitch(problem, answers, NAME);
@@ -424,6 +600,18 @@ impl Projector for NativeProjector {
             });
         }
         if let Some(keys) = problem.row_keys() {
+            self.rescued.clear();
+            for (block, streak) in blocks.blocks().iter().zip(&rescued_blocks) {
+                if let Some(streak) = *streak {
+                    self.rescued.extend(
+                        block
+                            .rows
+                            .iter()
+                            .filter(|&&i| answer.multipliers[i] > 0.0)
+                            .map(|&i| (keys[i], streak)),
+                    );
+                }
+            }
             self.previous.clear();
             for (k, &l) in keys.iter().zip(&answer.multipliers) {
                 if l > 0.0 {
@@ -434,5 +622,100 @@ impl Projector for NativeProjector {
         answer.stats.setup_seconds = setup_seconds;
         answer.stats.solve_seconds = solve_start.elapsed().as_secs_f64();
         Ok(answer)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_block_goes_straight_to_the_rescue_from_the_third_rescue_in_a_row_but_at_powers_of_two() {
+        let straight: Vec<u32> = (0..=17).filter(|&s| goes_straight_to_rescue(s)).collect();
+        assert_eq!(straight, vec![3, 5, 6, 7, 9, 10, 11, 12, 13, 14, 15, 17]);
+    }
+
+    /// Rows `x₁ − x₀ ≥ 1` (violated by 1 at `y`), `x₂ − x₁ ≥ 1` (slack 0.8), `x₃ − x₂ ≥ 1`
+    /// (slack 0.2), an empty row, and `x₀ ≥ −5` (slack 5).
+    fn chain() -> (ProjectionProblem, Vec<f64>) {
+        let a = SparseRows::from_rows(
+            4,
+            &[
+                vec![(0, -1.0), (1, 1.0)],
+                vec![(1, -1.0), (2, 1.0)],
+                vec![(2, -1.0), (3, 1.0)],
+                vec![],
+                vec![(0, 1.0)],
+            ],
+        );
+        let p =
+            ProjectionProblem::new(vec![0.0, 0.0, 1.8, 3.0], a, vec![1.0, 1.0, 1.0, -1.0, -5.0])
+                .unwrap();
+        let mut r = vec![0.0; 5];
+        p.a().mul_vec(p.y(), &mut r);
+        r.iter_mut().zip(p.b()).for_each(|(ri, bi)| *ri = bi - *ri);
+        (p, r)
+    }
+
+    #[test]
+    fn the_screen_keeps_violated_rows_and_rows_within_half_the_largest_violation() {
+        let (p, r) = chain();
+        // Distances: 1/√2 (violated), −0.8/√2, −0.2/√2, empty row (kept: it has no
+        // distance), −5. Half the largest violation is 0.5/√2: the second and last rows go.
+        assert_eq!(screened_rows(&p, &r), vec![0, 2, 3]);
+        // Nothing violated: only rows at distance ≥ 0 stay.
+        let zero = vec![-0.0, -1.0];
+        let q = ProjectionProblem::new(
+            vec![0.0, 0.0],
+            SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]),
+            vec![0.0, -1.0],
+        )
+        .unwrap();
+        assert_eq!(screened_rows(&q, &zero), vec![0]);
+    }
+
+    #[test]
+    fn an_iterate_on_screened_rows_is_spread_over_every_row() {
+        let (p, r) = chain();
+        // Without the empty row, which the interior point cannot take.
+        let rows = [0, 2];
+        let it = solve_rows(&p, &r, &rows, 1e-12).unwrap();
+        assert!(it.converged);
+        assert_eq!((it.lambda.len(), it.slack.len()), (5, 5));
+        for left_out in [1, 3, 4] {
+            assert_eq!(it.lambda[left_out], 0.0);
+            assert_eq!(it.slack[left_out], f64::INFINITY);
+        }
+        // Row 0 alone is tight: λ₀ = ½ (the half-space projection); row 2 is not.
+        assert!((it.lambda[0] - 0.5).abs() < 1e-9, "{}", it.lambda[0]);
+        assert!(it.lambda[2] < 1e-9 && it.slack[2] > 0.1);
+    }
+
+    #[test]
+    fn an_interior_point_is_the_answer_only_if_every_row_passes_the_check() {
+        let (p, r) = chain();
+        let tol = 1e-10 * 5.0;
+        // On rows 0 and 2 the answer moves x₁ to 0.5, and row 1 (left out) then has slack
+        // 0.3: the iterate is the projection, accepted, with row 2's μ/s multiplier cleared.
+        let it = solve_rows(&p, &r, &[0, 2, 4], 1e-12).unwrap();
+        let outcome = certified_iterate(&p, &it, tol, 7).expect("accepted");
+        assert_eq!(outcome.iterations, 7);
+        assert_eq!(outcome.lambda[1..], [0.0, 0.0, 0.0, 0.0]);
+        let expected = [-0.5, 0.5, 1.8, 3.0];
+        for (x, e) in outcome.x.iter().zip(expected) {
+            assert!((x - e).abs() < 1e-10, "{:?}", outcome.x);
+        }
+        // Row 1 made tighter (slack 0.2 < the push of 0.5): the same rows' answer violates
+        // it, and the iterate is refused.
+        let y = vec![0.0, 0.0, 1.2, 3.0];
+        let q = ProjectionProblem::new(y, p.a().clone(), p.b().to_vec()).unwrap();
+        let mut rq = vec![0.0; 5];
+        q.a().mul_vec(q.y(), &mut rq);
+        rq.iter_mut().zip(q.b()).for_each(|(ri, bi)| *ri = bi - *ri);
+        let it = solve_rows(&q, &rq, &[0, 2, 4], 1e-12).unwrap();
+        assert!(certified_iterate(&q, &it, tol, 7).is_none());
+        // So is an iterate that is not converged enough for the fraction of `tol`.
+        let loose = solve_rows(&p, &r, &[0, 2, 4], 1e-4).unwrap();
+        assert!(certified_iterate(&p, &loose, tol, 7).is_none());
     }
 }
