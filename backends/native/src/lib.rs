@@ -136,9 +136,9 @@ const INTERIOR_POINT_ITERATIONS: u32 = 60;
 /// distance (`−rᵢ/‖aᵢ‖`), exceeds this fraction of the largest violation at `y` (`rⱼ/‖aⱼ‖`):
 /// rows that only a push of half the largest one could make tight. On a jam that keeps about
 /// a third of the rows, and the normal matrix's factorization, which dominates the interior
-/// point, costs several times less (its fill falls faster than its rows). Nothing rests on it: the answer is
-/// checked against every row, and a row it missed is added by the active-set finish, or by a
-/// second interior point on every row.
+/// point, costs several times less (its fill falls faster than its rows). Nothing rests on
+/// it: the answer is checked against every row, and a row it missed is added by the
+/// active-set finish, or by a second interior point on every row.
 const SCREEN_FRACTION: f64 = 0.5;
 /// An interior point's iterate is accepted as the answer only if its KKT residuals are within
 /// this fraction of the certificate's tolerance (so `1e-12` relative by default): an answer
@@ -181,10 +181,15 @@ impl std::fmt::Debug for NativeProjector {
     }
 }
 
+/// `‖aᵢ‖²`.
+fn row_norm_squared(problem: &ProjectionProblem, i: usize) -> f64 {
+    problem.a().row(i).map(|(_, v)| v * v).sum()
+}
+
 /// One row's starting multiplier when it enters the support without a remembered one: the
 /// multiplier of its own half-space projection, `max(0, rᵢ)/‖aᵢ‖²`.
 fn own_multiplier(problem: &ProjectionProblem, i: usize, r: f64) -> f64 {
-    let norm2: f64 = problem.a().row(i).map(|(_, v)| v * v).sum();
+    let norm2 = row_norm_squared(problem, i);
     if norm2 > 0.0 {
         (r.max(0.0) / norm2).max(f64::MIN_POSITIVE)
     } else {
@@ -300,8 +305,8 @@ impl NativeProjector {
     }
 }
 
-/// Whether a block whose rows' block was rescued at the last `streak` solves in a row is
-/// rescued at once, without the active-set attempt: from the third solve in a row on, except
+/// Whether a block holding rows whose block was rescued at the last `streak` solves in a row
+/// is rescued at once, without the active-set attempt: from the third solve in a row on, except
 /// when `streak` is a power of two.
 ///
 /// On a jam the active set changes by hundreds of rows step after step, and the attempt
@@ -394,7 +399,7 @@ fn rescue_by_interior_point(
 fn screened_rows(block: &ProjectionProblem, r: &[f64]) -> Vec<usize> {
     let distance: Vec<f64> = (0..block.n_rows())
         .map(|i| {
-            let norm = block.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
+            let norm = row_norm_squared(block, i).sqrt();
             if norm > 0.0 {
                 r[i] / norm
             } else {
@@ -539,7 +544,7 @@ impl Projector for NativeProjector {
         }
         let setup_seconds = setup_start.elapsed().as_secs_f64();
         let solve_start = Instant::now();
-        let mut answers: Vec<Projection> = Vec::with_capacity(blocks.blocks().len());
+        let mut answers = Vec::with_capacity(blocks.blocks().len());
         let mut rescued_blocks = Vec::with_capacity(blocks.blocks().len());
         for (index, block) in blocks.blocks().iter().enumerate() {
             let streak = block.problem.row_keys().map_or(0, |keys| {
