@@ -128,14 +128,60 @@ fn active_rows(problem: &ProjectionProblem, active: &[usize]) -> Vec<Vec<(usize,
 
 /// The KKT system `K₀ = [I A_Pᵀ; A_P 0]` of a set of rows `P`, with the `LDLᵀ` factors of its
 /// regularization `K_δ = [I A_Pᵀ; A_P −δI]`.
+///
+/// An unknown that no row of `P` touches has the equation `dⱼ = fⱼ` alone, so a sparse factor
+/// covers only the touched ones ([`Unknowns`]): on a jam the support touches a third of the
+/// block's people, and every factorization, solve and bordering column of the rest was
+/// identity work.
 struct ActiveSystem {
     n: usize,
     /// The support, in the order of `rows` and of the unknowns `μ`.
     support: Vec<usize>,
     rows: Vec<Vec<(usize, f64)>>,
     factor: Factor,
+    /// The unknowns of a sparse factor (empty for a dense one).
+    unknowns: Unknowns,
     /// Rows removed from and added to the support of a sparse factor since it was made.
     bordered: Option<Bordered>,
+}
+
+/// The unknowns a sparse factor and its bordering work on, numbered locally: first the `base`
+/// ones, touched by the factored support `P₀` (increasing), then those that joined rows
+/// touched first (an identity block of the bordered system).
+struct Unknowns {
+    /// Local → global.
+    global: Vec<usize>,
+    /// Global → local, `usize::MAX` for an unknown not in the system.
+    local: Vec<usize>,
+    /// How many unknowns the factor of `K_δ(P₀)` covers.
+    base: usize,
+}
+
+impl Unknowns {
+    /// The unknowns touched by `rows` (columns sorted), of `n`.
+    fn touched_by(n: usize, rows: &[Vec<(usize, f64)>]) -> Self {
+        let mut local = vec![usize::MAX; n];
+        for &(c, _) in rows.iter().flatten() {
+            local[c] = 0;
+        }
+        let global: Vec<usize> = (0..n).filter(|&c| local[c] == 0).collect();
+        global.iter().enumerate().for_each(|(l, &c)| local[c] = l);
+        let base = global.len();
+        Self {
+            global,
+            local,
+            base,
+        }
+    }
+
+    /// The local index of the global unknown `c`, added (after every other) when new.
+    fn index(&mut self, c: usize) -> usize {
+        if self.local[c] == usize::MAX {
+            self.local[c] = self.global.len();
+            self.global.push(c);
+        }
+        self.local[c]
+    }
 }
 
 /// Most rows removed from or added to the support of a sparse factorization before it is
@@ -146,7 +192,7 @@ const BORDER_MAX: usize = 24;
 /// One change of the support since the sparse factorization of `K_δ` for the support `P₀`.
 enum Change {
     /// A row joined: the system gains an unknown `u` with the column `[a; 0]` and `−δ` on the
-    /// diagonal.
+    /// diagonal. `entries` index the layout of [`Bordered`].
     Joined {
         row: usize,
         entries: Vec<(usize, f64)>,
@@ -168,11 +214,16 @@ enum Change {
 /// is the exact solve of the regularized system of the current support, at the price of one
 /// solve with the old factor per change: a working set that changes by one row no longer
 /// costs a factorization.
+///
+/// The layout of `z` (and of `C`'s columns) is `[d_U; μ_{P₀}; d_E]`: the unknowns `U` of the
+/// factor, the multipliers of `P₀`, then the unknowns `E` that only joined rows touch, on
+/// which `K_δ(P₀)` is extended by the identity.
 struct Bordered {
     /// `P₀`, in the order of the factor.
     base: Vec<usize>,
     changes: Vec<Change>,
-    /// `W`, one column (length `n + |P₀|`) per change.
+    /// `W`, one column per change, as long as the layout was when the change came (the
+    /// identity block keeps later unknowns of `E` at zero in it).
     w: Vec<Vec<f64>>,
     /// `S`, row-major, and its LU factors with the row permutation.
     s: Vec<f64>,
@@ -264,6 +315,11 @@ impl ActiveSystem {
                     support: active.to_vec(),
                     rows,
                     factor: Factor::Dense(l),
+                    unknowns: Unknowns {
+                        global: Vec::new(),
+                        local: Vec::new(),
+                        base: 0,
+                    },
                     bordered: None,
                 });
             }
@@ -276,8 +332,11 @@ impl ActiveSystem {
     fn sparse(problem: &ProjectionProblem, active: &[usize]) -> Option<Self> {
         let n = problem.dim();
         let k = active.len();
-        let (rows, kkt) = kkt_matrix(problem, active);
-        let signs: Vec<i8> = (0..n + k).map(|i| if i < n { 1 } else { -1 }).collect();
+        let rows = active_rows(problem, active);
+        let unknowns = Unknowns::touched_by(n, &rows);
+        let kkt = kkt_matrix(&rows, &unknowns);
+        let u = unknowns.base;
+        let signs: Vec<i8> = (0..u + k).map(|i| if i < u { 1 } else { -1 }).collect();
         let mut builder = QDLDLSettingsBuilder::default();
         builder.Dsigns(signs);
         let settings = builder.build().ok()?;
@@ -287,6 +346,7 @@ impl ActiveSystem {
             support: active.to_vec(),
             rows,
             factor: Factor::Sparse(Box::new(ldl)),
+            unknowns,
             bordered: None,
         })
     }
@@ -296,8 +356,18 @@ impl ActiveSystem {
     fn solve_in_place(&mut self, v: &mut [f64]) {
         match &mut self.factor {
             Factor::Sparse(ldl) => match &self.bordered {
-                None => ldl.solve(v),
-                Some(bordered) => bordered.solve(ldl, self.n, &self.support, v),
+                None => {
+                    // The factored unknowns gathered, solved and scattered back; the others
+                    // are their own solution.
+                    let (n, u) = (self.n, self.unknowns.base);
+                    let global = &self.unknowns.global[..u];
+                    let mut z: Vec<f64> = global.iter().map(|&c| v[c]).collect();
+                    z.extend_from_slice(&v[n..]);
+                    ldl.solve(&mut z);
+                    global.iter().zip(&z).for_each(|(&c, zc)| v[c] = *zc);
+                    v[n..].copy_from_slice(&z[u..]);
+                }
+                Some(bordered) => bordered.solve(ldl, self.n, &self.unknowns, &self.support, v),
             },
             Factor::Dense(l) => {
                 let (n, k) = (self.n, self.rows.len());
@@ -339,7 +409,7 @@ impl ActiveSystem {
         let Factor::Sparse(ldl) = &mut self.factor else {
             return None;
         };
-        let n = self.n;
+        let unknowns = &mut self.unknowns;
         let bordered = self.bordered.get_or_insert_with(|| Bordered {
             base: self.support.clone(),
             changes: Vec::new(),
@@ -375,7 +445,7 @@ impl ActiveSystem {
                 Some(c) => bordered.undo(c),
                 None => bordered.push(
                     ldl,
-                    n,
+                    unknowns,
                     Change::Left {
                         position: position[i],
                     },
@@ -392,8 +462,19 @@ impl ActiveSystem {
             .collect();
         for &i in &next[kept.len()..] {
             let entries = merged_row(problem, i);
-            rows.push(entries.clone());
-            bordered.push(ldl, n, Change::Joined { row: i, entries });
+            let local = entries
+                .iter()
+                .map(|&(c, a)| (bordered.position(unknowns.index(c), unknowns), a))
+                .collect();
+            rows.push(entries);
+            bordered.push(
+                ldl,
+                unknowns,
+                Change::Joined {
+                    row: i,
+                    entries: local,
+                },
+            );
         }
         if bordered.changes.len() > BORDER_MAX || !bordered.factor_s() {
             return None;
@@ -405,11 +486,24 @@ impl ActiveSystem {
 }
 
 impl Bordered {
-    /// `cᵀz` for the column `c` of `C` of a change, `z` in the layout `[d; μ_{P₀}]`.
-    fn column_dot(n: usize, change: &Change, z: &[f64]) -> f64 {
+    /// Where the unknown of local index `l` sits in the layout.
+    fn position(&self, l: usize, unknowns: &Unknowns) -> usize {
+        if l < unknowns.base {
+            l
+        } else {
+            l + self.base.len()
+        }
+    }
+
+    /// `cᵀz` for the column `c` of `C` of a change, `z` in the layout (missing entries of a
+    /// shorter `z` are zero).
+    fn column_dot(u: usize, change: &Change, z: &[f64]) -> f64 {
         match change {
-            Change::Joined { entries, .. } => entries.iter().map(|&(i, a)| a * z[i]).sum(),
-            Change::Left { position } => z[n + position],
+            Change::Joined { entries, .. } => entries
+                .iter()
+                .map(|&(i, a)| a * z.get(i).copied().unwrap_or(0.0))
+                .sum(),
+            Change::Left { position } => z[u + position],
         }
     }
 
@@ -423,14 +517,14 @@ impl Bordered {
 
     /// Adds a change: its column of `W` (one solve with the old factor) and its row and
     /// column of `S`.
-    fn push(&mut self, ldl: &mut QDLDLFactorisation<f64>, n: usize, change: Change) {
-        let size = n + self.base.len();
-        let mut w = vec![0.0; size];
+    fn push(&mut self, ldl: &mut QDLDLFactorisation<f64>, unknowns: &Unknowns, change: Change) {
+        let (u, factored) = (unknowns.base, unknowns.base + self.base.len());
+        let mut w = vec![0.0; unknowns.global.len() + self.base.len()];
         match &change {
             Change::Joined { entries, .. } => entries.iter().for_each(|&(i, a)| w[i] += a),
-            Change::Left { position } => w[n + position] = 1.0,
+            Change::Left { position } => w[u + position] = 1.0,
         }
-        ldl.solve(&mut w);
+        ldl.solve(&mut w[..factored]);
         let c = self.changes.len();
         // S grows from c × c to (c + 1) × (c + 1): S_jk = D_jk − c_jᵀ w_k.
         let mut s = vec![0.0; (c + 1) * (c + 1)];
@@ -440,11 +534,11 @@ impl Bordered {
             }
         }
         for j in 0..c {
-            let value = -Self::column_dot(n, &self.changes[j], &w);
+            let value = -Self::column_dot(u, &self.changes[j], &w);
             s[j * (c + 1) + c] = value;
             s[c * (c + 1) + j] = value;
         }
-        s[c * (c + 1) + c] = Self::diagonal(&change) - Self::column_dot(n, &change, &w);
+        s[c * (c + 1) + c] = Self::diagonal(&change) - Self::column_dot(u, &change, &w);
         self.s = s;
         self.w.push(w);
         self.changes.push(change);
@@ -498,8 +592,16 @@ impl Bordered {
 
     /// `v ← K_δ⁻¹ v` for the current support `support` (rows of `P₀` that stayed, in their
     /// order, then the joined rows in the order they joined).
-    fn solve(&self, ldl: &mut QDLDLFactorisation<f64>, n: usize, support: &[usize], v: &mut [f64]) {
+    fn solve(
+        &self,
+        ldl: &mut QDLDLFactorisation<f64>,
+        n: usize,
+        unknowns: &Unknowns,
+        support: &[usize],
+        v: &mut [f64],
+    ) {
         let base = self.base.len();
+        let u = unknowns.base;
         let c = self.changes.len();
         // Where each unknown of the current layout lives: a position of P₀, or a change.
         let mut left = vec![false; base];
@@ -510,13 +612,15 @@ impl Bordered {
         }
         let stayed: Vec<usize> = (0..base).filter(|&p| !left[p]).collect();
         debug_assert_eq!(stayed.len() + (c - (base - stayed.len())), support.len());
-        // z₀ = K_δ(P₀)⁻¹ [f; g_{P₀}], with zero for the rows that left.
-        let mut z = vec![0.0; n + base];
-        z[..n].copy_from_slice(&v[..n]);
-        for (t, &p) in stayed.iter().enumerate() {
-            z[n + p] = v[n + t];
+        // z₀ = K_δ(P₀)⁻¹ [f_U; g_{P₀}; f_E], with zero for the rows that left.
+        let mut z = vec![0.0; unknowns.global.len() + base];
+        for (l, &c) in unknowns.global.iter().enumerate() {
+            z[self.position(l, unknowns)] = v[c];
         }
-        ldl.solve(&mut z);
+        for (t, &p) in stayed.iter().enumerate() {
+            z[u + p] = v[n + t];
+        }
+        ldl.solve(&mut z[..u + base]);
         // g − Cᵀ z₀, then w = S⁻¹ (…) by the LU factors.
         let mut joined_slot = stayed.len();
         let mut w = vec![0.0; c];
@@ -529,7 +633,7 @@ impl Bordered {
                 }
                 Change::Left { .. } => 0.0,
             };
-            w[j] = g - Self::column_dot(n, change, &z);
+            w[j] = g - Self::column_dot(u, change, &z);
         }
         let mut y: Vec<f64> = self.pivots.iter().map(|&p| w[p]).collect();
         for i in 0..c {
@@ -547,9 +651,11 @@ impl Bordered {
         for (wj, column) in y.iter().zip(&self.w) {
             z.iter_mut().zip(column).for_each(|(zi, ci)| *zi -= wj * ci);
         }
-        v[..n].copy_from_slice(&z[..n]);
+        for (l, &c) in unknowns.global.iter().enumerate() {
+            v[c] = z[self.position(l, unknowns)];
+        }
         for (t, &p) in stayed.iter().enumerate() {
-            v[n + t] = z[n + p];
+            v[n + t] = z[u + p];
         }
         let mut slot = stayed.len();
         for (j, change) in self.changes.iter().enumerate() {
@@ -561,39 +667,32 @@ impl Bordered {
     }
 }
 
-/// The rows `active` (each with columns sorted and repeats summed) and the upper triangle of
-/// their `K_δ`, by columns.
-fn kkt_matrix(
-    problem: &ProjectionProblem,
-    active: &[usize],
-) -> (Vec<Vec<(usize, f64)>>, CscMatrix<f64>) {
-    {
-        let n = problem.dim();
-        let k = active.len();
-        let rows = active_rows(problem, active);
-        // Upper triangle of K_δ, by columns.
-        let nnz = n + k + rows.iter().map(Vec::len).sum::<usize>();
-        let mut colptr = Vec::with_capacity(n + k + 1);
-        let mut rowval = Vec::with_capacity(nnz);
-        let mut nzval = Vec::with_capacity(nnz);
-        colptr.push(0);
-        for j in 0..n {
-            rowval.push(j);
-            nzval.push(1.0);
-            colptr.push(rowval.len());
-        }
-        for (t, row) in rows.iter().enumerate() {
-            for &(c, a) in row {
-                rowval.push(c);
-                nzval.push(a);
-            }
-            rowval.push(n + t);
-            nzval.push(-DELTA);
-            colptr.push(rowval.len());
-        }
-        let kkt = CscMatrix::new(n + k, n + k, colptr, rowval, nzval);
-        (rows, kkt)
+/// The upper triangle of `K_δ` for the support's `rows` (columns sorted) on `unknowns`, by
+/// columns.
+fn kkt_matrix(rows: &[Vec<(usize, f64)>], unknowns: &Unknowns) -> CscMatrix<f64> {
+    let u = unknowns.base;
+    let k = rows.len();
+    let nnz = u + k + rows.iter().map(Vec::len).sum::<usize>();
+    let mut colptr = Vec::with_capacity(u + k + 1);
+    let mut rowval = Vec::with_capacity(nnz);
+    let mut nzval = Vec::with_capacity(nnz);
+    colptr.push(0);
+    for j in 0..u {
+        rowval.push(j);
+        nzval.push(1.0);
+        colptr.push(rowval.len());
     }
+    for (t, row) in rows.iter().enumerate() {
+        // Local indices keep the order of the global ones: the column stays sorted.
+        for &(c, a) in row {
+            rowval.push(unknowns.local[c]);
+            nzval.push(a);
+        }
+        rowval.push(u + t);
+        nzval.push(-DELTA);
+        colptr.push(rowval.len());
+    }
+    CscMatrix::new(u + k, u + k, colptr, rowval, nzval)
 }
 
 impl ActiveSystem {
@@ -1085,6 +1184,37 @@ mod tests {
         assert_ne!(system.bordered.as_ref().map(|b| b.pivots[0]), Some(0));
         let gap = raw_solve_gap(&p, &mut system, &support);
         assert!(gap < 1e-6, "gap {gap:e}");
+    }
+
+    #[test]
+    fn a_factor_covers_the_touched_unknowns_and_bordering_extends_it_by_the_identity() {
+        // Rows 0 and 1 touch unknowns 0–2; row 2 joins with unknown 4, which they do not
+        // touch; unknowns 3 and 5 no row touches.
+        let a = SparseRows::from_rows(
+            6,
+            &[
+                vec![(0, 1.0), (1, -0.5)],
+                vec![(2, 1.0), (1, 0.25)],
+                vec![(4, 1.0), (2, -0.5)],
+            ],
+        );
+        let p = ProjectionProblem::new(vec![0.0; 6], a, vec![1.0, 1.0, 1.0]).unwrap();
+        let system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
+        assert_eq!(system.unknowns.global, vec![0, 1, 2]);
+        let mut system = system.bordered_to(&p, &[0, 1, 2]).expect("one change");
+        assert_eq!(system.unknowns.global, vec![0, 1, 2, 4]);
+        assert_eq!(system.unknowns.base, 3);
+        let gap = raw_solve_gap(&p, &mut system, &[0, 1, 2]);
+        assert!(gap < 1e-12, "gap {gap:e}");
+        // An unknown outside every row is its own solution, through either factor.
+        let mut v: Vec<f64> = (0..9).map(|i| 1.0 + i as f64).collect();
+        system.solve_in_place(&mut v);
+        assert_eq!((v[3], v[5]), (4.0, 6.0));
+        let mut fresh = ActiveSystem::sparse(&p, &[0, 1, 2]).unwrap();
+        assert_eq!(fresh.unknowns.global, vec![0, 1, 2, 4]);
+        let mut v: Vec<f64> = (0..9).map(|i| 1.0 + i as f64).collect();
+        fresh.solve_in_place(&mut v);
+        assert_eq!((v[3], v[5]), (4.0, 6.0));
     }
 
     /// A `Bordered` with `S` given (row-major `c × c`) and `c` placeholder changes.

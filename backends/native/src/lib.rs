@@ -337,30 +337,15 @@ fn rescue_by_interior_point(
 ) -> Result<active_set::Outcome, (Failure, u32)> {
     let m = block.n_rows();
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
-    let screened = screened_rows(block, r);
-    let every_row: Vec<usize> = (0..m).collect();
-    let attempts: &[&[usize]] = if screened.len() < m {
-        &[&screened, &every_row]
-    } else {
-        &[&every_row]
-    };
     let mut spent = 0u32;
     let mut last = Failure::Cap(POLISH_ITERATIONS);
-    for rows in attempts {
-        let iterate = solve_rows(block, r, rows, INTERIOR_POINT_TOLERANCE * scale);
+    for rows in rescue_attempts(screened_rows(block, r), m) {
+        let iterate = solve_rows(block, r, &rows, INTERIOR_POINT_TOLERANCE * scale);
         spent = spent.saturating_add(iterate.as_ref().map_or(0, |it| it.iterations));
-        let Some(it) = iterate.filter(|it| it.accuracy <= INTERIOR_POINT_GUESS * scale) else {
+        let Some(it) = iterate.filter(|it| is_a_guess(it.accuracy, scale)) else {
             // A subset of the rows of a non-empty set is not empty either: an interior point
             // that diverges on the screened rows diverges on all of them.
-            let support: Vec<usize> = (0..m).filter(|&i| r[i] > 0.0).collect();
-            let lambda = support.iter().map(|&i| cold[i]).collect();
-            let start = Start {
-                support,
-                lambda,
-                join: cold,
-            };
-            let rows = u32::try_from(m / 2).unwrap_or(u32::MAX / 4);
-            let cap = POLISH_ITERATIONS.max(40 + rows);
+            let (start, cap) = cold_start(r, cold);
             return finish(block, start, cap, spent);
         };
         if it.converged {
@@ -368,20 +353,7 @@ fn rescue_by_interior_point(
                 return Ok(outcome);
             }
         }
-        let support: Vec<usize> = (0..m).filter(|&i| it.lambda[i] > it.slack[i]).collect();
-        let lambda = support.iter().map(|&i| it.lambda[i]).collect();
-        let join = it
-            .lambda
-            .iter()
-            .zip(&cold)
-            .map(|(&l, &c)| if l > 0.0 { l } else { c })
-            .collect();
-        let start = Start {
-            support,
-            lambda,
-            join,
-        };
-        match finish(block, start, POLISH_ITERATIONS, spent) {
+        match finish(block, finish_start(&it, &cold), POLISH_ITERATIONS, spent) {
             Ok(outcome) => return Ok(outcome),
             Err((failure @ (Failure::Cap(_) | Failure::Cycling(_)), total)) => {
                 spent = total;
@@ -391,6 +363,59 @@ fn rescue_by_interior_point(
         }
     }
     Err((last, spent))
+}
+
+/// The row sets a rescue's interior point runs on, in turn: the `screened` rows, then every
+/// one of the block's `m` rows; only the latter when the screen kept them all.
+fn rescue_attempts(screened: Vec<usize>, m: usize) -> Vec<Vec<usize>> {
+    if screened.len() < m {
+        vec![screened, (0..m).collect()]
+    } else {
+        vec![(0..m).collect()]
+    }
+}
+
+/// Whether an interior point that stopped at `accuracy` (on data of `scale`) got close enough
+/// to the answer for the active-set method to finish from it: [`INTERIOR_POINT_GUESS`]
+/// relative. Worse means its iterates diverged (the set is empty).
+fn is_a_guess(accuracy: f64, scale: f64) -> bool {
+    accuracy <= INTERIOR_POINT_GUESS * scale
+}
+
+/// The active-set method's start when the interior point diverged: the rows violated at `y`
+/// (`rᵢ > 0`) with their `cold` multipliers, and a cap that lets Lawson–Hanson take about
+/// every other row of the block in turn before it must conclude (a Farkas certificate).
+fn cold_start(r: &[f64], cold: Vec<f64>) -> (Start, u32) {
+    let support: Vec<usize> = (0..r.len()).filter(|&i| r[i] > 0.0).collect();
+    let lambda = support.iter().map(|&i| cold[i]).collect();
+    let rows = u32::try_from(r.len() / 2).unwrap_or(u32::MAX);
+    let start = Start {
+        support,
+        lambda,
+        join: cold,
+    };
+    (start, POLISH_ITERATIONS.max(rows.saturating_add(40)))
+}
+
+/// The active-set method's start from an interior point's iterate `it` (as Clarabel's answers
+/// are polished): the rows whose multiplier exceeds their slack, with those multipliers; a row
+/// that joins later starts from its iterate's multiplier when positive, from `cold` otherwise.
+fn finish_start(it: &interior_point::Iterate, cold: &[f64]) -> Start {
+    let support: Vec<usize> = (0..it.lambda.len())
+        .filter(|&i| it.lambda[i] > it.slack[i])
+        .collect();
+    let lambda = support.iter().map(|&i| it.lambda[i]).collect();
+    let join = it
+        .lambda
+        .iter()
+        .zip(cold)
+        .map(|(&l, &c)| if l > 0.0 { l } else { c })
+        .collect();
+    Start {
+        support,
+        lambda,
+        join,
+    }
 }
 
 /// The rows of `block` that the first interior point of a rescue keeps (see
@@ -462,18 +487,7 @@ fn certified_iterate(
     tol: f64,
     spent: u32,
 ) -> Option<active_set::Outcome> {
-    let lambda: Vec<f64> = it
-        .lambda
-        .iter()
-        .zip(&it.slack)
-        .map(|(&l, &s)| {
-            if l > s || l > CLEAN_FRACTION * tol {
-                l
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let lambda = cleaned_multipliers(it, tol);
     let mut x = vec![0.0; block.dim()];
     block.a().mul_transpose_vec(&lambda, &mut x);
     x.iter_mut().zip(block.y()).for_each(|(xi, yi)| *xi += yi);
@@ -483,6 +497,22 @@ fn certified_iterate(
         lambda,
         iterations: spent,
     })
+}
+
+/// The multipliers of `it` with those of rows that are not tight cleared: below their slack
+/// and below [`CLEAN_FRACTION`]` × tol` (see [`certified_iterate`]).
+fn cleaned_multipliers(it: &interior_point::Iterate, tol: f64) -> Vec<f64> {
+    it.lambda
+        .iter()
+        .zip(&it.slack)
+        .map(|(&l, &s)| {
+            if l > s || l > CLEAN_FRACTION * tol {
+                l
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// The active-set method from `start`, its iterations added to the `spent` ones.
@@ -722,5 +752,135 @@ mod tests {
         // So is an iterate that is not converged enough for the fraction of `tol`.
         let loose = solve_rows(&p, &r, &[0, 2, 4], 1e-4).unwrap();
         assert!(certified_iterate(&p, &loose, tol, 7).is_none());
+    }
+
+    fn iterate(lambda: Vec<f64>, slack: Vec<f64>) -> interior_point::Iterate {
+        interior_point::Iterate {
+            lambda,
+            slack,
+            iterations: 9,
+            converged: true,
+            accuracy: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_screen_measures_slack_as_a_distance_and_keeps_rows_without_one() {
+        // Row 0 violated by 4 (‖a‖ = 1); row 1 slack 3 with ‖a‖ = 2, at distance 1.5 (within
+        // half of 4, kept; its raw slack 3 would not be); row 2 at distance 2.5 (out); row 3
+        // empty with a negative r (no distance: kept); row 4 at distance 2, on the line; row 5
+        // empty with r = 0 (kept too, although 0/0 has no sign).
+        let a = SparseRows::from_rows(
+            2,
+            &[
+                vec![(0, 1.0)],
+                vec![(1, 2.0)],
+                vec![(0, -1.0)],
+                vec![],
+                vec![(1, -1.0)],
+                vec![],
+            ],
+        );
+        let b = vec![4.0, -3.0, -2.5, -1.0, -2.0, 0.0];
+        let p = ProjectionProblem::new(vec![0.0; 2], a, b).unwrap();
+        let r = p.b().to_vec();
+        assert_eq!(screened_rows(&p, &r), vec![0, 1, 3, 4, 5]);
+    }
+
+    #[test]
+    fn a_rescue_runs_on_the_screened_rows_then_on_every_row_unless_the_screen_kept_them_all() {
+        assert_eq!(
+            rescue_attempts(vec![0, 2], 3),
+            vec![vec![0, 2], vec![0, 1, 2]]
+        );
+        assert_eq!(rescue_attempts(vec![0, 1, 2], 3), vec![vec![0, 1, 2]]);
+    }
+
+    #[test]
+    fn an_interior_point_is_finished_from_when_it_reached_a_relative_1e_8() {
+        assert!(is_a_guess(1e-8, 1.0));
+        assert!(!is_a_guess(2e-8, 1.0));
+        // Relative to the data's scale: 1e-6 on data of 100 is a guess, 1e-3 is not.
+        assert!(is_a_guess(1e-6, 100.0));
+        assert!(!is_a_guess(1e-3, 100.0));
+        assert!(!is_a_guess(f64::INFINITY, 1.0));
+    }
+
+    #[test]
+    fn a_diverged_interior_point_hands_the_violated_rows_to_the_active_set_with_room_for_half_the_rows(
+    ) {
+        let r = [1.0, 0.0, -2.0, 3.0];
+        let cold = vec![0.1, 0.2, 0.3, 0.4];
+        let (start, cap) = cold_start(&r, cold.clone());
+        assert_eq!(start.support, vec![0, 3]);
+        assert_eq!(start.lambda, vec![0.1, 0.4]);
+        assert_eq!(start.join, cold);
+        assert_eq!(cap, POLISH_ITERATIONS);
+        // A block of 1000 rows: 40 + 500 iterations.
+        let (_, cap) = cold_start(&vec![-1.0; 1000], vec![0.0; 1000]);
+        assert_eq!(cap, 540);
+    }
+
+    #[test]
+    fn a_finish_starts_from_multipliers_above_their_slack_and_joins_rows_at_their_iterate() {
+        let it = iterate(vec![2.0, 0.5, 0.0, 1.0], vec![1.0, 1.0, 0.1, 1.0]);
+        let start = finish_start(&it, &[9.0; 4]);
+        // Row 3, with its multiplier equal to its slack, is not in the support.
+        assert_eq!(start.support, vec![0]);
+        assert_eq!(start.lambda, vec![2.0]);
+        // Row 2's multiplier is zero: it joins at the cold one.
+        assert_eq!(start.join, vec![2.0, 0.5, 9.0, 1.0]);
+    }
+
+    #[test]
+    fn multipliers_below_their_slack_and_a_hundredth_of_the_tolerance_are_cleared() {
+        let tol = 1e-8;
+        let at_threshold = CLEAN_FRACTION * tol;
+        let it = iterate(
+            vec![2.0, 1e-12, 1e-12, at_threshold, 1e-9, 1e-12],
+            vec![1.0, 1e-13, 1e-12, 1.0, 1.0, 1.0],
+        );
+        assert_eq!(
+            cleaned_multipliers(&it, tol),
+            // Above the slack: kept however small (rows 0, 1); at or below both the slack and
+            // the threshold: cleared (rows 2, 3, 5); above the threshold: kept, below its
+            // slack or not (row 4: a degenerate row's multiplier, about √μ).
+            vec![2.0, 1e-12, 0.0, 0.0, 1e-9, 0.0]
+        );
+    }
+
+    #[test]
+    fn a_rescue_on_an_empty_set_ends_with_a_farkas_certificate() {
+        // x₀ ≥ 1 and −x₀ ≥ 0: the interior point diverges, and the active set proves it.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, 0.0]).unwrap();
+        let r = p.b().to_vec();
+        match rescue_by_interior_point(&p, &r, vec![0.0; 2], 1e-10) {
+            Err((Failure::Infeasible { mut rows }, _)) => {
+                rows.sort_unstable();
+                assert_eq!(rows, vec![0, 1]);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_rescue_on_large_data_is_its_interior_point_accepted_as_it_is() {
+        // The chain scaled by 1000: the interior point's tolerance is relative, so it stops
+        // at the same iteration as on the chain, and its iterate is the answer.
+        let (p, _) = chain();
+        let scaled = |v: &[f64]| v.iter().map(|x| 1000.0 * x).collect::<Vec<f64>>();
+        let q = ProjectionProblem::new(scaled(p.y()), p.a().clone(), scaled(p.b())).unwrap();
+        let mut r = vec![0.0; 5];
+        q.a().mul_vec(q.y(), &mut r);
+        r.iter_mut().zip(q.b()).for_each(|(ri, bi)| *ri = bi - *ri);
+        let screened = screened_rows(&q, &r);
+        let alone = solve_rows(&q, &r, &screened, 1e-12 * 1000.0).unwrap();
+        assert!(alone.converged);
+        let tol = 1e-10 * 5000.0;
+        let outcome = rescue_by_interior_point(&q, &r, vec![0.0; 5], tol).unwrap();
+        assert_eq!(outcome.iterations, alone.iterations);
+        assert!(q.kkt_residuals(&outcome.x, &outcome.lambda).max() <= CLEAN_FRACTION * tol);
+        assert!((outcome.x[0] + 500.0).abs() < 1e-7 && (outcome.x[1] - 500.0).abs() < 1e-7);
     }
 }
