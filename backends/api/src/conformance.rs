@@ -185,7 +185,7 @@ pub fn max_gap(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(u, v)| (u - v).abs())
-        .fold(0.0, f64::max)
+        .fold(0.0, crate::max_or_nan)
 }
 
 fn expect_point(x: &[f64], expected: &[f64], tol: f64, what: &str) -> Result<(), String> {

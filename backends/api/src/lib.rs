@@ -201,7 +201,7 @@ impl ProjectionProblem {
         ax.iter()
             .zip(&self.b)
             .map(|(axi, bi)| bi - axi)
-            .fold(0.0, f64::max)
+            .fold(0.0, max_or_nan)
     }
 
     /// How far `(x, λ)` is from the KKT conditions of this projection.
@@ -222,25 +222,40 @@ impl ProjectionProblem {
             .iter()
             .zip(&self.b)
             .map(|(axi, bi)| bi - axi)
-            .fold(0.0, f64::max);
+            .fold(0.0, max_or_nan);
         let stationarity = x
             .iter()
             .zip(&self.y)
             .zip(&at_lambda)
             .map(|((xi, yi), ai)| (xi - yi - ai).abs())
-            .fold(0.0, f64::max);
-        let dual = multipliers.iter().map(|l| -l).fold(0.0, f64::max);
+            .fold(0.0, max_or_nan);
+        let dual = multipliers.iter().map(|l| -l).fold(0.0, max_or_nan);
         let complementarity = multipliers
             .iter()
             .zip(ax.iter().zip(&self.b))
             .map(|(l, (axi, bi))| (l.max(0.0) * (axi - bi)).abs())
-            .fold(0.0, f64::max);
+            .fold(0.0, max_or_nan);
         KktResiduals {
             primal,
             stationarity,
             dual,
             complementarity,
         }
+    }
+}
+
+/// The larger of `a` and `b`, NaN when either is. `f64::max` returns the other one, so a
+/// residual folded with it would read 0 where the answer holds a NaN, and pass a check.
+///
+/// ```
+/// assert!(sweeping_api::max_or_nan(1.0, f64::NAN).is_nan());
+/// assert_eq!(sweeping_api::max_or_nan(1.0, 2.0), 2.0);
+/// ```
+pub fn max_or_nan(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
     }
 }
 
@@ -258,12 +273,11 @@ pub struct KktResiduals {
 }
 
 impl KktResiduals {
-    /// The largest of the four residuals.
+    /// The largest of the four residuals; NaN when one of them is.
     pub fn max(&self) -> f64 {
-        self.primal
-            .max(self.stationarity)
-            .max(self.dual)
-            .max(self.complementarity)
+        [self.stationarity, self.dual, self.complementarity]
+            .into_iter()
+            .fold(self.primal, max_or_nan)
     }
 }
 
