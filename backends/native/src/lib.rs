@@ -883,4 +883,19 @@ mod tests {
         assert!(q.kkt_residuals(&outcome.x, &outcome.lambda).max() <= CLEAN_FRACTION * tol);
         assert!((outcome.x[0] + 500.0).abs() < 1e-7 && (outcome.x[1] - 500.0).abs() < 1e-7);
     }
+
+    #[test]
+    fn a_rescue_whose_interior_point_breaks_down_finishes_from_where_it_got() {
+        let (a, r) = interior_point::tests::random_crowd();
+        let m = r.len();
+        let p = ProjectionProblem::new(vec![0.0; a.n_cols()], a, r.clone()).unwrap();
+        let tol = 1e-10;
+        let outcome = rescue_by_interior_point(&p, &r, vec![0.0; m], tol).expect("solved");
+        assert!(p.kkt_residuals(&outcome.x, &outcome.lambda).max() <= tol);
+        let reference = sweeping_clarabel::ClarabelProjector::default()
+            .project(&p)
+            .unwrap();
+        let gap = sweeping_api::conformance::max_gap(&outcome.x, &reference.x);
+        assert!(gap <= 1e-8, "{gap:e}");
+    }
 }
