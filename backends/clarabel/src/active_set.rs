@@ -16,10 +16,12 @@
 //! ```
 //!
 //! by an `LDLᵀ` factorization (QDLDL, with AMD ordering) of the quasi-definite matrix whose
-//! lower-right block is `−δI`, followed by iterative refinement against the unregularized
+//! lower-right block is `−δI`, on the unknowns the rows of `P` touch (`dⱼ = 0` for the others),
+//! followed by iterative refinement against the unregularized
 //! matrix, started from the current `(d, λ)`. Between steps the support changes by a few
 //! rows; up to `BORDER_MAX` (24) such changes are solved through the factor already made, by
-//! bordering it with the changed rows and a small dense Schur complement,
+//! bordering it with the changed rows and a small dense Schur complement (the factor extended
+//! by the identity on unknowns that only joined rows touch),
 //! instead of factoring again. Refinement is the proximal-point method on the
 //! multipliers, so on linearly dependent rows (a *contact loop*: a cycle of touching disks)
 //! it still converges to the unique `d` and to the least-squares `μ` nearest `λ`. Then:
