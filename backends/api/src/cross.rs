@@ -76,13 +76,17 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
                 .zip(&b.x)
                 .map(|(u, v)| (u - v).abs())
                 .enumerate()
-                .fold(
-                    (0, 0.0),
-                    |best, (i, g)| if g > best.1 { (i, g) } else { best },
-                );
+                .fold((0, 0.0), |best: (usize, f64), (i, g)| {
+                    // The first NaN wins: a NaN coordinate is the worst disagreement.
+                    if best.1.is_nan() || !(g.is_nan() || g > best.1) {
+                        best
+                    } else {
+                        (i, g)
+                    }
+                });
         self.stats.compared += 1;
         self.stats.sum_gap += gap;
-        self.stats.max_gap = self.stats.max_gap.max(gap);
+        self.stats.max_gap = crate::max_or_nan(self.stats.max_gap, gap);
         if gap.is_nan() || gap > self.tolerance {
             return Err(ProjectionError::Disagreement {
                 first: self.first.name().to_string(),

@@ -39,3 +39,37 @@ fn a_nan_entry_makes_the_gap_to_any_answer_nan() {
     assert!(max_gap(&[1.0, f64::NAN], &[1.0, 2.0]).is_nan());
     assert_eq!(max_gap(&[1.0, 2.5], &[1.0, 2.0]), 0.5);
 }
+
+/// A backend whose answer holds a NaN in its second coordinate.
+struct NanProjector;
+
+impl sweeping_api::Projector for NanProjector {
+    fn name(&self) -> &str {
+        "nan"
+    }
+    fn project(
+        &mut self,
+        p: &ProjectionProblem,
+    ) -> Result<sweeping_api::Projection, sweeping_api::ProjectionError> {
+        let mut answer = sweeping_api::Projection::identity(p, "nan");
+        answer.x[1] = f64::NAN;
+        Ok(answer)
+    }
+}
+
+#[test]
+fn a_cross_check_fails_on_a_nan_coordinate_and_names_it() {
+    use sweeping_api::conformance::ReferenceProjector;
+    use sweeping_api::{CrossCheck, ProjectionError, Projector};
+    let mut both = CrossCheck::new(ReferenceProjector::default(), NanProjector, 1e-9);
+    match both.project(&pair()) {
+        Err(ProjectionError::Disagreement {
+            gap, coordinate, ..
+        }) => {
+            assert!(gap.is_nan());
+            assert_eq!(coordinate, 1);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(both.stats().max_gap.is_nan());
+}

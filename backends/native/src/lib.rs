@@ -481,6 +481,14 @@ fn solve_rows(
 /// zero multiplier) both approach zero like `√μ`, and dropping them would move `x` by about
 /// that much. `x` is then `y + Aᵀλ`, so stationarity holds to rounding; feasibility and
 /// complementarity are what the check decides.
+///
+/// Complementarity is checked as tightness: every row keeping a multiplier must hold with
+/// equality to [`CLEAN_FRACTION`]` × tol`, whatever the size of its multiplier. The product
+/// `λᵢ(Ax − b)ᵢ` alone does not bound the error in `x`: a degenerate row's `√μ` multiplier
+/// with a slack of `√μ` passes it, and such an iterate was 9.4e-8 from the projection on the
+/// paper's evacuation with every KKT residual below 1e-12 (the duality gap, a sum of such
+/// products, only bounds `‖x − x*‖²`). With every kept row tight, `x` is the projection onto
+/// the rows moved by at most that much.
 fn certified_iterate(
     block: &ProjectionProblem,
     it: &interior_point::Iterate,
@@ -491,6 +499,19 @@ fn certified_iterate(
     let mut x = vec![0.0; block.dim()];
     block.a().mul_transpose_vec(&lambda, &mut x);
     x.iter_mut().zip(block.y()).for_each(|(xi, yi)| *xi += yi);
+    let mut ax = vec![0.0; block.n_rows()];
+    block.a().mul_vec(&x, &mut ax);
+    let loose = lambda
+        .iter()
+        .zip(ax.iter().zip(block.b()))
+        .any(|(&l, (axi, bi))| {
+            let slack = (axi - bi).abs();
+            // A NaN slack is loose too.
+            l > 0.0 && (slack.is_nan() || slack > CLEAN_FRACTION * tol)
+        });
+    if loose {
+        return None;
+    }
     let kkt = block.kkt_residuals(&x, &lambda).max();
     (kkt <= CLEAN_FRACTION * tol).then_some(active_set::Outcome {
         x,
@@ -897,5 +918,24 @@ mod tests {
             .unwrap();
         let gap = sweeping_api::conformance::max_gap(&outcome.x, &reference.x);
         assert!(gap <= 1e-8, "{gap:e}");
+    }
+
+    #[test]
+    fn an_iterate_whose_kept_row_is_not_tight_is_refused_though_its_products_are_small() {
+        // x₀ ≥ 0 with y = 1e-7: the projection is y, the row is not active. An iterate with
+        // λ = 5e-7 on it (a degenerate row's √μ, above its slack) gives x = 6e-7: feasible,
+        // stationary, and λ(Ax − b) = 3e-13 within a hundredth of tol = 1e-10, yet 5e-7 from
+        // the projection. The row holds a multiplier without being tight: refused.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)]]);
+        let p = ProjectionProblem::new(vec![1e-7], a, vec![0.0]).unwrap();
+        let tol = 1e-10;
+        let it = iterate(vec![5e-7], vec![1e-7]);
+        let x = [6e-7];
+        assert!(p.kkt_residuals(&x, &it.lambda).max() <= CLEAN_FRACTION * tol);
+        assert!(certified_iterate(&p, &it, tol, 3).is_none());
+        // The same row tight (y = −5e-7, so x = 0): accepted.
+        let q = ProjectionProblem::new(vec![-5e-7], p.a().clone(), vec![0.0]).unwrap();
+        let outcome = certified_iterate(&q, &it, tol, 3).expect("accepted");
+        assert!(outcome.x[0].abs() < 1e-18);
     }
 }
