@@ -27,7 +27,8 @@
 //!    plausibly be tight (those whose slack at `y` is at most half the largest violation, a
 //!    third of a jam's rows, which makes its factorizations many times cheaper). Its
 //!    iterate is the answer if it passes the KKT check, with a hundredth of the tolerance and
-//!    against every row of the block; otherwise the active-set method finishes exactly from
+//!    against every row of the block, and every row keeping a multiplier is tight to that;
+//!    otherwise the active-set method finishes exactly from
 //!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished), and
 //!    if that runs out too, the interior point runs again on every row. A block rescued three
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
