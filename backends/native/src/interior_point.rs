@@ -287,6 +287,8 @@ pub(crate) fn solve(
     let mut w = vec![0.0; m];
     let mut at_lambda = vec![0.0; n];
     let mut accuracy = f64::INFINITY;
+    // Where the method stopped without converging: the cap, or a breakdown (below).
+    let mut stopped = max_iterations;
     for iterations in 1..=max_iterations {
         // Residuals: r_d = d − Aᵀλ, r_p = A d − s − r, and μ = sᵀλ / m.
         a.mul_transpose_vec(&lambda, &mut at_lambda);
@@ -318,13 +320,8 @@ pub(crate) fn solve(
         // far is returned, not lost (a random crowd of 88 reached 2.5e-11 and broke down at
         // the 13th iteration, on its way to 1e-12).
         if !matrix.factor(&w) {
-            return Some(Iterate {
-                lambda,
-                slack,
-                iterations,
-                converged: false,
-                accuracy,
-            });
+            stopped = iterations;
+            break;
         }
         let newton = Newton {
             a,
@@ -358,13 +355,8 @@ pub(crate) fn solve(
             * step_to_boundary(&slack, &ds).min(step_to_boundary(&lambda, &dl)))
         .min(1.0);
         if !(alpha.is_finite() && dd.iter().chain(&ds).chain(&dl).all(|v| v.is_finite())) {
-            return Some(Iterate {
-                lambda,
-                slack,
-                iterations,
-                converged: false,
-                accuracy,
-            });
+            stopped = iterations;
+            break;
         }
         for j in 0..n {
             d[j] += alpha * dd[j];
@@ -380,7 +372,7 @@ pub(crate) fn solve(
     Some(Iterate {
         lambda,
         slack,
-        iterations: max_iterations,
+        iterations: stopped,
         converged: false,
         accuracy,
     })

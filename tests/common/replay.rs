@@ -1,0 +1,117 @@
+//! Replaying a scene with two backends on every step and deciding, against a certified
+//! projection, which one is off where they first disagree. Shared by the cross-check
+//! certificates (`cross_certificate.rs`: Clarabel against OSQP; `cross_native_certificate.rs`:
+//! native against Clarabel), each of which includes this file next to `certified.rs`.
+
+use crate::certified::reference;
+use sweeping::api::conformance::max_gap;
+use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
+use sweeping::scene::{Overrides, Scene};
+use sweeping::stepper::Stepper;
+
+/// The first step where two backends differ by more than the tolerance.
+pub struct Disagreement {
+    pub problem: ProjectionProblem,
+    pub first: Projection,
+    pub second: Projection,
+    pub gap: f64,
+}
+
+/// Both backends on every step (the first one's answer is kept); records the first
+/// disagreement and stops the run there.
+struct Recorder<'a> {
+    first: &'a mut dyn Projector,
+    second: &'a mut dyn Projector,
+    tolerance: f64,
+    disagreement: Option<Disagreement>,
+}
+
+impl Projector for Recorder<'_> {
+    fn name(&self) -> &str {
+        "recorder"
+    }
+    fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let a = self.first.project(p)?;
+        let b = self.second.project(p)?;
+        let gap = max_gap(&a.x, &b.x);
+        if gap.is_nan() || gap > self.tolerance {
+            self.disagreement = Some(Disagreement {
+                problem: p.clone(),
+                first: a,
+                second: b,
+                gap,
+            });
+            return Err(ProjectionError::Backend {
+                backend: "recorder".into(),
+                message: format!("disagreement {gap:.3e}"),
+            });
+        }
+        Ok(a)
+    }
+}
+
+/// Runs the shipped scene `name` with both backends to its end or to their first
+/// disagreement beyond `tolerance`, which it prints and returns.
+pub fn first_disagreement(
+    name: &str,
+    first: &mut dyn Projector,
+    second: &mut dyn Projector,
+    tolerance: f64,
+) -> Option<Disagreement> {
+    let path = format!("{}/examples/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    let built = Scene::from_file(path)
+        .unwrap()
+        .build(&Overrides::default())
+        .unwrap();
+    let mut stepper = Stepper::new(&built.problem, built.settings.clone()).unwrap();
+    let mut recorder = Recorder {
+        first,
+        second,
+        tolerance,
+        disagreement: None,
+    };
+    while stepper.steps_done() < stepper.n_steps() {
+        if let Err(e) = stepper.step(&mut recorder) {
+            if let Some(d) = &recorder.disagreement {
+                eprintln!(
+                    "disagreement at step {} ({e}): gap {:.3e}, {} rows, dim {}",
+                    stepper.steps_done(),
+                    d.gap,
+                    d.problem.n_rows(),
+                    d.problem.dim()
+                );
+            }
+            break;
+        }
+    }
+    recorder.disagreement
+}
+
+/// The best certified projection (violation and cone residual at most 1e-10) of `problem`
+/// from the rows tight at each answer in `answers` within each of `tight_tols`, printing each
+/// candidate's distance to every answer: `(x*, violation, residual)`.
+pub fn certified_projection(
+    problem: &ProjectionProblem,
+    answers: &[(&str, &[f64])],
+    tight_tols: &[f64],
+) -> Option<(Vec<f64>, f64, f64)> {
+    let mut best: Option<(Vec<f64>, f64, f64)> = None;
+    for (name, guess) in answers {
+        for &tight_tol in tight_tols {
+            let (x, violation, residual) = reference(problem, guess, tight_tol);
+            let distances: Vec<String> = answers
+                .iter()
+                .map(|(other, y)| format!("‖{other} − x*‖∞ = {:.3e}", max_gap(y, &x)))
+                .collect();
+            eprintln!(
+                "  from {name}'s active set (slack ≤ {tight_tol:.0e}): violation {violation:.2e}, cone residual {residual:.2e}, {}",
+                distances.join(", ")
+            );
+            let certified = violation <= 1e-10 && residual <= 1e-10;
+            if certified && best.as_ref().is_none_or(|b| residual < b.2) {
+                best = Some((x, violation, residual));
+            }
+        }
+    }
+    best
+}
