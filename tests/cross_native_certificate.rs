@@ -19,14 +19,13 @@ mod replay;
 
 const TOLERANCE: f64 = 1e-8;
 
-#[test]
-#[ignore = "long: replays the evacuation with both backends"]
-fn which_backend_is_right_where_cross_native_stops_on_the_paper_evacuation() {
+/// Replays the shipped scene `name` with the native backend and Clarabel; at their first
+/// disagreement beyond [`TOLERANCE`], decides against a certified projection and requires the
+/// native answer (the one a run keeps) to be within [`TOLERANCE`] of it.
+fn native_is_right_where_cross_native_stops(name: &str) {
     let (mut native, mut clarabel) = (native_projector(), ClarabelProjector::default());
-    let Some(d) =
-        replay::first_disagreement("paper-evacuation", &mut native, &mut clarabel, TOLERANCE)
-    else {
-        eprintln!("native and Clarabel agreed to {TOLERANCE:e} on every step");
+    let Some(d) = replay::first_disagreement(name, &mut native, &mut clarabel, TOLERANCE) else {
+        eprintln!("native and Clarabel agreed to {TOLERANCE:e} on every step of {name}");
         return;
     };
     let (problem, native, clarabel) = (d.problem, d.first, d.second);
@@ -43,9 +42,20 @@ fn which_backend_is_right_where_cross_native_stops_on_the_paper_evacuation() {
     eprintln!(
         "certified x* (violation {violation:.2e}, cone residual {residual:.2e}): native off by {dn:.3e}, clarabel off by {dc:.3e}"
     );
-    // Whichever it is, the answer that the run keeps (the native one) must be the projection.
     assert!(
         dn <= TOLERANCE,
         "native is {dn:.3e} from the certified projection"
     );
+}
+
+#[test]
+#[ignore = "long: replays the evacuation with both backends"]
+fn which_backend_is_right_where_cross_native_stops_on_the_paper_evacuation() {
+    native_is_right_where_cross_native_stops("paper-evacuation");
+}
+
+#[test]
+#[ignore = "long: replays 700 steps of 1500 people with both backends"]
+fn which_backend_is_right_where_cross_native_stops_on_the_large_evacuation() {
+    native_is_right_where_cross_native_stops("large-evacuation");
 }

@@ -938,5 +938,11 @@ mod tests {
         let q = ProjectionProblem::new(vec![-5e-7], p.a().clone(), vec![0.0]).unwrap();
         let outcome = certified_iterate(&q, &it, tol, 3).expect("accepted");
         assert!(outcome.x[0].abs() < 1e-18);
+        // Tight, but a row without a multiplier (x₁ ≥ 1e-9, y₁ = 0) violated by 1e-9, more
+        // than a hundredth of tol: refused.
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
+        let r = ProjectionProblem::new(vec![-5e-7, 0.0], a, vec![0.0, 1e-9]).unwrap();
+        let it = iterate(vec![5e-7, 0.0], vec![1e-7, 1.0]);
+        assert!(certified_iterate(&r, &it, tol, 3).is_none());
     }
 }

@@ -1,0 +1,92 @@
+//! `CrossCheck` on its own: the gap it measures, the coordinate it names, the statistics it
+//! keeps and the tolerance it reports, against backends whose answers are known.
+
+use sweeping_api::{
+    CrossCheck, Projection, ProjectionError, ProjectionProblem, Projector, SparseRows,
+};
+
+/// Answers `y + shift` (whatever the rows), reporting `tolerance`.
+struct Shifted {
+    name: &'static str,
+    shift: Vec<f64>,
+    tolerance: f64,
+}
+
+impl Projector for Shifted {
+    fn name(&self) -> &str {
+        self.name
+    }
+    fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let mut answer = Projection::identity(p, self.name);
+        answer
+            .x
+            .iter_mut()
+            .zip(&self.shift)
+            .for_each(|(x, s)| *x += s);
+        Ok(answer)
+    }
+    fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+}
+
+fn shifted(name: &'static str, shift: &[f64], tolerance: f64) -> Shifted {
+    Shifted {
+        name,
+        shift: shift.to_vec(),
+        tolerance,
+    }
+}
+
+fn problem() -> ProjectionProblem {
+    let a = SparseRows::from_rows(3, &[vec![(0, 1.0)]]);
+    ProjectionProblem::new(vec![1.0, 2.0, 3.0], a, vec![0.0]).unwrap()
+}
+
+#[test]
+fn agreeing_answers_pass_and_their_gaps_are_counted() {
+    let first = shifted("a", &[0.0, 0.0, 0.0], 1e-9);
+    let second = shifted("b", &[0.0, 3e-10, -1e-10], 1e-7);
+    let mut both = CrossCheck::new(first, second, 1e-9);
+    assert_eq!(both.name(), "cross(a, b)");
+    // The larger of the two backends' tolerances: both answers are accepted.
+    assert_eq!(both.tolerance(), 1e-7);
+    let p = problem();
+    let answer = both.project(&p).unwrap();
+    assert_eq!(answer.x, vec![1.0, 2.0, 3.0]);
+    both.project(&p).unwrap();
+    let stats = both.stats();
+    assert_eq!(stats.compared, 2);
+    assert!((stats.max_gap - 3e-10).abs() < 1e-15, "{}", stats.max_gap);
+    assert!((stats.sum_gap - 6e-10).abs() < 1e-15, "{}", stats.sum_gap);
+    assert!(stats.first_seconds >= 0.0 && stats.second_seconds >= 0.0);
+}
+
+#[test]
+fn a_gap_beyond_the_tolerance_is_an_error_naming_the_largest_coordinate() {
+    let first = shifted("a", &[0.0, 0.0, 0.0], 1e-9);
+    let second = shifted("b", &[2e-6, -5e-6, 1e-6], 1e-9);
+    let mut both = CrossCheck::new(first, second, 1e-6);
+    match both.project(&problem()) {
+        Err(ProjectionError::Disagreement {
+            first,
+            second,
+            gap,
+            coordinate,
+            tolerance,
+        }) => {
+            assert_eq!((first.as_str(), second.as_str()), ("a", "b"));
+            assert!((gap - 5e-6).abs() < 1e-15, "{gap}");
+            assert_eq!(coordinate, 1);
+            assert_eq!(tolerance, 1e-6);
+        }
+        other => panic!("{other:?}"),
+    }
+    // A gap exactly at the tolerance passes.
+    let mut at = CrossCheck::new(
+        shifted("a", &[0.0; 3], 1e-9),
+        shifted("b", &[0.0, 0.0, 0.5], 1e-9),
+        0.5,
+    );
+    assert!(at.project(&problem()).is_ok());
+}
