@@ -53,9 +53,3 @@ fn native_is_right_where_cross_native_stops(name: &str) {
 fn which_backend_is_right_where_cross_native_stops_on_the_paper_evacuation() {
     native_is_right_where_cross_native_stops("paper-evacuation");
 }
-
-#[test]
-#[ignore = "long: replays 700 steps of 1500 people with both backends"]
-fn which_backend_is_right_where_cross_native_stops_on_the_large_evacuation() {
-    native_is_right_where_cross_native_stops("large-evacuation");
-}
