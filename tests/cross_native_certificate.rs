@@ -7,7 +7,7 @@
 //! rows tight at an answer, feasible for every row, with non-negative multipliers found by a
 //! dense non-negative least-squares solve). Long (≈500 steps of both backends):
 //! `cargo test --release --test cross_native_certificate -- --ignored --nocapture`.
-#![cfg(feature = "clarabel")]
+#![cfg(all(feature = "clarabel", feature = "native"))]
 
 use sweeping::api::conformance::max_gap;
 use sweeping::backends::{native_projector, ClarabelProjector};
