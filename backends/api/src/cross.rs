@@ -78,10 +78,10 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
                 .enumerate()
                 .fold((0, 0.0), |best: (usize, f64), (i, g)| {
                     // The first NaN wins: a NaN coordinate is the worst disagreement.
-                    if best.1.is_nan() || !(g.is_nan() || g > best.1) {
-                        best
-                    } else {
+                    if g > best.1 || (g.is_nan() && !best.1.is_nan()) {
                         (i, g)
+                    } else {
+                        best
                     }
                 });
         self.stats.compared += 1;

@@ -256,7 +256,7 @@ impl NativeProjector {
         let rescue = self.settings.interior_point;
         let cap = match self.settings.max_iterations {
             0 if self.fallback.is_some() || rescue => DEFAULT_ITERATIONS,
-            0 => 40 + u32::try_from(m / 2).unwrap_or(u32::MAX / 4),
+            0 => cap_on_its_own(m),
             c => c,
         };
         let start = Start {
@@ -389,13 +389,18 @@ fn is_a_guess(accuracy: f64, scale: f64) -> bool {
 fn cold_start(r: &[f64], cold: Vec<f64>) -> (Start, u32) {
     let support: Vec<usize> = (0..r.len()).filter(|&i| r[i] > 0.0).collect();
     let lambda = support.iter().map(|&i| cold[i]).collect();
-    let rows = u32::try_from(r.len() / 2).unwrap_or(u32::MAX);
     let start = Start {
         support,
         lambda,
         join: cold,
     };
-    (start, POLISH_ITERATIONS.max(rows.saturating_add(40)))
+    (start, POLISH_ITERATIONS.max(cap_on_its_own(r.len())))
+}
+
+/// Iterations the active-set method gets on a block of `m` rows when nothing takes over after
+/// it: `40 + m/2`, room for Lawson–Hanson to take about every other row in turn.
+fn cap_on_its_own(m: usize) -> u32 {
+    u32::try_from(m / 2).unwrap_or(u32::MAX).saturating_add(40)
 }
 
 /// The active-set method's start from an interior point's iterate `it` (as Clarabel's answers
