@@ -5,7 +5,7 @@
 
 use crate::certified::reference;
 use sweeping::api::conformance::max_gap;
-use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
+use sweeping::api::{Block, Blocks, Projection, ProjectionError, ProjectionProblem, Projector};
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::Stepper;
 
@@ -114,4 +114,29 @@ pub fn certified_projection(
         }
     }
     best
+}
+
+/// The block of `problem` (its connected component, see [`Blocks`]) holding the coordinate
+/// where answers `a` and `b` differ most, with both answers restricted to it. The projection
+/// separates over blocks, so a certified projection of that block alone decides the
+/// disagreement, at the cost of the block rather than of the whole step (the dense reference
+/// does not scale to the thousands of rows of a large scene).
+#[allow(dead_code)] // used by the native certificate, not by every includer
+pub fn block_of_largest_gap(
+    problem: &ProjectionProblem,
+    a: &[f64],
+    b: &[f64],
+) -> (Block, Vec<f64>, Vec<f64>) {
+    let worst = (0..a.len())
+        .max_by(|&i, &j| (a[i] - b[i]).abs().total_cmp(&(a[j] - b[j]).abs()))
+        .expect("answers have coordinates");
+    let block = Blocks::split(problem)
+        .blocks()
+        .iter()
+        .find(|block| block.cols.contains(&worst))
+        .cloned()
+        .expect("two answers can only differ on a coordinate some row touches");
+    let restrict = |x: &[f64]| block.cols.iter().map(|&c| x[c]).collect::<Vec<f64>>();
+    let (ra, rb) = (restrict(a), restrict(b));
+    (block, ra, rb)
 }

@@ -28,7 +28,8 @@
 //! answer with a zero multiplier (*weakly* active, common at degenerate vertices and contact
 //! loops) the point stays off by about the square root of the duality gap, however small the
 //! residuals. Unless [`ClarabelSettings::polish`] is off, a Lawson–Hanson active-set method on
-//! the dual of the projection finishes the job from the interior-point answer (each step one
+//! the dual of the projection finishes the job from the interior-point answer, block by block
+//! (connected components of the rows, each under its own cap of iterations; each step one
 //! sparse `LDLᵀ` factorization with Clarabel's QDLDL; linearly dependent active rows are
 //! handled). **KKT acceptance:** the polished answer replaces the interior-point one when its
 //! KKT residuals are no larger, or below a hundredth of [`ClarabelSettings::kkt_tolerance`];
@@ -492,7 +493,7 @@ impl Projector for ClarabelProjector {
         }
         let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
         if self.settings.polish {
-            if let Some((px, mut pl)) = polish::polish(problem, &solution.z, &solution.s) {
+            if let Some((px, mut pl)) = polish::polish(problem, &x, &solution.z, &solution.s) {
                 // Tiny negative multipliers of weakly active rows are clamped as above; a
                 // larger one disqualifies the polished answer.
                 let valid = pl.iter().all(|l| *l >= -clamp);
