@@ -90,14 +90,19 @@ mod tests {
     /// sides are inconsistent): about eight iterations a chain. Returns the problem and
     /// `(z, s)`.
     fn chains_with_decoys(blocks: usize) -> (ProjectionProblem, Vec<f64>, Vec<f64>) {
-        let mut a = SparseRows::new(6 * blocks);
+        chains_of(blocks, 6)
+    }
+
+    /// As [`chains_with_decoys`], chains of `len` unknowns.
+    fn chains_of(blocks: usize, len: usize) -> (ProjectionProblem, Vec<f64>, Vec<f64>) {
+        let mut a = SparseRows::new(len * blocks);
         let (mut b, mut z, mut s) = (Vec::new(), Vec::new(), Vec::new());
         for block in 0..blocks {
             // Blocks differ in their guesses, so that their rows do not leave in step.
             let weight = 1.0 + 0.37 * block as f64;
             for (bound, guess) in [(1.0, (0.0, 1.0)), (0.9, (weight, 0.0))] {
-                for j in 0..5 {
-                    let c = 6 * block + j;
+                for j in 0..len - 1 {
+                    let c = len * block + j;
                     a.push_row([(c, -1.0), (c + 1, 1.0)]);
                     b.push(bound);
                     z.push(guess.0 * (1.0 + 0.1 * j as f64));
@@ -105,7 +110,7 @@ mod tests {
                 }
             }
         }
-        let problem = ProjectionProblem::new(vec![0.0; 6 * blocks], a, b).unwrap();
+        let problem = ProjectionProblem::new(vec![0.0; len * blocks], a, b).unwrap();
         (problem, z, s)
     }
 
@@ -139,6 +144,16 @@ mod tests {
     }
 
     #[test]
+    fn a_block_gets_more_iterations_than_the_fixed_forty_when_it_has_the_rows_for_it() {
+        // One chain of 61 unknowns: its 60 copies leave one at a time, more than 41
+        // iterations, fewer than 40 + 120/2.
+        let (problem, z, s) = chains_of(1, 61);
+        let x_guess = vec![0.0; problem.dim()];
+        let (x, _) = polish(&problem, &x_guess, &z, &s).expect("the chain is polished");
+        assert!((x[0] + 30.0).abs() < 1e-10 && (x[60] - 30.0).abs() < 1e-10);
+    }
+
+    #[test]
     fn a_block_that_is_not_polished_keeps_the_interior_point_answer() {
         // One chain polished, one whose guess is garbage: rows x₁ ≥ 1 and −x₁ ≥ 0 (empty).
         let (chain, z, s) = chains_with_decoys(1);
@@ -168,5 +183,15 @@ mod tests {
         )
         .unwrap();
         assert!(polish(&empty, &[0.5], &[0.5, 0.5], &[0.0, 0.0]).is_none());
+    }
+
+    #[test]
+    fn answers_of_the_wrong_dimensions_are_not_polished() {
+        let (problem, z, s) = chains_with_decoys(1);
+        let x = vec![0.0; problem.dim()];
+        assert!(polish(&problem, &x, &z, &s).is_some());
+        assert!(polish(&problem, &x, &z[1..], &s).is_none());
+        assert!(polish(&problem, &x, &z, &s[1..]).is_none());
+        assert!(polish(&problem, &x[1..], &z, &s).is_none());
     }
 }
