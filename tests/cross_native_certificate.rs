@@ -1,11 +1,14 @@
-//! On the paper's evacuation, `--backend cross-native` (the native backend against Clarabel,
+//! On a shipped scene, `--backend cross-native` (the native backend against Clarabel,
 //! tolerance 1e-8) stops where the two differ by more than 1e-8. Which one is off?
 //!
 //! As `cross_certificate.rs` does for Clarabel and OSQP: the run is replayed with both
 //! backends, the QP of the first step where they disagree is kept with both answers, and the
 //! exact projection is computed independently of both (the least-squares projection onto the
 //! rows tight at an answer, feasible for every row, with non-negative multipliers found by a
-//! dense non-negative least-squares solve). Long (≈500 steps of both backends):
+//! dense non-negative least-squares solve), on the block where they differ most (the
+//! projection separates over blocks). The large scenes' blocks are too large for that
+//! reference: there both answers must pass the KKT certificate and stay close. Long (the
+//! paper's evacuation in seconds, the large scenes in minutes):
 //! `cargo test --release --test cross_native_certificate -- --ignored --nocapture`.
 #![cfg(all(feature = "clarabel", feature = "native"))]
 
@@ -19,10 +22,17 @@ mod replay;
 
 const TOLERANCE: f64 = 1e-8;
 
+/// The dense certified projection is computed on blocks of at most this many rows (its SVDs
+/// did not finish in 17 minutes on a block of 1456).
+const DENSE_ROWS: usize = 600;
+
 /// Replays the shipped scene `name` with the native backend and Clarabel; at their first
 /// disagreement beyond [`TOLERANCE`], decides against a certified projection and requires the
-/// native answer (the one a run keeps) to be within [`TOLERANCE`] of it.
-fn native_is_right_where_cross_native_stops(name: &str) {
+/// native answer (the one a run keeps) to be within [`TOLERANCE`] of it. On a block too large
+/// for the dense reference ([`DENSE_ROWS`]) the step is left undecided, and what can be
+/// checked is: both answers pass the KKT certificate at the native tolerance, and they differ
+/// by less than `undecided_gap`.
+fn native_is_right_where_cross_native_stops(name: &str, undecided_gap: f64) {
     let (mut native, mut clarabel) = (native_projector(), ClarabelProjector::default());
     let Some(d) = replay::first_disagreement(name, &mut native, &mut clarabel, TOLERANCE) else {
         eprintln!("native and Clarabel agreed to {TOLERANCE:e} on every step of {name}");
@@ -39,6 +49,30 @@ fn native_is_right_where_cross_native_stops(name: &str) {
         block.rows.len(),
         block.cols.len()
     );
+    if block.rows.len() > DENSE_ROWS {
+        let scale = d
+            .problem
+            .y()
+            .iter()
+            .chain(d.problem.b())
+            .fold(1.0, |acc: f64, v| acc.max(v.abs()));
+        let certified = 1e-10 * scale;
+        eprintln!("undecided: the block is too large for the dense reference");
+        assert!(
+            kn.max() <= certified,
+            "native fails its certificate: {kn:?}"
+        );
+        assert!(
+            kc.max() <= certified,
+            "Clarabel fails the certificate: {kc:?}"
+        );
+        assert!(
+            d.gap <= undecided_gap,
+            "the answers differ by {:.3e}",
+            d.gap
+        );
+        return;
+    }
     let best = replay::certified_projection(
         &block.problem,
         &[("native", &native), ("clarabel", &clarabel)],
@@ -58,5 +92,17 @@ fn native_is_right_where_cross_native_stops(name: &str) {
 #[test]
 #[ignore = "long: replays the evacuation with both backends"]
 fn which_backend_is_right_where_cross_native_stops_on_the_paper_evacuation() {
-    native_is_right_where_cross_native_stops("paper-evacuation");
+    native_is_right_where_cross_native_stops("paper-evacuation", TOLERANCE);
+}
+
+#[test]
+#[ignore = "long: replays the 2000-person evacuation with both backends"]
+fn where_cross_native_stops_on_the_large_evacuation_both_answers_are_certified() {
+    native_is_right_where_cross_native_stops("large-evacuation", 1e-7);
+}
+
+#[test]
+#[ignore = "long: replays the 10 000-person hall with both backends"]
+fn where_cross_native_stops_on_the_hall_both_answers_are_certified() {
+    native_is_right_where_cross_native_stops("hall-10000", 1e-6);
 }
