@@ -87,7 +87,7 @@ mod tests {
     /// weaker copies `x_{j+1} − x_j ≥ 0.9`; the interior-point guess holds the copies
     /// (`z > s`) and not the real rows. From it the method solves on the copies, the real rows
     /// join, and the copies leave one per iteration (parallel rows with different right-hand
-    /// sides are inconsistent): about eight iterations a chain. Returns the problem and
+    /// sides are inconsistent): seven iterations a chain. Returns the problem and
     /// `(z, s)`.
     fn chains_with_decoys(blocks: usize) -> (ProjectionProblem, Vec<f64>, Vec<f64>) {
         chains_of(blocks, 6)
