@@ -3,10 +3,20 @@
 //! everyone walking to the centre, h = 0.1): the crowds of `sweeping::crowd::synthetic`. The
 //! reference backend (Hildreth) runs at N = 150 only. The time split by stage, up to
 //! N = 10⁵, is printed by `sweep bench`.
+//!
+//! `queue`: the projections of steps 1000–1400 of the paper's evacuation, the queue at its door
+//! (t = 10–14 s), recorded once with Clarabel, then projected in turn by a fresh projector of
+//! each backend (warm-starting itself along the sequence). An evacuation is chaotic: a change
+//! in a backend's last bits changes the run, its length and how long the queue lasts, so
+//! timing whole runs of two versions compares different work. A change to the native backend
+//! times the same problems here (`cargo bench --bench step -- queue/native --save-baseline
+//! before`, then `--baseline before` after the change).
 
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion};
+use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
 use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::crowd::synthetic::{Start, SyntheticCrowd};
+use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::{Stepper, StepperSettings};
 
 fn one_step(c: &mut Criterion) {
@@ -55,5 +65,101 @@ fn one_step(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, one_step);
+/// A projector that keeps a copy of every problem it is given.
+struct Recorder<'a> {
+    inner: &'a mut dyn Projector,
+    problems: Vec<ProjectionProblem>,
+}
+
+impl Projector for Recorder<'_> {
+    fn name(&self) -> &str {
+        "recorder"
+    }
+    fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        self.problems.push(p.clone());
+        self.inner.project(p)
+    }
+}
+
+/// The projections of steps `steps` of a run of `problem`, run with Clarabel (whose answers,
+/// and so the run, do not change with the native backend).
+fn recorded(
+    problem: &sweeping::problem::Problem,
+    settings: &StepperSettings,
+    steps: std::ops::Range<usize>,
+) -> Vec<ProjectionProblem> {
+    let mut clarabel = make_projector(BackendChoice::Clarabel).expect("the Clarabel backend");
+    let mut recorder = Recorder {
+        inner: clarabel.as_mut(),
+        problems: Vec::new(),
+    };
+    let mut stepper = Stepper::new(problem, settings.clone()).expect("a feasible start");
+    while stepper.steps_done() < steps.end {
+        stepper.step(&mut recorder).expect("the run goes on");
+    }
+    recorder.problems.split_off(steps.start)
+}
+
+/// Times each backend projecting `problems` in turn, from a fresh projector.
+fn project_in_turn(c: &mut Criterion, group: &str, problems: &[ProjectionProblem]) {
+    let rows: usize = problems.iter().map(ProjectionProblem::n_rows).sum();
+    eprintln!(
+        "{group}: {} projections, {} rows on average",
+        problems.len(),
+        rows / problems.len()
+    );
+    let mut group = c.benchmark_group(group);
+    group.sample_size(10);
+    for backend in [BackendChoice::Native, BackendChoice::Clarabel] {
+        group.bench_function(backend.to_string(), |b| {
+            b.iter_batched(
+                || make_projector(backend).expect("compiled in"),
+                |mut projector| {
+                    for p in problems {
+                        projector.project(p).expect("a recorded projection");
+                    }
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+fn recorded_runs(c: &mut Criterion) {
+    if make_projector(BackendChoice::Clarabel).is_err()
+        || make_projector(BackendChoice::Native).is_err()
+    {
+        eprintln!("queue, jam: skipped, they need the Clarabel and native backends");
+        return;
+    }
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/scenes/paper-evacuation.toml"
+    );
+    let paper = Scene::from_file(path)
+        .expect("the shipped scene")
+        .build(&Overrides::default())
+        .expect("the shipped scene builds");
+    project_in_turn(
+        c,
+        "queue",
+        &recorded(&paper.problem, &paper.settings, 1000..1400),
+    );
+    let jam = SyntheticCrowd {
+        n: 1000,
+        start: Start::Jammed,
+        seed: 7,
+    }
+    .problem()
+    .expect("a synthetic crowd");
+    let settings = StepperSettings {
+        h: 0.1,
+        t_end: 1.0,
+        ..Default::default()
+    };
+    project_in_turn(c, "jam", &recorded(&jam, &settings, 0..10));
+}
+
+criterion_group!(benches, one_step, recorded_runs);
 criterion_main!(benches);
