@@ -67,6 +67,36 @@ impl Blocks {
     /// connect anything and are dropped from the sub-problems; a row without a non-zero entry
     /// belongs to no block (see [`Blocks::empty_rows`]).
     pub fn split(problem: &ProjectionProblem) -> Self {
+        Self::split_keeping(problem, |_| true)
+    }
+
+    /// [`Blocks::split`] without the components in which `y` satisfies every row (`aᵢ·y ≥
+    /// bᵢ`): there `x = y`, `λ = 0` is the exact projection, which [`Blocks::stitch`] gives any
+    /// row and unknown outside every block. On a spread crowd nearly every block is such a
+    /// pair of people near each other but apart, and building their sub-problems cost more
+    /// than the rest of the projection.
+    ///
+    /// ```
+    /// use sweeping_api::{Blocks, ProjectionProblem, SparseRows};
+    /// // Row 0 holds at y = 0 (0 ≥ −1), row 1 does not (0 ≥ 1): only row 1's block is built.
+    /// let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
+    /// let p = ProjectionProblem::new(vec![0.0; 2], a, vec![-1.0, 1.0]).unwrap();
+    /// let blocks = Blocks::split_violated(&p);
+    /// assert_eq!(blocks.blocks().len(), 1);
+    /// assert_eq!(blocks.blocks()[0].rows, vec![1]);
+    /// ```
+    pub fn split_violated(problem: &ProjectionProblem) -> Self {
+        let (a, y, b) = (problem.a(), problem.y(), problem.b());
+        // Kept unless `aᵢ·y ≥ bᵢ` holds, so a NaN keeps its block, whose solver reports it.
+        Self::split_keeping(problem, |r| {
+            let ay: f64 = a.row(r).map(|(c, v)| v * y[c]).sum();
+            ay.partial_cmp(&b[r]).is_none_or(|o| o.is_lt())
+        })
+    }
+
+    /// The components holding at least one row for which `keep` is true; every empty row is
+    /// still listed in [`Blocks::empty_rows`].
+    fn split_keeping(problem: &ProjectionProblem, keep: impl Fn(usize) -> bool) -> Self {
         let a = problem.a();
         let (m, n) = (a.n_rows(), a.n_cols());
         let mut parent: Vec<usize> = (0..n).collect();
@@ -86,6 +116,13 @@ impl Blocks {
                 }
             }
         }
+        // The components to build: those holding a kept row.
+        let mut wanted = vec![false; n];
+        for (r, &c) in first_col.iter().enumerate() {
+            if c != usize::MAX && keep(r) {
+                wanted[find(&mut parent, c)] = true;
+            }
+        }
         // Blocks numbered in the order of their first row.
         let mut block_of_root = vec![usize::MAX; n];
         let mut rows_of: Vec<Vec<usize>> = Vec::new();
@@ -96,6 +133,9 @@ impl Blocks {
                 continue;
             }
             let root = find(&mut parent, c);
+            if !wanted[root] {
+                continue;
+            }
             if block_of_root[root] == usize::MAX {
                 block_of_root[root] = rows_of.len();
                 rows_of.push(Vec::new());
@@ -103,7 +143,7 @@ impl Blocks {
             rows_of[block_of_root[root]].push(r);
         }
         // An unknown touched by no non-zero was never united with anything: it is its own
-        // root, and no block has that root.
+        // root, and no block has that root; nor has the root of a component left out.
         let mut cols_of: Vec<Vec<usize>> = vec![Vec::new(); rows_of.len()];
         let mut local = vec![usize::MAX; n];
         for c in 0..n {
@@ -258,7 +298,7 @@ impl<P: Projector> Projector for Blocked<P> {
     }
 
     fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
-        let blocks = Blocks::split(problem);
+        let blocks = Blocks::split_violated(problem);
         if let Some(r) = blocks.infeasible_empty_row(problem) {
             return Err(ProjectionError::Infeasible {
                 backend: self.inner.name().to_string(),
@@ -348,6 +388,54 @@ mod tests {
             let n = 10;
             assert_eq!(&s2.x[n..n + 3], &[7.0, -8.0, 9.0], "free unknowns keep y");
         }
+    }
+
+    #[test]
+    fn split_violated_keeps_exactly_the_blocks_with_a_row_violated_at_y() {
+        for seed in 0..10 {
+            let mut p = two_copies(seed);
+            // The second copy's rows hold at y: b lowered below a·y.
+            let n = p.dim();
+            let mut ay = vec![0.0; p.n_rows()];
+            p.a().mul_vec(p.y(), &mut ay);
+            let half = p.n_rows() / 2;
+            let b: Vec<f64> = (0..p.n_rows())
+                .map(|r| if r < half { p.b()[r] } else { ay[r] - 1.0 })
+                .collect();
+            p = ProjectionProblem::new(p.y().to_vec(), p.a().clone(), b)
+                .unwrap()
+                .with_row_keys(p.row_keys().unwrap().to_vec())
+                .unwrap();
+            let all = Blocks::split(&p);
+            let violated = Blocks::split_violated(&p);
+            let expected: Vec<&Block> = all
+                .blocks()
+                .iter()
+                .filter(|blk| blk.rows.iter().any(|&r| ay[r] < p.b()[r]))
+                .collect();
+            assert_eq!(violated.blocks().len(), expected.len(), "seed {seed}");
+            for (got, want) in violated.blocks().iter().zip(expected) {
+                assert_eq!(got, want, "seed {seed}");
+            }
+            assert!(violated.blocks().iter().all(|blk| blk.cols[0] < n / 2));
+            assert_eq!(violated.empty_rows(), all.empty_rows());
+            // Stitched, the left-out blocks are x = y, λ = 0, and the whole passes KKT.
+            let Ok(sol) = Blocked::new(ReferenceProjector::default()).project(&p) else {
+                continue;
+            };
+            assert_eq!(&sol.x[n / 2..], &p.y()[n / 2..]);
+            assert!(sol.multipliers[half..].iter().all(|&l| l == 0.0));
+            assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_row_with_a_nan_keeps_its_block() {
+        let a = SparseRows::from_rows(2, &[vec![(0, f64::NAN)], vec![(1, 1.0)]]);
+        let p = ProjectionProblem::from_parts_unchecked(vec![0.0; 2], a, vec![-1.0, -1.0], None);
+        let blocks = Blocks::split_violated(&p);
+        assert_eq!(blocks.blocks().len(), 1);
+        assert_eq!(blocks.blocks()[0].rows, vec![0]);
     }
 
     #[test]

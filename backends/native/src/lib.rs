@@ -589,7 +589,9 @@ impl Projector for NativeProjector {
             }
             return Ok(Projection::identity(problem, NAME));
         }
-        let blocks = Blocks::split(problem);
+        // Blocks that y satisfies are x = y, λ = 0, exactly what `solve_block` returns for
+        // them: they are left out of the split rather than built and then skipped.
+        let blocks = Blocks::split_violated(problem);
         if let Some(r) = blocks.infeasible_empty_row(problem) {
             return Err(ProjectionError::Infeasible {
                 backend: NAME.to_string(),
