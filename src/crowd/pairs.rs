@@ -107,27 +107,69 @@ impl DiskPairs {
 
 /// The present people binned into square cells: a dense array of cells filled by counting sort
 /// (`O(N)`, no allocation once warm) over the bounding box of the crowd, or, when that box is
-/// sparse (fewer people than a quarter of its cells: people far apart, or far away), cells
-/// sorted by key (`O(N log N)`, memory independent of the extent).
+/// sparse (fewer people than a sixteenth of its cells: people far apart, or far away), cells
+/// sorted by key (`O(N log N)`, memory independent of the extent). Either way the people are
+/// copied in cell order with their position and radius, so the pair tests read memory in
+/// order, and only occupied cells are visited.
 #[derive(Debug, Default)]
 struct CellGrid {
-    /// Dense: `(nx, ny)`, with `start[c]..start[c + 1]` the slice of `order` in cell `c`.
+    /// Dense: `(nx, ny)`, with `start[c]..start[c + 1]` the slice of `sorted` in cell `c`.
     dims: Option<(usize, usize)>,
-    start: Vec<usize>,
-    order: Vec<usize>,
-    /// Sparse: `(cx, cy, person)`, sorted.
-    keys: Vec<(i64, i64, usize)>,
-    /// Scratch: the present people, their cells (dense), and the fill cursor of each cell.
+    start: Vec<u32>,
+    /// The present people in cell order (dense: by cell index; sparse: by `(cx, cy)`).
+    sorted: Vec<Binned>,
+    /// Sparse: each person's `(cx, cy)`, in the order of `sorted`.
+    keys: Vec<(i64, i64)>,
+    /// Scratch: the present people and the fill cursor of each cell (dense).
     people: Vec<usize>,
-    cells: Vec<(usize, usize)>,
-    next: Vec<usize>,
+    next: Vec<u32>,
+}
+
+/// A present person in the grid.
+#[derive(Debug, Clone, Copy)]
+struct Binned {
+    x: f64,
+    y: f64,
+    radius: f64,
+    person: usize,
+    /// The dense cell index `cx · ny + cy` (`0` on the sparse path).
+    cell: usize,
+}
+
+/// Dense grids have at most this many cells per present person (plus
+/// [`DENSE_EXTRA_CELLS`]). At the paper's density (1.5 people per m²) a grid of cells of 0.4 m
+/// has 4.2 cells per person; its bounding box is 4 bytes a cell.
+const DENSE_CELLS_PER_PERSON: usize = 16;
+const DENSE_EXTRA_CELLS: usize = 4096;
+
+/// Each pair of neighbouring cells is visited once: the cell itself and its four "forward"
+/// neighbours.
+const FORWARD: [(i64, i64); 4] = [(1, -1), (1, 0), (1, 1), (0, 1)];
+
+impl Binned {
+    /// `D_ab ≤ cutoff`, computed as [`DiskPairs::brute_force_candidates`] does. The squared
+    /// distance first rejects pairs beyond `r_a + r_b + cutoff` with a relative margin of
+    /// 1e-9, far above the rounding of either computation, so only pairs the exact test would
+    /// reject are skipped without it.
+    fn within(&self, other: &Binned, cutoff: f64) -> bool {
+        let (dx, dy) = (self.x - other.x, self.y - other.y);
+        let squared = dx * dx + dy * dy;
+        let reach = self.radius + other.radius + cutoff;
+        if reach >= 0.0 {
+            let bound = reach * (1.0 + 1e-9) + 1e-9 * (self.radius + other.radius);
+            if squared > bound * bound {
+                return false;
+            }
+        }
+        (dx.powi(2) + dy.powi(2)).sqrt() - self.radius - other.radius <= cutoff
+    }
 }
 
 impl CellGrid {
     fn fill(&mut self, pop: &Population, q: &[f64], cell: f64) {
         self.people.clear();
         self.keys.clear();
-        self.cells.clear();
+        self.sorted.clear();
         let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
         for i in 0..pop.len() {
             if pop.is_present(q, i) {
@@ -143,107 +185,138 @@ impl CellGrid {
             ((x1 - x0) / cell).floor() + 1.0,
             ((y1 - y0) / cell).floor() + 1.0,
         );
-        let dense = present > 0 && nx * ny <= (4 * present + 64) as f64;
+        let dense =
+            present > 0 && nx * ny <= (DENSE_CELLS_PER_PERSON * present + DENSE_EXTRA_CELLS) as f64;
+        let binned = |i: usize, cell: usize| Binned {
+            x: q[2 * i],
+            y: q[2 * i + 1],
+            radius: pop.radius(i),
+            person: i,
+            cell,
+        };
         if !dense {
             self.dims = None;
-            for &i in &self.people {
-                let cx = (q[2 * i] / cell).floor() as i64;
-                let cy = (q[2 * i + 1] / cell).floor() as i64;
-                self.keys.push((cx, cy, i));
+            let mut keyed: Vec<(i64, i64, usize)> = self
+                .people
+                .iter()
+                .map(|&i| {
+                    let cx = (q[2 * i] / cell).floor() as i64;
+                    let cy = (q[2 * i + 1] / cell).floor() as i64;
+                    (cx, cy, i)
+                })
+                .collect();
+            keyed.sort_unstable();
+            for (cx, cy, i) in keyed {
+                self.keys.push((cx, cy));
+                self.sorted.push(binned(i, 0));
             }
-            self.keys.sort_unstable();
             return;
         }
         let (nx, ny) = (nx as usize, ny as usize);
         self.dims = Some((nx, ny));
         self.start.clear();
         self.start.resize(nx * ny + 1, 0);
+        // Each person's cell, kept in `sorted` (in the order of `people` for now).
         for &i in &self.people {
             let cx = (((q[2 * i] - x0) / cell) as usize).min(nx - 1);
             let cy = (((q[2 * i + 1] - y0) / cell) as usize).min(ny - 1);
-            self.cells.push((cx, cy));
-            self.start[cx * ny + cy + 1] += 1;
+            let c = cx * ny + cy;
+            self.start[c + 1] += 1;
+            self.sorted.push(binned(i, c));
         }
         for c in 0..nx * ny {
             self.start[c + 1] += self.start[c];
         }
-        // Scatter the people into cell order.
+        // Scatter into cell order (stable: people keep their order within a cell).
         self.next.clear();
         self.next.extend_from_slice(&self.start[..nx * ny]);
-        self.order.clear();
-        self.order.resize(present, 0);
-        for (&i, &(cx, cy)) in self.people.iter().zip(&self.cells) {
-            let c = cx * ny + cy;
-            self.order[self.next[c]] = i;
-            self.next[c] += 1;
+        let unsorted = std::mem::take(&mut self.sorted);
+        self.sorted.resize(
+            present,
+            Binned {
+                x: 0.0,
+                y: 0.0,
+                radius: 0.0,
+                person: 0,
+                cell: 0,
+            },
+        );
+        for entry in &unsorted {
+            let slot = &mut self.next[entry.cell];
+            self.sorted[*slot as usize] = *entry;
+            *slot += 1;
         }
+        // `unsorted` is dropped here; its allocation is not worth keeping as a second buffer.
     }
 
     /// Calls `f(a, b)` once for every unordered pair of present people in the same or
-    /// neighbouring cells.
-    fn for_each_near_pair(&self, mut f: impl FnMut(usize, usize)) {
-        // Each pair of neighbouring cells is visited once: the cell itself and its four
-        // "forward" neighbours.
-        const FORWARD: [(i64, i64); 4] = [(1, -1), (1, 0), (1, 1), (0, 1)];
+    /// neighbouring cells with `D_ab ≤ cutoff` (see [`Binned::within`]), in cell order.
+    fn for_each_pair_within(&self, cutoff: f64, mut f: impl FnMut(usize, usize)) {
+        let sorted = &self.sorted;
+        let mut test = |a: &Binned, b: &Binned| {
+            if a.within(b, cutoff) {
+                f(a.person, b.person);
+            }
+        };
         match self.dims {
             Some((nx, ny)) => {
-                let slice = |cx: usize, cy: usize| {
-                    let c = cx * ny + cy;
-                    &self.order[self.start[c]..self.start[c + 1]]
-                };
-                for cx in 0..nx {
-                    for cy in 0..ny {
-                        let here = slice(cx, cy);
-                        if here.is_empty() {
+                // The occupied cells are the runs of `sorted`.
+                let mut begin = 0;
+                while begin < sorted.len() {
+                    let c = sorted[begin].cell;
+                    let end = self.start[c + 1] as usize;
+                    let here = &sorted[begin..end];
+                    for (k, a) in here.iter().enumerate() {
+                        for b in &here[k + 1..] {
+                            test(a, b);
+                        }
+                    }
+                    let (cx, cy) = ((c / ny) as i64, (c % ny) as i64);
+                    for (dx, dy) in FORWARD {
+                        let (ox, oy) = (cx + dx, cy + dy);
+                        if ox < 0 || oy < 0 || ox >= nx as i64 || oy >= ny as i64 {
                             continue;
                         }
-                        for (k, &a) in here.iter().enumerate() {
-                            for &b in &here[k + 1..] {
-                                f(a, b);
-                            }
-                        }
-                        for (dx, dy) in FORWARD {
-                            let (ox, oy) = (cx as i64 + dx, cy as i64 + dy);
-                            if ox < 0 || oy < 0 || ox >= nx as i64 || oy >= ny as i64 {
-                                continue;
-                            }
-                            let there = slice(ox as usize, oy as usize);
-                            for &a in here {
-                                for &b in there {
-                                    f(a, b);
-                                }
+                        let o = ox as usize * ny + oy as usize;
+                        let there = &sorted[self.start[o] as usize..self.start[o + 1] as usize];
+                        for a in here {
+                            for b in there {
+                                test(a, b);
                             }
                         }
                     }
+                    begin = end;
                 }
             }
             None => {
                 let keys = &self.keys;
                 let find = |cx: i64, cy: i64| -> std::ops::Range<usize> {
-                    let lo = keys.partition_point(|k| (k.0, k.1) < (cx, cy));
-                    let hi = keys.partition_point(|k| (k.0, k.1) <= (cx, cy));
+                    let lo = keys.partition_point(|k| *k < (cx, cy));
+                    let hi = lo + keys[lo..].partition_point(|k| *k <= (cx, cy));
                     lo..hi
                 };
-                let mut start = 0;
-                while start < keys.len() {
-                    let (cx, cy, _) = keys[start];
-                    let mut end = start;
-                    while end < keys.len() && keys[end].0 == cx && keys[end].1 == cy {
+                let mut begin = 0;
+                while begin < keys.len() {
+                    let (cx, cy) = keys[begin];
+                    let mut end = begin;
+                    while end < keys.len() && keys[end] == (cx, cy) {
                         end += 1;
                     }
-                    for a in start..end {
-                        for b in (a + 1)..end {
-                            f(keys[a].2, keys[b].2);
+                    let here = &sorted[begin..end];
+                    for (k, a) in here.iter().enumerate() {
+                        for b in &here[k + 1..] {
+                            test(a, b);
                         }
                     }
                     for (dx, dy) in FORWARD {
-                        for b in find(cx + dx, cy + dy) {
-                            for a in start..end {
-                                f(keys[a].2, keys[b].2);
+                        let there = &sorted[find(cx + dx, cy + dy)];
+                        for b in there {
+                            for a in here {
+                                test(a, b);
                             }
                         }
                     }
-                    start = end;
+                    begin = end;
                 }
             }
         }
@@ -318,17 +391,7 @@ impl ConstraintFamily for DiskPairs {
         let cell = 2.0 * pop.max_radius() + cutoff.max(0.0) + 1e-12;
         let mut grid = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
         grid.fill(pop, q, cell);
-        let pair_within = |i: usize, j: usize| {
-            let d = ((q[2 * i] - q[2 * j]).powi(2) + (q[2 * i + 1] - q[2 * j + 1]).powi(2)).sqrt()
-                - pop.radius(i)
-                - pop.radius(j);
-            d <= cutoff
-        };
-        grid.for_each_near_pair(|a, b| {
-            if pair_within(a, b) {
-                out.push(self.member(a, b));
-            }
-        });
+        grid.for_each_pair_within(cutoff, |a, b| out.push(self.member(a, b)));
     }
 
     /// `|⟨∇D_ij, x − q⟩| = |⟨e_ij, Δⱼ − Δᵢ⟩| ≤ |Δᵢ| + |Δⱼ|`, bounded by the sum of the two
@@ -413,6 +476,41 @@ mod tests {
             let mut brute = fam.brute_force_candidates(&q, cutoff);
             brute.sort_unstable();
             assert_eq!(grid, brute, "cutoff {cutoff}");
+        }
+    }
+
+    /// People exactly touching (`D_ij = 0` up to rounding) on a lattice of spacing `2r`, at
+    /// `cutoff = 0`: the grid's squared-distance shortcut must not drop a pair the exact test
+    /// keeps. Near the origin (a dense grid), far from it, and as two far-apart lattices (the
+    /// sparse grid).
+    #[test]
+    fn touching_people_are_found_by_both_grids_as_by_brute_force() {
+        let (r, side) = (0.2, 12);
+        for (offset, far_copy) in [(0.0, false), (1e4 + 0.37, false), (-3.1, true)] {
+            let mut q = Vec::new();
+            for copy in 0..1 + usize::from(far_copy) {
+                let shift = copy as f64 * 5e3;
+                for i in 0..side {
+                    for j in 0..side {
+                        q.push(offset + shift + 2.0 * r * i as f64);
+                        q.push(offset + 2.0 * r * j as f64);
+                    }
+                }
+            }
+            let n = q.len() / 2;
+            let fam = DiskPairs::new(Arc::new(Population::new(vec![r; n])));
+            for cutoff in [0.0, 1e-15, 0.05] {
+                let mut grid = Vec::new();
+                fam.candidates(0.0, &q, cutoff, &mut grid);
+                grid.sort_unstable();
+                let mut brute = fam.brute_force_candidates(&q, cutoff);
+                brute.sort_unstable();
+                assert!(!brute.is_empty());
+                assert_eq!(
+                    grid, brute,
+                    "offset {offset}, far copy {far_copy}, cutoff {cutoff}"
+                );
+            }
         }
     }
 }
