@@ -166,9 +166,11 @@ impl Perturbation for DesiredVelocity {
                 // Who has left keeps walking out, even where that path crosses the room again.
                 let outside =
                     room.is_some_and(|r| !r.contains(p)) || self.population.has_departed(i);
-                let v = match (outside, self.nearest_exit_normal(p)) {
-                    (true, Some(n)) => [n[0] * speed, n[1] * speed],
-                    _ => field.velocity(p, speed),
+                // The nearest exit is looked for only for who is outside (it was computed for
+                // everyone, a segment distance per exit per person per step, and then unused).
+                let v = match outside.then(|| self.nearest_exit_normal(p)).flatten() {
+                    Some(n) => [n[0] * speed, n[1] * speed],
+                    None => field.velocity(p, speed),
                 };
                 out[2 * i] = v[0];
                 out[2 * i + 1] = v[1];
