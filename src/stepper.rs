@@ -895,7 +895,8 @@ impl<'p> Stepper<'p> {
 
         // Initial cutoffs: twice the drift bound of the prediction itself, or 1.5 times the
         // previous step's, whichever is larger. Only the cost depends on this guess: the proof
-        // below decides whether the step is exact.
+        // below decides whether the step is exact. Timed with the broad phase it sizes.
+        let tb = Instant::now();
         for (fi, fam) in self.problem.families().iter().enumerate() {
             if fam.culls() {
                 let d = fam.linearization_drift_bound(t_next, &self.q, &self.y);
@@ -908,7 +909,11 @@ impl<'p> Stepper<'p> {
             }
         }
 
+        times.broad_phase += tb.elapsed().as_secs_f64();
+
+        let tc = Instant::now();
         self.check_moving_constraints(t_k, t_next)?;
+        times.check += tc.elapsed().as_secs_f64();
 
         let mut solves = 0usize;
         let mut iterations = 0u32;

@@ -402,7 +402,9 @@ impl ConstraintFamily for DiskPairs {
             if !self.population.is_present(q, i) {
                 continue;
             }
-            let d = ((x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2)).sqrt();
+            // Squared displacements; the roots of the two largest at the end (monotone and
+            // correctly rounded, so the same numbers as the two largest roots).
+            let d = (x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2);
             if d > m1 {
                 m2 = m1;
                 m1 = d;
@@ -410,7 +412,7 @@ impl ConstraintFamily for DiskPairs {
                 m2 = d;
             }
         }
-        m1 + m2
+        m1.sqrt() + m2.sqrt()
     }
 
     fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {

@@ -323,10 +323,13 @@ impl ConstraintFamily for PersonShapes {
     }
 
     fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
+        // The largest squared displacement, then one square root (monotone and correctly
+        // rounded, so the same number as the largest root).
         (0..self.population.len())
             .filter(|&i| self.population.is_present(q, i))
-            .map(|i| ((x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2)).sqrt())
+            .map(|i| (x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2))
             .fold(0.0, f64::max)
+            .sqrt()
     }
 
     fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {
