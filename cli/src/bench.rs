@@ -204,7 +204,7 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
         std::fs::write(path, csv).with_context(|| format!("writing {}", path.display()))?;
     }
     println!(
-        "peak MiB is the process's resident peak so far (getrusage), so it only grows down the table"
+        "peak MiB is the process's resident peak so far (VmHWM), so it only grows down the table"
     );
     Ok(())
 }

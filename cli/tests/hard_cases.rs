@@ -595,3 +595,29 @@ fn work_precision_keeps_loose_solvers() {
     );
     assert!(report.rows[0].error.is_finite());
 }
+
+/// Regression: `peak memory` was `getrusage`'s `ru_maxrss`, which Linux carries over `execve`
+/// from the forking process: started by `cargo run` (the README's quick start), `sweep`
+/// reported cargo's peak, 55 MiB, for a run that peaked at 8. Here the forking process is this
+/// test, holding 512 MiB it has touched; the run's own peak is far below that.
+#[test]
+#[cfg(target_os = "linux")]
+fn peak_memory_is_the_runs_own_not_the_forking_processs() {
+    let ballast = vec![1u8; 512 << 20];
+    let touched: u64 = ballast.iter().step_by(4096).map(|&b| u64::from(b)).sum();
+    assert_eq!(touched, (512 << 20) / 4096);
+    let run = sweep_run(
+        "peak_memory",
+        &shipped_scene("paper-evacuation"),
+        &["--t-end", "0.05"],
+    );
+    assert!(run.success, "{}", run.output);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.out.join("summary.json")).unwrap())
+            .unwrap();
+    let mib = summary["peak_memory_mib"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no peak_memory_mib in {summary}"));
+    assert!(mib > 0.0 && mib < 256.0, "peak memory {mib} MiB");
+    drop(ballast);
+}
