@@ -120,9 +120,12 @@ struct CellGrid {
     sorted: Vec<Binned>,
     /// Sparse: each person's `(cx, cy)`, in the order of `sorted`.
     keys: Vec<(i64, i64)>,
-    /// Scratch: the present people and the fill cursor of each cell (dense).
+    /// Scratch: the present people, the fill cursor of each cell (dense), the people before
+    /// they are put in cell order, and the keys before sorting (sparse).
     people: Vec<usize>,
     next: Vec<u32>,
+    unsorted: Vec<Binned>,
+    keyed: Vec<(i64, i64, usize)>,
 }
 
 /// A present person in the grid.
@@ -138,7 +141,7 @@ struct Binned {
 
 /// Dense grids have at most this many cells per present person (plus
 /// [`DENSE_EXTRA_CELLS`]). At the paper's density (1.5 people per m²) a grid of cells of 0.4 m
-/// has 4.2 cells per person; its bounding box is 4 bytes a cell.
+/// has 4.2 cells per person; each cell costs 4 bytes.
 const DENSE_CELLS_PER_PERSON: usize = 16;
 const DENSE_EXTRA_CELLS: usize = 4096;
 
@@ -196,17 +199,14 @@ impl CellGrid {
         };
         if !dense {
             self.dims = None;
-            let mut keyed: Vec<(i64, i64, usize)> = self
-                .people
-                .iter()
-                .map(|&i| {
-                    let cx = (q[2 * i] / cell).floor() as i64;
-                    let cy = (q[2 * i + 1] / cell).floor() as i64;
-                    (cx, cy, i)
-                })
-                .collect();
-            keyed.sort_unstable();
-            for (cx, cy, i) in keyed {
+            self.keyed.clear();
+            self.keyed.extend(self.people.iter().map(|&i| {
+                let cx = (q[2 * i] / cell).floor() as i64;
+                let cy = (q[2 * i + 1] / cell).floor() as i64;
+                (cx, cy, i)
+            }));
+            self.keyed.sort_unstable();
+            for &(cx, cy, i) in &self.keyed {
                 self.keys.push((cx, cy));
                 self.sorted.push(binned(i, 0));
             }
@@ -216,13 +216,14 @@ impl CellGrid {
         self.dims = Some((nx, ny));
         self.start.clear();
         self.start.resize(nx * ny + 1, 0);
-        // Each person's cell, kept in `sorted` (in the order of `people` for now).
+        // Each person with their cell, in the order of `people`.
+        self.unsorted.clear();
         for &i in &self.people {
             let cx = (((q[2 * i] - x0) / cell) as usize).min(nx - 1);
             let cy = (((q[2 * i + 1] - y0) / cell) as usize).min(ny - 1);
             let c = cx * ny + cy;
             self.start[c + 1] += 1;
-            self.sorted.push(binned(i, c));
+            self.unsorted.push(binned(i, c));
         }
         for c in 0..nx * ny {
             self.start[c + 1] += self.start[c];
@@ -230,7 +231,6 @@ impl CellGrid {
         // Scatter into cell order (stable: people keep their order within a cell).
         self.next.clear();
         self.next.extend_from_slice(&self.start[..nx * ny]);
-        let unsorted = std::mem::take(&mut self.sorted);
         self.sorted.resize(
             present,
             Binned {
@@ -241,12 +241,11 @@ impl CellGrid {
                 cell: 0,
             },
         );
-        for entry in &unsorted {
+        for entry in &self.unsorted {
             let slot = &mut self.next[entry.cell];
             self.sorted[*slot as usize] = *entry;
             *slot += 1;
         }
-        // `unsorted` is dropped here; its allocation is not worth keeping as a second buffer.
     }
 
     /// Calls `f(a, b)` once for every unordered pair of present people in the same or
