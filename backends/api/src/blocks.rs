@@ -258,9 +258,10 @@ fn weaker(a: SolveStatus, b: SolveStatus) -> SolveStatus {
     }
 }
 
-/// Any [`Projector`] run block by block (see [`Blocks`]): unknowns
-/// touched by no row never reach it, and each connected component of the rows is a separate
-/// call. Reports the inner backend's name and tolerance.
+/// Any [`Projector`] run block by block (see [`Blocks`]): unknowns touched by no row never
+/// reach it, nor do blocks whose rows `y` satisfies (see [`Blocks::split_violated`]), and each
+/// other connected component of the rows is a separate call. Reports the inner backend's name
+/// and tolerance.
 ///
 /// ```
 /// use sweeping_api::{conformance::ReferenceProjector, Blocked, ProjectionProblem, Projector,
