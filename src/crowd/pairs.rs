@@ -481,8 +481,9 @@ mod tests {
     }
 
     /// People exactly touching (`D_ij = 0` up to rounding) on a lattice of spacing `2r`, at
-    /// `cutoff = 0`: the grid's squared-distance shortcut must not drop a pair the exact test
-    /// keeps. Near the origin (a dense grid), far from it, and as two far-apart lattices (the
+    /// cutoffs that put lattice pairs exactly at `D_ij = cutoff`: the grid's squared-distance
+    /// shortcut must not drop a pair the exact test keeps (it does with its margin made
+    /// `1 − 1e-9`). Near the origin (a dense grid), far from it, and as two far-apart lattices (the
     /// sparse grid).
     #[test]
     fn touching_people_are_found_by_both_grids_as_by_brute_force() {
@@ -500,7 +501,9 @@ mod tests {
             }
             let n = q.len() / 2;
             let fam = DiskPairs::new(Arc::new(Population::new(vec![r; n])));
-            for cutoff in [0.0, 1e-15, 0.05] {
+            // 0.4 = 2r and 1.2 = 6r put the pairs two and four lattice steps apart exactly at
+            // D = cutoff, where the shortcut's relative margin is what keeps them.
+            for cutoff in [0.0, 1e-15, 0.05, 0.4, 1.2] {
                 let mut grid = Vec::new();
                 fam.candidates(0.0, &q, cutoff, &mut grid);
                 grid.sort_unstable();
