@@ -161,5 +161,36 @@ fn recorded_runs(c: &mut Criterion) {
     project_in_turn(c, "jam", &recorded(&jam, &settings, 0..10));
 }
 
-criterion_group!(benches, one_step, recorded_runs);
+/// The pairs' broad phase alone (`DiskPairs::candidates`) on the spread start of 5000, at the
+/// cutoffs a step asks for: 0 (the smallest), 0.05 (about twice the drift of a step at h =
+/// 0.01) and 0.2. `cargo bench --bench step -- broad_phase`.
+fn broad_phase(c: &mut Criterion) {
+    let mut group = c.benchmark_group("broad_phase");
+    let problem = SyntheticCrowd {
+        n: 5000,
+        start: Start::Spread,
+        seed: 7,
+    }
+    .problem()
+    .expect("a synthetic crowd");
+    let q = problem.q0().to_vec();
+    let pairs = problem
+        .families()
+        .iter()
+        .find(|f| f.name() == "pairs of people")
+        .expect("the pair family");
+    let mut out = Vec::new();
+    for cutoff in [0.0, 0.05, 0.2] {
+        group.bench_with_input(BenchmarkId::new("pairs-5000", cutoff), &cutoff, |b, &c| {
+            b.iter(|| {
+                out.clear();
+                pairs.candidates(0.0, &q, c, &mut out);
+                out.len()
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, one_step, recorded_runs, broad_phase);
 criterion_main!(benches);
