@@ -132,13 +132,14 @@ impl Default for StepperSettings {
 pub struct StageTimes {
     /// The prediction `y`.
     pub effects: f64,
-    /// Candidate selection.
+    /// Candidate selection, and the drift bound that sizes the step's first cutoff.
     pub broad_phase: f64,
     /// Linearization and row assembly.
     pub assembly: f64,
-    /// The QP.
+    /// The QP (building the problem and the backend's solve).
     pub projection: f64,
-    /// Culling proof and true-constraint check.
+    /// The moving-constraint check, the KKT check, the culling proof and the true-constraint
+    /// check.
     pub check: f64,
 }
 
