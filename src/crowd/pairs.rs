@@ -143,6 +143,8 @@ struct Binned {
 /// [`DENSE_EXTRA_CELLS`]). At the paper's density (1.5 people per m²) a grid of cells of 0.4 m
 /// has 4.2 cells per person; each cell costs 4 bytes.
 const DENSE_CELLS_PER_PERSON: usize = 16;
+/// Cells a dense grid may have beyond [`DENSE_CELLS_PER_PERSON`] per person, so that a small
+/// crowd in a room of ordinary size stays on the dense grid.
 const DENSE_EXTRA_CELLS: usize = 4096;
 
 /// Each pair of neighbouring cells is visited once: the cell itself and its four "forward"
