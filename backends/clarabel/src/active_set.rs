@@ -15,7 +15,8 @@
 //!     [ A_P  0    ] [ −μ ] = [ r_P ],
 //! ```
 //!
-//! by an `LDLᵀ` factorization (QDLDL, with AMD ordering) of the quasi-definite matrix whose
+//! by an `LDLᵀ` factorization (QDLDL, with AMD ordering, or an ordering remembered from
+//! recent factorizations, see [`Orderings`]) of the quasi-definite matrix whose
 //! lower-right block is `−δI`, on the unknowns the rows of `P` touch (`dⱼ = 0` for the others),
 //! followed by iterative refinement against the unregularized
 //! matrix, started from the current `(d, λ)`. Between steps the support changes by a few
@@ -47,7 +48,7 @@
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
 use std::collections::HashMap;
-use sweeping_api::ProjectionProblem;
+use sweeping_api::{ProjectionProblem, RowKey};
 
 /// How often the same working set may be factored before the method is declared cycling.
 const REPEATS: u32 = 3;
@@ -292,6 +293,143 @@ fn schur_cholesky(rows: &[Vec<(usize, f64)>]) -> Option<Vec<f64>> {
     Some(l)
 }
 
+/// What a node of `K_δ` stands for, across factorizations and steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum Node {
+    /// An unknown, by its index in the whole problem.
+    Unknown(usize),
+    /// A row, by its key.
+    Row(RowKey),
+}
+
+/// A sparse factorization reuses the ordering it finds in [`Orderings`] when at least this
+/// fraction of its nodes is remembered there; below it, AMD orders it afresh.
+const REMEMBERED_FRACTION: f64 = 0.5;
+
+/// A reused ordering whose factor has more than this many times the fill (`nnz(L)/nnz(K)`)
+/// of the last AMD ordering makes the next sparse factorization run AMD again.
+const STALE_FILL: f64 = 1.25;
+
+/// The fill-reducing orderings of recent sparse factorizations, remembered node by node
+/// (an unknown by its index in the whole problem, a row by its [`RowKey`]).
+///
+/// On a queue at a door the method factors, at the start of every step, a support of a
+/// hundred rows or more, much like the one of the step before: the same contacts, a few
+/// made or broken. AMD, which orders each fresh factorization, cost more than the
+/// factorization itself there (about two thirds of QDLDL's time on the paper's evacuation).
+/// A factorization whose nodes are mostly remembered is ordered by their ranks in the
+/// orderings that placed them last (nodes new to the memory go last, in their own order),
+/// which keeps the fill of the AMD ordering it descends from as long as the support changes
+/// little; when the fill grows beyond `STALE_FILL` (1.25) times that of the last AMD ordering,
+/// the next factorization runs AMD again. The ordering changes only the rounding, and every
+/// answer is still refined against the unregularized system and checked.
+///
+/// [`Orderings::forget_older`] bounds the memory: call it once per projection.
+///
+/// ```
+/// use sweeping_api::{ProjectionProblem, RowKey, SparseRows};
+/// use sweeping_clarabel::active_set::{solve_remembering, Orderings, Start};
+///
+/// // A chain of 40 unknowns pushed together: x_{j+1} − x_j ≥ 1, y = 0.
+/// let n = 40;
+/// let rows: Vec<Vec<(usize, f64)>> = (0..n - 1).map(|j| vec![(j, -1.0), (j + 1, 1.0)]).collect();
+/// let keys = (0..n - 1).map(|j| RowKey { family: 0, member: j as u64 }).collect();
+/// let a = SparseRows::from_rows(n, &rows);
+/// let p = ProjectionProblem::new(vec![0.0; n], a, vec![1.0; n - 1]).unwrap().with_row_keys(keys).unwrap();
+/// let names: Vec<usize> = (0..n).collect();
+/// let mut orderings = Orderings::default();
+/// for _ in 0..2 {
+///     orderings.forget_older();
+///     // Every row starts in the support: a sparse factorization (AMD the first time,
+///     // the remembered ordering the second).
+///     let start = Start { support: (0..n - 1).collect(), lambda: vec![1.0; n - 1], join: vec![1.0; n - 1] };
+///     let out = solve_remembering(&p, start, 50, &mut orderings, &names).unwrap();
+///     assert!((out.x[n - 1] - out.x[0] - (n - 1) as f64).abs() < 1e-9);
+/// }
+/// assert_eq!(orderings.stats(), (1, 1));
+/// ```
+#[derive(Debug, Default, Clone)]
+pub struct Orderings {
+    /// Each remembered node's rank: its position in the ordering that placed it last, offset
+    /// by every rank handed out before (so a later ordering ranks after an earlier one).
+    ranks: HashMap<Node, u64>,
+    /// Ranks handed out so far.
+    next: u64,
+    /// `next` when [`Orderings::forget_older`] was last called.
+    since_last: u64,
+    /// `nnz(L)/nnz(K)` of the last AMD ordering.
+    amd_fill: f64,
+    /// A reused ordering filled beyond [`STALE_FILL`]: the next factorization runs AMD.
+    stale: bool,
+    /// Factorizations ordered by AMD, and from memory.
+    by_amd: u64,
+    by_memory: u64,
+}
+
+/// [`Orderings`] with the names of a problem's unknowns.
+struct Remembered<'a> {
+    orderings: &'a mut Orderings,
+    unknowns: &'a [usize],
+}
+
+impl Orderings {
+    /// Forgets the nodes no ordering has placed since the call before last. Called once per
+    /// projection, it keeps the nodes of the last two projections' factorizations.
+    pub fn forget_older(&mut self) {
+        let keep_from = self.since_last;
+        self.ranks.retain(|_, rank| *rank >= keep_from);
+        self.since_last = self.next;
+    }
+
+    /// How many sparse factorizations were ordered by AMD, and how many from memory.
+    pub fn stats(&self) -> (u64, u64) {
+        (self.by_amd, self.by_memory)
+    }
+
+    /// The ordering (QDLDL's `perm`: position → node) of `nodes` by their remembered ranks,
+    /// unremembered nodes last in their own order; `None` when too few are remembered or the
+    /// last reused ordering filled too much.
+    fn ordering(&self, nodes: &[Node]) -> Option<Vec<usize>> {
+        if self.stale || self.ranks.is_empty() {
+            return None;
+        }
+        let mut ranked: Vec<(u64, usize)> = Vec::with_capacity(nodes.len());
+        let mut remembered = 0usize;
+        for (l, node) in nodes.iter().enumerate() {
+            let rank = match self.ranks.get(node) {
+                Some(&rank) => {
+                    remembered += 1;
+                    rank
+                }
+                None => u64::MAX - nodes.len() as u64 + l as u64,
+            };
+            ranked.push((rank, l));
+        }
+        if (remembered as f64) < REMEMBERED_FRACTION * nodes.len() as f64 {
+            return None;
+        }
+        ranked.sort_unstable();
+        Some(ranked.into_iter().map(|(_, l)| l).collect())
+    }
+
+    /// Remembers the ordering `perm` (position → node) of `nodes`, whose factor had `fill`
+    /// (`nnz(L)/nnz(K)`); `reused` when `perm` came from [`Self::ordering`].
+    fn record(&mut self, nodes: &[Node], perm: &[usize], fill: f64, reused: bool) {
+        if reused {
+            self.by_memory += 1;
+            self.stale = fill > STALE_FILL * self.amd_fill;
+        } else {
+            self.by_amd += 1;
+            self.amd_fill = fill;
+            self.stale = false;
+        }
+        for (position, &l) in perm.iter().enumerate() {
+            self.ranks.insert(nodes[l], self.next + position as u64);
+        }
+        self.next += perm.len() as u64;
+    }
+}
+
 /// Where iterative refinement stopped.
 struct Refined {
     /// `‖residual‖∞` of the second block.
@@ -304,9 +442,13 @@ struct Refined {
 
 impl ActiveSystem {
     /// Factors `K_δ` for the rows `active` (increasing); `None` when the factorization fails.
-    /// `order`, when given, is a fill-reducing ordering of the matrix with *every* row of the
-    /// problem; the ordering of `K_δ` is its restriction to the unknowns and `active`.
-    fn new(problem: &ProjectionProblem, active: &[usize]) -> Option<Self> {
+    /// A sparse factorization is ordered from `memory` when it holds most of the matrix (see
+    /// [`Orderings`]), by AMD otherwise.
+    fn new(
+        problem: &ProjectionProblem,
+        active: &[usize],
+        memory: Option<&mut Remembered<'_>>,
+    ) -> Option<Self> {
         let n = problem.dim();
         let k = active.len();
         if k <= DENSE_MAX {
@@ -326,12 +468,22 @@ impl ActiveSystem {
                 });
             }
         }
-        Self::sparse(problem, active)
+        Self::sparse_ordered(problem, active, memory)
     }
 
-    /// The sparse `LDLᵀ` of `K_δ` for the rows `active`, whatever their number; see
-    /// [`Self::new`].
+    /// The sparse `LDLᵀ` of `K_δ` for the rows `active`, whatever their number, ordered by
+    /// AMD; see [`Self::new`].
+    #[cfg(test)]
     fn sparse(problem: &ProjectionProblem, active: &[usize]) -> Option<Self> {
+        Self::sparse_ordered(problem, active, None)
+    }
+
+    /// [`Self::sparse`], ordered from `memory` when it can be (and the ordering remembered).
+    fn sparse_ordered(
+        problem: &ProjectionProblem,
+        active: &[usize],
+        memory: Option<&mut Remembered<'_>>,
+    ) -> Option<Self> {
         let n = problem.dim();
         let k = active.len();
         let rows = active_rows(problem, active);
@@ -341,8 +493,29 @@ impl ActiveSystem {
         let signs: Vec<i8> = (0..u + k).map(|i| if i < u { 1 } else { -1 }).collect();
         let mut builder = QDLDLSettingsBuilder::default();
         builder.Dsigns(signs);
+        // Each node of `K_δ` named by what it stands for, so that orderings carry over.
+        let nodes = memory.as_ref().and_then(|m| {
+            let keys = problem.row_keys()?;
+            let unknown_ids = unknowns.global[..u]
+                .iter()
+                .map(|&c| Node::Unknown(m.unknowns[c]));
+            let row_ids = active.iter().map(|&i| Node::Row(keys[i]));
+            Some(unknown_ids.chain(row_ids).collect::<Vec<Node>>())
+        });
+        let reused = match (&memory, &nodes) {
+            (Some(m), Some(nodes)) => m.orderings.ordering(nodes),
+            _ => None,
+        };
+        let reordered = reused.is_some();
+        if let Some(perm) = reused {
+            builder.perm(perm);
+        }
         let settings = builder.build().ok()?;
         let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
+        if let (Some(m), Some(nodes)) = (memory, nodes) {
+            let fill = ldl.nnzL() as f64 / kkt.nnz() as f64;
+            m.orderings.record(&nodes, &ldl.perm, fill, reordered);
+        }
         Some(Self {
             n,
             support: active.to_vec(),
@@ -795,6 +968,33 @@ fn farkas(problem: &ProjectionProblem, support: &[usize], e: &[f64], r: &[f64]) 
 /// Runs the method from `start` for at most `cap` iterations. See the module
 /// documentation.
 pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outcome, Failure> {
+    solve_with(problem, start, cap, None)
+}
+
+/// [`solve`], its sparse factorizations ordered from (and remembered in) `orderings` when
+/// `problem` carries row keys; `unknowns[j]` names unknown `j` of `problem` (its index in the
+/// whole problem when `problem` is one of its blocks). See [`Orderings`].
+pub fn solve_remembering(
+    problem: &ProjectionProblem,
+    start: Start,
+    cap: u32,
+    orderings: &mut Orderings,
+    unknowns: &[usize],
+) -> Result<Outcome, Failure> {
+    assert_eq!(unknowns.len(), problem.dim(), "one name per unknown");
+    let memory = Remembered {
+        orderings,
+        unknowns,
+    };
+    solve_with(problem, start, cap, Some(memory))
+}
+
+fn solve_with(
+    problem: &ProjectionProblem,
+    start: Start,
+    cap: u32,
+    mut memory: Option<Remembered<'_>>,
+) -> Result<Outcome, Failure> {
     let (m, n) = (problem.n_rows(), problem.dim());
     // r = b − A y.
     let mut r = vec![0.0; m];
@@ -855,9 +1055,8 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
             // iteration factored; with bordering most do not, and ordering the whole block
             // cost more than it saved (0.92x whole-process time on the paper's evacuation,
             // 0.96x on the 10 000-person hall, jams faster too).
-            None => {
-                ActiveSystem::new(problem, &support).ok_or(Failure::Numerical("factorization"))?
-            }
+            None => ActiveSystem::new(problem, &support, memory.as_mut())
+                .ok_or(Failure::Numerical("factorization"))?,
         };
         let k = support.len();
         let rhs: Vec<f64> = std::iter::repeat_n(0.0, n)
@@ -1230,7 +1429,7 @@ mod tests {
     fn a_dense_factor_solves_what_the_sparse_one_solves() {
         let p = random_problem();
         let support: Vec<usize> = (0..20).collect();
-        let mut dense = ActiveSystem::new(&p, &support).unwrap();
+        let mut dense = ActiveSystem::new(&p, &support, None).unwrap();
         assert!(matches!(dense.factor, Factor::Dense(_)));
         // Without refinement the sparse LDLᵀ of the quasi-definite K_δ is accurate to about
         // ε/δ, as in the bordered tests.
@@ -1305,7 +1504,7 @@ mod tests {
         assert!(system.bordered_to(&p, &fewer).is_none());
         // A dense factor is not bordered.
         let small: Vec<usize> = (0..4).collect();
-        let system = ActiveSystem::new(&p, &small).unwrap();
+        let system = ActiveSystem::new(&p, &small, None).unwrap();
         assert!(matches!(system.factor, Factor::Dense(_)));
         assert!(system.bordered_to(&p, &small[..3]).is_none());
     }
@@ -1317,5 +1516,123 @@ mod tests {
         assert_eq!(lambda, vec![0.5]);
         let (support, lambda) = shrink(&[1, 2], &[1.0, 3.0], 0);
         assert_eq!((support, lambda), (vec![2], vec![3.0]));
+    }
+
+    /// The KKT nodes of a sparse factor, position by position, named as `record` names them.
+    fn factored_nodes(system: &ActiveSystem, keys: &[RowKey], names: &[usize]) -> Vec<Node> {
+        let Factor::Sparse(ldl) = &system.factor else {
+            panic!("a sparse factor");
+        };
+        let u = system.unknowns.base;
+        ldl.perm
+            .iter()
+            .map(|&l| {
+                if l < u {
+                    Node::Unknown(names[system.unknowns.global[l]])
+                } else {
+                    Node::Row(keys[system.support[l - u]])
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_remembered_ordering_keeps_the_order_of_known_nodes_puts_new_ones_last_and_solves_alike() {
+        let keys: Vec<RowKey> = (0..35)
+            .map(|i| RowKey {
+                family: 3,
+                member: 1000 + i,
+            })
+            .collect();
+        let p = random_problem().with_row_keys(keys.clone()).unwrap();
+        // Unknown j of this problem is unknown 100 + j of a larger one.
+        let names: Vec<usize> = (100..140).collect();
+        let mut orderings = Orderings::default();
+        let base: Vec<usize> = (0..30).collect();
+        let mut memory = Remembered {
+            orderings: &mut orderings,
+            unknowns: &names,
+        };
+        let first = ActiveSystem::sparse_ordered(&p, &base, Some(&mut memory)).unwrap();
+        assert_eq!(memory.orderings.stats(), (1, 0));
+        let before = factored_nodes(&first, &keys, &names);
+        // Row 5 leaves, row 31 joins: the next factorization is ordered from memory.
+        let next: Vec<usize> = (0..30).filter(|&i| i != 5).chain([31]).collect();
+        let mut second = ActiveSystem::sparse_ordered(&p, &next, Some(&mut memory)).unwrap();
+        assert_eq!(memory.orderings.stats(), (1, 1));
+        let after = factored_nodes(&second, &keys, &names);
+        let known: Vec<Node> = before
+            .iter()
+            .copied()
+            .filter(|n| after.contains(n))
+            .collect();
+        let new: Vec<Node> = after
+            .iter()
+            .copied()
+            .filter(|n| !before.contains(n))
+            .collect();
+        assert!(new.contains(&Node::Row(keys[31])), "{new:?}");
+        // Known nodes first, in their remembered order, then the new ones.
+        assert_eq!(after[..known.len()], known[..]);
+        assert_eq!(after[known.len()..], new[..]);
+        let gap = solve_gap(&p, &mut second, &next);
+        assert!(gap < 1e-12, "gap {gap:e}");
+        // Without keys nothing is remembered or reused.
+        let unkeyed = random_problem();
+        let mut memory = Remembered {
+            orderings: &mut orderings,
+            unknowns: &names,
+        };
+        ActiveSystem::sparse_ordered(&unkeyed, &next, Some(&mut memory)).unwrap();
+        assert_eq!(orderings.stats(), (1, 1));
+    }
+
+    #[test]
+    fn an_ordering_is_reused_while_most_nodes_are_known_and_its_fill_stays_near_amds() {
+        let nodes: Vec<Node> = (0..4).map(Node::Unknown).collect();
+        let mut o = Orderings::default();
+        assert_eq!(o.ordering(&nodes), None, "nothing remembered");
+        o.record(&nodes, &[2, 0, 3, 1], 1.0, false);
+        assert_eq!(o.ordering(&nodes), Some(vec![2, 0, 3, 1]));
+        // Half the nodes known is enough; fewer is not. New nodes go last, in their order.
+        let half = [
+            Node::Unknown(9),
+            Node::Unknown(3),
+            Node::Unknown(8),
+            Node::Unknown(0),
+        ];
+        assert_eq!(o.ordering(&half), Some(vec![3, 1, 0, 2]));
+        assert_eq!(o.ordering(&half[..3]), None);
+        // A reused ordering filling up to STALE_FILL times AMD's keeps being reused …
+        o.record(&nodes, &[2, 0, 3, 1], 1.25, true);
+        assert!(o.ordering(&nodes).is_some());
+        // … beyond it, the next factorization runs AMD, after which reuse resumes.
+        o.record(&nodes, &[2, 0, 3, 1], 1.26, true);
+        assert_eq!(o.ordering(&nodes), None);
+        o.record(&nodes, &[0, 1, 2, 3], 2.0, false);
+        assert_eq!(o.ordering(&nodes), Some(vec![0, 1, 2, 3]));
+        o.record(&nodes, &[0, 1, 2, 3], 2.4, true);
+        assert!(
+            o.ordering(&nodes).is_some(),
+            "relative to the last AMD fill"
+        );
+        assert_eq!(o.stats(), (2, 3));
+    }
+
+    #[test]
+    fn orderings_forget_nodes_not_placed_since_the_call_before_last() {
+        let a: Vec<Node> = (0..4).map(Node::Unknown).collect();
+        let b: Vec<Node> = (10..14).map(Node::Unknown).collect();
+        let mut o = Orderings::default();
+        o.record(&a, &[0, 1, 2, 3], 1.0, false);
+        o.forget_older();
+        o.record(&b, &[0, 1, 2, 3], 1.0, false);
+        assert!(o.ordering(&a).is_some() && o.ordering(&b).is_some());
+        o.forget_older();
+        // `a` was placed before the call before last, `b` since.
+        assert_eq!(o.ordering(&a), None);
+        assert!(o.ordering(&b).is_some());
+        o.forget_older();
+        assert!(o.ranks.is_empty());
     }
 }

@@ -9,7 +9,9 @@
 //!    rows all hold at `y` is answered `x = y`, `λ = 0` (exact).
 //! 2. **Dual active set.** Each block runs the Lawson–Hanson method on the dual
 //!    `min ½‖Aᵀλ‖² − λᵀ(b − Ay)`, `λ ≥ 0` (see [the method](sweeping_clarabel::active_set)); every step solves
-//!    the quasi-definite KKT system of the working set (factored with QDLDL, or the previous
+//!    the quasi-definite KKT system of the working set (factored with QDLDL, ordered as
+//!    the last factorizations of the same rows and people were, see
+//!    [`Orderings`], or the previous
 //!    factor bordered with the few rows that joined or left) and refines against the
 //!    unregularized one, which copes with linearly dependent rows (contact loops). It starts
 //!    from the rows active at the previous step, matched by their [`RowKey`]s (rows may
@@ -74,7 +76,7 @@ use sweeping_api::{
     Blocks, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
     SolveStatus, SparseRows,
 };
-use sweeping_clarabel::active_set::{self, Failure, Start};
+use sweeping_clarabel::active_set::{self, Failure, Orderings, Start};
 
 mod interior_point;
 
@@ -164,6 +166,8 @@ pub struct NativeProjector {
     /// For the rows active at the previous solve in a block that the interior point rescued,
     /// how many solves in a row their block has been rescued (see [`goes_straight_to_rescue`]).
     rescued: HashMap<RowKey, u32>,
+    /// The orderings of the last sparse factorizations, reused by the next ones.
+    orderings: Orderings,
 }
 
 impl Default for NativeProjector {
@@ -178,6 +182,7 @@ impl std::fmt::Debug for NativeProjector {
             .field("settings", &self.settings)
             .field("fallback", &self.fallback.as_ref().map(|p| p.name()))
             .field("remembered_rows", &self.previous.len())
+            .field("orderings_by_amd_and_memory", &self.orderings.stats())
             .finish()
     }
 }
@@ -206,6 +211,7 @@ impl NativeProjector {
             fallback: None,
             previous: HashMap::new(),
             rescued: HashMap::new(),
+            orderings: Orderings::default(),
         }
     }
 
@@ -217,13 +223,21 @@ impl NativeProjector {
         }
     }
 
+    /// The orderings of recent sparse factorizations, with how many were made by AMD and
+    /// how many reused from memory ([`Orderings::stats`]).
+    pub fn orderings(&self) -> &Orderings {
+        &self.orderings
+    }
+
     /// Solves one block: a certified answer, or the reason it failed with the iterations
     /// spent.
     ///
     /// `straight`: skip the active-set attempt and rescue at once.
+    /// `unknowns[j]`: the index of the block's unknown `j` in the whole problem.
     fn solve_block(
-        &self,
+        &mut self,
         block: &ProjectionProblem,
+        unknowns: &[usize],
         tol: f64,
         straight: bool,
     ) -> Result<Projection, (Failure, u32)> {
@@ -267,14 +281,17 @@ impl NativeProjector {
         let (first, cap) = if rescue && straight {
             (Err(Failure::Cap(0)), 0)
         } else {
-            (active_set::solve(block, start, cap), cap)
+            let outcome =
+                active_set::solve_remembering(block, start, cap, &mut self.orderings, unknowns);
+            (outcome, cap)
         };
         let (outcome, rescued) = match first {
             Ok(outcome) => (outcome, false),
             Err(Failure::Cap(_) | Failure::Cycling(_)) if rescue => {
                 // The cold multipliers, for a rescue that must start over.
                 let cold = (0..m).map(|i| own_multiplier(block, i, r[i])).collect();
-                let outcome = rescue_by_interior_point(block, &r, cold, tol)
+                let memory = (&mut self.orderings, unknowns);
+                let outcome = rescue_by_interior_point(block, &r, cold, tol, memory)
                     .map_err(|(failure, spent)| (failure, cap.saturating_add(spent)))?;
                 (outcome, true)
             }
@@ -330,12 +347,17 @@ fn goes_straight_to_rescue(streak: u32) -> bool {
 /// on an empty set), the active-set method starts from the rows violated at `y` instead, with
 /// `cold` multipliers, and certifies what it finds (a Farkas certificate on an empty set). On
 /// failure, the reason and the iterations spent (both methods).
+///
+/// `memory`: the orderings the active-set method reuses, and the names of the block's
+/// unknowns (see [`active_set::solve_remembering`]).
 fn rescue_by_interior_point(
     block: &ProjectionProblem,
     r: &[f64],
     cold: Vec<f64>,
     tol: f64,
+    memory: (&mut Orderings, &[usize]),
 ) -> Result<active_set::Outcome, (Failure, u32)> {
+    let (orderings, unknowns) = memory;
     let m = block.n_rows();
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
     let mut spent = 0u32;
@@ -347,14 +369,21 @@ fn rescue_by_interior_point(
             // A subset of the rows of a non-empty set is not empty either: an interior point
             // that diverges on the screened rows diverges on all of them.
             let (start, cap) = cold_start(r, cold);
-            return finish(block, start, cap, spent);
+            return finish(block, start, cap, spent, (orderings, unknowns));
         };
         if it.converged {
             if let Some(outcome) = certified_iterate(block, &it, tol, spent) {
                 return Ok(outcome);
             }
         }
-        match finish(block, finish_start(&it, &cold), POLISH_ITERATIONS, spent) {
+        let start = finish_start(&it, &cold);
+        match finish(
+            block,
+            start,
+            POLISH_ITERATIONS,
+            spent,
+            (&mut *orderings, unknowns),
+        ) {
             Ok(outcome) => return Ok(outcome),
             Err((failure @ (Failure::Cap(_) | Failure::Cycling(_)), total)) => {
                 spent = total;
@@ -542,14 +571,16 @@ fn cleaned_multipliers(it: &interior_point::Iterate, tol: f64) -> Vec<f64> {
         .collect()
 }
 
-/// The active-set method from `start`, its iterations added to the `spent` ones.
+/// The active-set method from `start` (ordering from `memory`, see
+/// [`active_set::solve_remembering`]), its iterations added to the `spent` ones.
 fn finish(
     block: &ProjectionProblem,
     start: Start,
     cap: u32,
     spent: u32,
+    memory: (&mut Orderings, &[usize]),
 ) -> Result<active_set::Outcome, (Failure, u32)> {
-    active_set::solve(block, start, cap)
+    active_set::solve_remembering(block, start, cap, memory.0, memory.1)
         .map(|mut outcome| {
             outcome.iterations = outcome.iterations.saturating_add(spent);
             outcome
@@ -601,6 +632,7 @@ impl Projector for NativeProjector {
                 ),
             });
         }
+        self.orderings.forget_older();
         let setup_seconds = setup_start.elapsed().as_secs_f64();
         let solve_start = Instant::now();
         let mut answers = Vec::with_capacity(blocks.blocks().len());
@@ -612,7 +644,7 @@ impl Projector for NativeProjector {
                     .fold(0, |acc, &s| acc.max(s))
             });
             let straight = goes_straight_to_rescue(streak);
-            let answer = match self.solve_block(&block.problem, tol, straight) {
+            let answer = match self.solve_block(&block.problem, &block.cols, tol, straight) {
                 Ok(answer) => answer,
                 Err((Failure::Infeasible { rows }, _)) => {
                     let global: Vec<usize> = rows.iter().map(|&t| block.rows[t]).collect();
@@ -692,6 +724,11 @@ impl Projector for NativeProjector {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Names for the unknowns of a problem of dimension `n` solved on its own.
+    fn names(n: usize) -> Vec<usize> {
+        (0..n).collect()
+    }
 
     #[test]
     fn a_block_goes_straight_to_the_rescue_from_the_third_rescue_in_a_row_but_at_powers_of_two() {
@@ -884,7 +921,13 @@ mod tests {
         let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
         let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, 0.0]).unwrap();
         let r = p.b().to_vec();
-        match rescue_by_interior_point(&p, &r, vec![0.0; 2], 1e-10) {
+        match rescue_by_interior_point(
+            &p,
+            &r,
+            vec![0.0; 2],
+            1e-10,
+            (&mut Orderings::default(), &names(p.dim())),
+        ) {
             Err((Failure::Infeasible { mut rows }, _)) => {
                 rows.sort_unstable();
                 assert_eq!(rows, vec![0, 1]);
@@ -907,7 +950,14 @@ mod tests {
         let alone = solve_rows(&q, &r, &screened, 1e-12 * 1000.0).unwrap();
         assert!(alone.converged);
         let tol = 1e-10 * 5000.0;
-        let outcome = rescue_by_interior_point(&q, &r, vec![0.0; 5], tol).unwrap();
+        let outcome = rescue_by_interior_point(
+            &q,
+            &r,
+            vec![0.0; 5],
+            tol,
+            (&mut Orderings::default(), &names(q.dim())),
+        )
+        .unwrap();
         assert_eq!(outcome.iterations, alone.iterations);
         assert!(q.kkt_residuals(&outcome.x, &outcome.lambda).max() <= CLEAN_FRACTION * tol);
         assert!((outcome.x[0] + 500.0).abs() < 1e-7 && (outcome.x[1] - 500.0).abs() < 1e-7);
@@ -919,7 +969,14 @@ mod tests {
         let m = r.len();
         let p = ProjectionProblem::new(vec![0.0; a.n_cols()], a, r.clone()).unwrap();
         let tol = 1e-10;
-        let outcome = rescue_by_interior_point(&p, &r, vec![0.0; m], tol).expect("solved");
+        let outcome = rescue_by_interior_point(
+            &p,
+            &r,
+            vec![0.0; m],
+            tol,
+            (&mut Orderings::default(), &names(p.dim())),
+        )
+        .expect("solved");
         assert!(p.kkt_residuals(&outcome.x, &outcome.lambda).max() <= tol);
         let reference = sweeping_clarabel::ClarabelProjector::default()
             .project(&p)
@@ -951,5 +1008,46 @@ mod tests {
         let r = ProjectionProblem::new(vec![-5e-7, 0.0], a, vec![0.0, 1e-9]).unwrap();
         let it = iterate(vec![5e-7, 0.0], vec![1e-7, 1.0]);
         assert!(certified_iterate(&r, &it, tol, 3).is_none());
+    }
+
+    /// Step `s` of 60 people on a line squeezed toward the middle: `x_{j+1} − x_j ≥ 1` for
+    /// every neighbour pair, keyed by the pair, `y` drifting a little from step to step.
+    fn squeezed_line(s: usize) -> ProjectionProblem {
+        let n = 60;
+        let rows: Vec<Vec<(usize, f64)>> =
+            (0..n - 1).map(|j| vec![(j, -1.0), (j + 1, 1.0)]).collect();
+        let keys = (0..n - 1)
+            .map(|j| RowKey {
+                family: 0,
+                member: j as u64,
+            })
+            .collect();
+        let y = (0..n)
+            .map(|j| 0.5 * j as f64 + 0.01 * ((j * 7 + s * 3) as f64).sin())
+            .collect();
+        let a = SparseRows::from_rows(n, &rows);
+        ProjectionProblem::new(y, a, vec![1.0; n - 1])
+            .unwrap()
+            .with_row_keys(keys)
+            .unwrap()
+    }
+
+    #[test]
+    fn steps_after_the_first_reuse_its_ordering_and_answer_as_a_fresh_projector_does() {
+        let mut warm = NativeProjector::default();
+        for s in 0..6 {
+            let p = squeezed_line(s);
+            let answer = warm.project(&p).unwrap();
+            let fresh = NativeProjector::default().project(&p).unwrap();
+            let gap = answer
+                .x
+                .iter()
+                .zip(&fresh.x)
+                .fold(0.0, |acc: f64, (a, b)| acc.max((a - b).abs()));
+            assert!(gap < 1e-10, "step {s}: gap {gap:e}");
+        }
+        let (by_amd, by_memory) = warm.orderings().stats();
+        assert_eq!(by_amd, 1, "only the first step's factorization runs AMD");
+        assert!(by_memory >= 5, "{by_memory} reused");
     }
 }
