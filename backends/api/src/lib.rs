@@ -38,6 +38,12 @@ pub use blocks::{Block, Blocked, Blocks};
 pub use cross::{CrossCheck, CrossCheckStats};
 pub use matrix::SparseRows;
 
+/// A hash map for what backends look up on every solve (multipliers by [`RowKey`], working
+/// sets, orderings by node): std's map with foldhash's fixed-seed hasher, much cheaper than
+/// SipHash on such small keys and the same from run to run. It does not resist hash
+/// flooding, which keys the program makes itself do not call for.
+pub type FastMap<K, V> = std::collections::HashMap<K, V, foldhash::fast::FixedState>;
+
 use serde::{Deserialize, Serialize};
 use std::fmt;
 

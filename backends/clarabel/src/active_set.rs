@@ -47,8 +47,7 @@
 
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
-use std::collections::HashMap;
-use sweeping_api::{ProjectionProblem, RowKey};
+use sweeping_api::{FastMap, ProjectionProblem, RowKey};
 
 /// How often the same working set may be factored before the method is declared cycling.
 const REPEATS: u32 = 3;
@@ -352,7 +351,7 @@ const STALE_FILL: f64 = 1.25;
 pub struct Orderings {
     /// Each remembered node's rank: its position in the ordering that placed it last, offset
     /// by every rank handed out before (so a later ordering ranks after an earlier one).
-    ranks: HashMap<Node, u64>,
+    ranks: FastMap<Node, u64>,
     /// Ranks handed out so far.
     next: u64,
     /// `next` when [`Orderings::forget_older`] was last called.
@@ -1023,7 +1022,7 @@ fn solve_with(
     // Set when the method restarted as Lawson–Hanson proper: from an empty support, one row
     // (the steepest) joining at a time, starting at a zero multiplier.
     let mut proper = false;
-    let mut visits: HashMap<Vec<usize>, u32> = HashMap::new();
+    let mut visits: FastMap<Vec<usize>, u32> = FastMap::default();
     let mut in_support = vec![false; m];
     let mut ad = vec![0.0; m];
     // The system of the previous iteration, carried to the next support by bordering.

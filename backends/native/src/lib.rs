@@ -70,10 +70,9 @@
 //! ```
 #![deny(missing_docs)]
 
-use std::collections::HashMap;
 use std::time::Instant;
 use sweeping_api::{
-    Blocks, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
+    Blocks, FastMap, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
     SolveStatus, SparseRows,
 };
 use sweeping_clarabel::active_set::{self, Failure, Orderings, Start};
@@ -162,10 +161,10 @@ pub struct NativeProjector {
     pub settings: NativeSettings,
     fallback: Option<Box<dyn Projector>>,
     /// Multipliers of the rows active at the previous solve, by key.
-    previous: HashMap<RowKey, f64>,
+    previous: FastMap<RowKey, f64>,
     /// For the rows active at the previous solve in a block that the interior point rescued,
     /// how many solves in a row their block has been rescued (see [`goes_straight_to_rescue`]).
-    rescued: HashMap<RowKey, u32>,
+    rescued: FastMap<RowKey, u32>,
     /// The orderings of the last sparse factorizations, reused by the next ones.
     orderings: Orderings,
 }
@@ -209,8 +208,8 @@ impl NativeProjector {
         Self {
             settings,
             fallback: None,
-            previous: HashMap::new(),
-            rescued: HashMap::new(),
+            previous: FastMap::default(),
+            rescued: FastMap::default(),
             orderings: Orderings::default(),
         }
     }

@@ -73,12 +73,11 @@
 use osqp::{CscMatrix, Problem, Settings, Status};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
-use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::{Duration, Instant};
 use sweeping_api::{
-    Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats, SolveStatus,
-    SparseRows,
+    FastMap, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
+    SolveStatus, SparseRows,
 };
 
 /// The upper bound of every row: OSQP's own "infinity" (`OSQP_INFTY`), large but finite.
@@ -299,7 +298,7 @@ fn keyed_start(
     previous_keys: &[RowKey],
     previous_y: &[f64],
 ) -> (Vec<f64>, Vec<f64>) {
-    let by_key: HashMap<RowKey, f64> = previous_keys
+    let by_key: FastMap<RowKey, f64> = previous_keys
         .iter()
         .copied()
         .zip(previous_y.iter().copied())
