@@ -1554,6 +1554,13 @@ mod tests {
         };
         let first = ActiveSystem::sparse_ordered(&p, &base, Some(&mut memory)).unwrap();
         assert_eq!(memory.orderings.stats(), (1, 0));
+        // The fill remembered is the factor's entries per entry of the matrix's upper triangle.
+        let Factor::Sparse(ldl) = &first.factor else {
+            panic!("a sparse factor");
+        };
+        let fill = ldl.nnzL() as f64 / ldl.nnzA() as f64;
+        assert!(fill > 0.0 && fill.fract() != 0.0, "{fill}");
+        assert_eq!(memory.orderings.amd_fill, fill);
         let before = factored_nodes(&first, &keys, &names);
         // Row 5 leaves, row 31 joins: the next factorization is ordered from memory.
         let next: Vec<usize> = (0..30).filter(|&i| i != 5).chain([31]).collect();
