@@ -1049,4 +1049,54 @@ mod tests {
         assert_eq!(by_amd, 1, "only the first step's factorization runs AMD");
         assert!(by_memory >= 5, "{by_memory} reused");
     }
+
+    #[test]
+    fn a_remembered_ordering_from_an_unrelated_problem_with_the_same_keys_changes_no_answer() {
+        // The same 59 keys on a line of 60, then on a 6 × 10 grid whose rows link other
+        // unknowns, in another order, in a problem of another dimension: the remembered ranks
+        // name the wrong nodes, which may cost fill but not accuracy.
+        let mut warm = NativeProjector::default();
+        warm.project(&squeezed_line(0)).unwrap();
+        let (w, h) = (6usize, 10usize);
+        let n = w * h + 7;
+        let mut rows: Vec<Vec<(usize, f64)>> = Vec::new();
+        for j in 0..h {
+            for i in 0..w {
+                let c = 7 + j * w + i;
+                if i + 1 < w {
+                    rows.push(vec![(c, -1.0), (c + 1, 1.0)]);
+                }
+                if j + 1 < h && rows.len() < 59 {
+                    rows.push(vec![(c, -0.6), (c + w, 0.8)]);
+                }
+            }
+        }
+        rows.truncate(59);
+        let keys: Vec<RowKey> = (0..59)
+            .rev()
+            .map(|j| RowKey {
+                family: 0,
+                member: j as u64,
+            })
+            .collect();
+        let y: Vec<f64> = (0..n).map(|c| 0.1 * ((c * 13) as f64).sin()).collect();
+        let p = ProjectionProblem::new(y, SparseRows::from_rows(n, &rows), vec![0.5; 59])
+            .unwrap()
+            .with_row_keys(keys)
+            .unwrap();
+        let answer = warm.project(&p).unwrap();
+        let fresh = NativeProjector::default().project(&p).unwrap();
+        let gap = answer
+            .x
+            .iter()
+            .zip(&fresh.x)
+            .fold(0.0, |acc: f64, (a, b)| acc.max((a - b).abs()));
+        assert!(gap < 1e-10, "gap {gap:e}");
+        assert!(p.kkt_residuals(&answer.x, &answer.multipliers).max() < 1e-10);
+        let (by_amd, by_memory) = warm.orderings().stats();
+        assert!(
+            by_memory >= 1,
+            "the grid is ordered from the line's memory ({by_amd} by AMD)"
+        );
+    }
 }
