@@ -155,7 +155,7 @@ impl ProjectionProblem {
                 ),
             });
         }
-        let mut seen = std::collections::HashMap::with_capacity(keys.len());
+        let mut seen = FastMap::with_capacity_and_hasher(keys.len(), Default::default());
         for (i, k) in keys.iter().enumerate() {
             if let Some(first) = seen.insert(*k, i) {
                 return Err(ProjectionError::InvalidInput {
