@@ -1031,18 +1031,24 @@ mod tests {
             .unwrap()
     }
 
+    /// `‖x − x_fresh‖∞` between `warm`'s answer on `p` and a fresh projector's (both
+    /// certified, or this panics).
+    fn gap_to_a_fresh_projector(warm: &mut NativeProjector, p: &ProjectionProblem) -> f64 {
+        let answer = warm.project(p).unwrap();
+        let fresh = NativeProjector::default().project(p).unwrap();
+        assert!(p.kkt_residuals(&answer.x, &answer.multipliers).max() < 1e-10);
+        answer
+            .x
+            .iter()
+            .zip(&fresh.x)
+            .fold(0.0, |acc: f64, (a, b)| acc.max((a - b).abs()))
+    }
+
     #[test]
     fn steps_after_the_first_reuse_its_ordering_and_answer_as_a_fresh_projector_does() {
         let mut warm = NativeProjector::default();
         for s in 0..6 {
-            let p = squeezed_line(s);
-            let answer = warm.project(&p).unwrap();
-            let fresh = NativeProjector::default().project(&p).unwrap();
-            let gap = answer
-                .x
-                .iter()
-                .zip(&fresh.x)
-                .fold(0.0, |acc: f64, (a, b)| acc.max((a - b).abs()));
+            let gap = gap_to_a_fresh_projector(&mut warm, &squeezed_line(s));
             assert!(gap < 1e-10, "step {s}: gap {gap:e}");
         }
         let (by_amd, by_memory) = warm.orderings().stats();
@@ -1084,15 +1090,8 @@ mod tests {
             .unwrap()
             .with_row_keys(keys)
             .unwrap();
-        let answer = warm.project(&p).unwrap();
-        let fresh = NativeProjector::default().project(&p).unwrap();
-        let gap = answer
-            .x
-            .iter()
-            .zip(&fresh.x)
-            .fold(0.0, |acc: f64, (a, b)| acc.max((a - b).abs()));
+        let gap = gap_to_a_fresh_projector(&mut warm, &p);
         assert!(gap < 1e-10, "gap {gap:e}");
-        assert!(p.kkt_residuals(&answer.x, &answer.multipliers).max() < 1e-10);
         let (by_amd, by_memory) = warm.orderings().stats();
         assert!(
             by_memory >= 1,
