@@ -314,8 +314,8 @@ const STALE_FILL: f64 = 1.25;
 ///
 /// On a queue at a door the method factors, at the start of every step, a support of a
 /// hundred rows or more, much like the one of the step before: the same contacts, a few
-/// made or broken. AMD, which orders each fresh factorization, cost more than the
-/// factorization itself there (about two thirds of QDLDL's time on the paper's evacuation).
+/// made or broken. AMD, which orders each fresh factorization, cost more there than the
+/// rest of the factorization (the README's performance section has the measurements).
 /// A factorization whose nodes are mostly remembered is ordered by their ranks in the
 /// orderings that placed them last (nodes new to the memory go last, in their own order),
 /// which keeps the fill of the AMD ordering it descends from as long as the support changes
@@ -972,7 +972,8 @@ pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outc
 
 /// [`solve`], its sparse factorizations ordered from (and remembered in) `orderings` when
 /// `problem` carries row keys; `unknowns[j]` names unknown `j` of `problem` (its index in the
-/// whole problem when `problem` is one of its blocks). See [`Orderings`].
+/// whole problem when `problem` is one of its blocks). See [`Orderings`]. Without one name
+/// per unknown, it is [`solve`]: an ordering only saves time, so none is guessed.
 pub fn solve_remembering(
     problem: &ProjectionProblem,
     start: Start,
@@ -980,12 +981,11 @@ pub fn solve_remembering(
     orderings: &mut Orderings,
     unknowns: &[usize],
 ) -> Result<Outcome, Failure> {
-    assert_eq!(unknowns.len(), problem.dim(), "one name per unknown");
-    let memory = Remembered {
+    let memory = (unknowns.len() == problem.dim()).then_some(Remembered {
         orderings,
         unknowns,
-    };
-    solve_with(problem, start, cap, Some(memory))
+    });
+    solve_with(problem, start, cap, memory)
 }
 
 fn solve_with(
@@ -1049,11 +1049,12 @@ fn solve_with(
         let reused = held.take().and_then(|h| h.bordered_to(problem, &support));
         let mut system = match reused {
             Some(system) => system,
-            // QDLDL orders each fresh factorization itself (AMD). An ordering of the whole
-            // block made once and restricted to each working set paid for itself while every
-            // iteration factored; with bordering most do not, and ordering the whole block
-            // cost more than it saved (0.92x whole-process time on the paper's evacuation,
-            // 0.96x on the 10 000-person hall, jams faster too).
+            // A fresh factorization is ordered by AMD, or as its nodes were ordered last
+            // (`Orderings`, with `memory`). An ordering of the whole block made once and
+            // restricted to each working set paid for itself while every iteration factored;
+            // with bordering most do not, and ordering the whole block cost more than it
+            // saved (0.92x whole-process time on the paper's evacuation, 0.96x on the 10
+            // 000-person hall, jams faster too).
             None => ActiveSystem::new(problem, &support, memory.as_mut())
                 .ok_or(Failure::Numerical("factorization"))?,
         };
@@ -1591,6 +1592,32 @@ mod tests {
         };
         ActiveSystem::sparse_ordered(&unkeyed, &next, Some(&mut memory)).unwrap();
         assert_eq!(orderings.stats(), (1, 1));
+    }
+
+    #[test]
+    fn without_a_name_per_unknown_the_method_solves_without_memory() {
+        let keys: Vec<RowKey> = (0..35)
+            .map(|i| RowKey {
+                family: 1,
+                member: i,
+            })
+            .collect();
+        let p = random_problem().with_row_keys(keys).unwrap();
+        let start = || Start {
+            support: (0..30).collect(),
+            lambda: vec![1.0; 30],
+            join: vec![1.0; 35],
+        };
+        let mut orderings = Orderings::default();
+        let names: Vec<usize> = (0..39).collect();
+        let remembering = solve_remembering(&p, start(), 200, &mut orderings, &names).unwrap();
+        assert_eq!(
+            orderings.stats(),
+            (0, 0),
+            "nothing ordered from or into memory"
+        );
+        let plain = solve(&p, start(), 200).unwrap();
+        assert_eq!(remembering.x, plain.x);
     }
 
     #[test]
