@@ -9,10 +9,9 @@
 //!    rows all hold at `y` is answered `x = y`, `λ = 0` (exact).
 //! 2. **Dual active set.** Each block runs the Lawson–Hanson method on the dual
 //!    `min ½‖Aᵀλ‖² − λᵀ(b − Ay)`, `λ ≥ 0` (see [the method](sweeping_clarabel::active_set)); every step solves
-//!    the quasi-definite KKT system of the working set (factored with QDLDL, ordered as
-//!    the last factorizations of the same rows and people were, see
-//!    [`Orderings`], or the previous
-//!    factor bordered with the few rows that joined or left) and refines against the
+//!    the quasi-definite KKT system of the working set (factored with QDLDL, ordered as the
+//!    last factorizations of the same rows and people were, see [`Orderings`], or the
+//!    previous factor bordered with the few rows that joined or left) and refines against the
 //!    unregularized one, which copes with linearly dependent rows (contact loops). It starts
 //!    from the rows active at the previous step, matched by their [`RowKey`]s (rows may
 //!    appear, vanish or be reordered) with their previous multipliers; in a block without a
