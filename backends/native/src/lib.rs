@@ -31,7 +31,8 @@
 //!    against every row of the block, and every row keeping a multiplier is tight to that;
 //!    otherwise the active-set method finishes exactly from
 //!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished), and
-//!    if that runs out too, the interior point runs again on every row. A block rescued three
+//!    if that runs out too (or the first interior point stalls short of a guess), the interior
+//!    point runs again on every row. A block rescued three
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
 //!    except at powers of two, which find out when the jam is over. Counted in
 //!    [`SolveStats::rescues`].
@@ -129,7 +130,7 @@ pub const DEFAULT_ITERATIONS: u32 = 16;
 const INTERIOR_POINT_TOLERANCE: f64 = 1e-12;
 /// An interior point that stopped short of [`INTERIOR_POINT_TOLERANCE`] (its iteration cap,
 /// rounding) but reached this relative accuracy is still a good guess to finish from;
-/// beyond it, its iterates are taken to diverge (an empty set).
+/// beyond it, its iterates diverged (an empty set) or stalled (a sliver of a set).
 const INTERIOR_POINT_GUESS: f64 = 1e-8;
 /// Most interior-point iterations of a rescue (it needs 8–25 on crowds).
 const INTERIOR_POINT_ITERATIONS: u32 = 60;
@@ -342,9 +343,10 @@ fn goes_straight_to_rescue(streak: u32) -> bool {
 /// the KKT check at `tol`, the active-set method finishes from the rows whose multiplier
 /// exceeds their slack (as Clarabel's answers are polished), up to [`POLISH_ITERATIONS`].
 /// When an interior point does not even reach [`INTERIOR_POINT_GUESS`] (its iterates diverge
-/// on an empty set), the active-set method starts from the rows violated at `y` instead, with
-/// `cold` multipliers, and certifies what it finds (a Farkas certificate on an empty set). On
-/// failure, the reason and the iterations spent (both methods).
+/// on an empty set, or stall on a sliver of one), the one on every row is tried next; when
+/// that one does not either, the active-set method starts from the rows violated at `y`
+/// instead, with `cold` multipliers, and certifies what it finds (a Farkas certificate on an
+/// empty set). On failure, the reason and the iterations spent (both methods).
 ///
 /// `memory`: the orderings the active-set method reuses, and the names of the block's
 /// unknowns (see [`active_set::solve_remembering`]).
@@ -364,8 +366,14 @@ fn rescue_by_interior_point(
         let iterate = solve_rows(block, r, &rows, INTERIOR_POINT_TOLERANCE * scale);
         spent = spent.saturating_add(iterate.as_ref().map_or(0, |it| it.iterations));
         let Some(it) = iterate.filter(|it| is_a_guess(it.accuracy, scale)) else {
-            // A subset of the rows of a non-empty set is not empty either: an interior point
-            // that diverges on the screened rows diverges on all of them.
+            // The screened rows' set holds the block's, so an interior point that diverges
+            // on them means the block's set is empty, too, but on a sliver of a feasible set
+            // (a jam with more tight rows than unknowns) the interior point also stalls short
+            // of a guess. Every row is tried before the active set starts cold: on the 2000-
+            // person evacuation that halved the blocks handed to the fallback.
+            if rows.len() < m {
+                continue;
+            }
             let (start, cap) = cold_start(r, cold);
             return finish(block, start, cap, spent, (orderings, unknowns));
         };
@@ -405,7 +413,7 @@ fn rescue_attempts(screened: Vec<usize>, m: usize) -> Vec<Vec<usize>> {
 
 /// Whether an interior point that stopped at `accuracy` (on data of `scale`) got close enough
 /// to the answer for the active-set method to finish from it: [`INTERIOR_POINT_GUESS`]
-/// relative. Worse means its iterates diverged (the set is empty).
+/// relative. Worse means its iterates diverged (the set is empty) or stalled.
 fn is_a_guess(accuracy: f64, scale: f64) -> bool {
     accuracy <= INTERIOR_POINT_GUESS * scale
 }
@@ -911,6 +919,32 @@ mod tests {
             // slack or not (row 4: a degenerate row's multiplier, about √μ).
             vec![2.0, 1e-12, 0.0, 0.0, 1e-9, 0.0]
         );
+    }
+
+    #[test]
+    fn a_rescue_whose_screened_interior_point_gets_nowhere_tries_every_row_before_the_cold_start() {
+        // x₀ ≥ 1 and −x₀ ≥ 0 (empty), and x₁ ≥ −100, which the screen leaves out.
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(0, -1.0)], vec![(1, 1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 0.0, -100.0]).unwrap();
+        let r = p.b().to_vec();
+        let screened = screened_rows(&p, &r);
+        assert_eq!(screened, vec![0, 1]);
+        let tolerance = INTERIOR_POINT_TOLERANCE * 100.0;
+        let ipm =
+            |rows: &[usize]| solve_rows(&p, &r, rows, tolerance).map_or(0, |it| it.iterations);
+        let (_, cap) = cold_start(&r, vec![0.0; 3]);
+        // Both interior points ran (and diverged), then the active set found the certificate.
+        let spent = ipm(&screened) + ipm(&[0, 1, 2]) + cap;
+        match rescue_by_interior_point(
+            &p,
+            &r,
+            vec![0.0; 3],
+            1e-10,
+            (&mut Orderings::default(), &names(p.dim())),
+        ) {
+            Err((Failure::Infeasible { .. }, total)) => assert_eq!(total, spent),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
