@@ -736,6 +736,17 @@ mod tests {
         (0..n).collect()
     }
 
+    /// [`rescue_by_interior_point`] on `p` solved on its own, with a fresh ordering memory.
+    fn rescue_alone(
+        p: &ProjectionProblem,
+        r: &[f64],
+        cold: Vec<f64>,
+        tol: f64,
+    ) -> Result<active_set::Outcome, (Failure, u32)> {
+        let memory = (&mut Orderings::default(), &names(p.dim())[..]);
+        rescue_by_interior_point(p, r, cold, tol, memory)
+    }
+
     #[test]
     fn a_block_goes_straight_to_the_rescue_from_the_third_rescue_in_a_row_but_at_powers_of_two() {
         let straight: Vec<u32> = (0..=17).filter(|&s| goes_straight_to_rescue(s)).collect();
@@ -935,13 +946,7 @@ mod tests {
         let (_, cap) = cold_start(&r, vec![0.0; 3]);
         // Both interior points ran (and diverged), then the active set found the certificate.
         let spent = ipm(&screened) + ipm(&[0, 1, 2]) + cap;
-        match rescue_by_interior_point(
-            &p,
-            &r,
-            vec![0.0; 3],
-            1e-10,
-            (&mut Orderings::default(), &names(p.dim())),
-        ) {
+        match rescue_alone(&p, &r, vec![0.0; 3], 1e-10) {
             Err((Failure::Infeasible { .. }, total)) => assert_eq!(total, spent),
             other => panic!("{other:?}"),
         }
@@ -953,13 +958,7 @@ mod tests {
         let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
         let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, 0.0]).unwrap();
         let r = p.b().to_vec();
-        match rescue_by_interior_point(
-            &p,
-            &r,
-            vec![0.0; 2],
-            1e-10,
-            (&mut Orderings::default(), &names(p.dim())),
-        ) {
+        match rescue_alone(&p, &r, vec![0.0; 2], 1e-10) {
             Err((Failure::Infeasible { mut rows }, _)) => {
                 rows.sort_unstable();
                 assert_eq!(rows, vec![0, 1]);
@@ -982,14 +981,7 @@ mod tests {
         let alone = solve_rows(&q, &r, &screened, 1e-12 * 1000.0).unwrap();
         assert!(alone.converged);
         let tol = 1e-10 * 5000.0;
-        let outcome = rescue_by_interior_point(
-            &q,
-            &r,
-            vec![0.0; 5],
-            tol,
-            (&mut Orderings::default(), &names(q.dim())),
-        )
-        .unwrap();
+        let outcome = rescue_alone(&q, &r, vec![0.0; 5], tol).unwrap();
         assert_eq!(outcome.iterations, alone.iterations);
         assert!(q.kkt_residuals(&outcome.x, &outcome.lambda).max() <= CLEAN_FRACTION * tol);
         assert!((outcome.x[0] + 500.0).abs() < 1e-7 && (outcome.x[1] - 500.0).abs() < 1e-7);
@@ -1001,14 +993,7 @@ mod tests {
         let m = r.len();
         let p = ProjectionProblem::new(vec![0.0; a.n_cols()], a, r.clone()).unwrap();
         let tol = 1e-10;
-        let outcome = rescue_by_interior_point(
-            &p,
-            &r,
-            vec![0.0; m],
-            tol,
-            (&mut Orderings::default(), &names(p.dim())),
-        )
-        .expect("solved");
+        let outcome = rescue_alone(&p, &r, vec![0.0; m], tol).expect("solved");
         assert!(p.kkt_residuals(&outcome.x, &outcome.lambda).max() <= tol);
         let reference = sweeping_clarabel::ClarabelProjector::default()
             .project(&p)
