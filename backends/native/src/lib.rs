@@ -1116,4 +1116,28 @@ mod tests {
             "the grid is ordered from the line's memory ({by_amd} by AMD)"
         );
     }
+
+    #[test]
+    fn a_block_the_native_method_cannot_finish_goes_to_the_fallback_and_is_counted() {
+        // x₁ − x₀ ≥ 1 is violated at y; its projection alone breaks x₂ − x₁ ≥ 1, which joins
+        // in a second iteration: one iteration and no rescue cannot finish.
+        let settings = NativeSettings {
+            max_iterations: 1,
+            interior_point: false,
+            ..NativeSettings::default()
+        };
+        let a = SparseRows::from_rows(3, &[vec![(0, -1.0), (1, 1.0)], vec![(1, -1.0), (2, 1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.5, 1.6], a, vec![1.0, 1.0]).unwrap();
+        let without = NativeProjector::new(settings.clone()).project(&p);
+        assert!(
+            matches!(without, Err(ProjectionError::NotConverged { .. })),
+            "{without:?}"
+        );
+        let fallback = Box::new(sweeping_api::conformance::ReferenceProjector::default());
+        let answer = NativeProjector::with_fallback(settings, fallback)
+            .project(&p)
+            .unwrap();
+        assert_eq!(answer.stats.fallbacks, 1);
+        assert!(p.kkt_residuals(&answer.x, &answer.multipliers).max() < 1e-9);
+    }
 }
