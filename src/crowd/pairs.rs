@@ -34,11 +34,20 @@ impl ConstraintKernel<4> for DiskPairKernel {
 /// Candidates come from a uniform grid of cell size `2 r_max + cutoff`, so a pair within the
 /// cutoff lies in the same or a neighbouring cell: `O(N)` work for a crowd of bounded density,
 /// and no pair with `D_ij ≤ cutoff` is ever missed (the contract of
-/// [`ConstraintFamily::candidates`]). People who have left are in no pair.
+/// [`ConstraintFamily::candidates`]). The grid is searched with a wider reach and its pairs
+/// kept as a neighbour list, which answers the next steps' queries for as long as the people's
+/// displacements since prove it complete (a Verlet list). People who have left are in no pair.
 pub struct DiskPairs {
     population: Arc<Population>,
-    scratch: Mutex<CellGrid>,
+    scratch: Mutex<BroadPhase>,
     cull: bool,
+}
+
+/// The grid, and the neighbour list built with it and reused while it provably holds.
+#[derive(Debug, Default)]
+struct BroadPhase {
+    grid: CellGrid,
+    list: NeighbourList,
 }
 
 impl DiskPairs {
@@ -46,7 +55,7 @@ impl DiskPairs {
     pub fn new(population: Arc<Population>) -> Self {
         Self {
             population,
-            scratch: Mutex::new(CellGrid::default()),
+            scratch: Mutex::new(BroadPhase::default()),
             cull: true,
         }
     }
@@ -152,6 +161,17 @@ const DENSE_EXTRA_CELLS: usize = 4096;
 const FORWARD: [(i64, i64); 4] = [(1, -1), (1, 0), (1, 1), (0, 1)];
 
 impl Binned {
+    /// Person `i` at `q` (no cell).
+    fn at(pop: &Population, q: &[f64], i: usize) -> Self {
+        Binned {
+            x: q[2 * i],
+            y: q[2 * i + 1],
+            radius: pop.radius(i),
+            person: i,
+            cell: 0,
+        }
+    }
+
     /// `D_ab ≤ cutoff`, computed as [`DiskPairs::brute_force_candidates`] does. The squared
     /// distance first rejects pairs beyond `r_a + r_b + cutoff` with a relative margin of
     /// 1e-9, far above the rounding of either computation, so only pairs the exact test would
@@ -324,6 +344,165 @@ impl CellGrid {
     }
 }
 
+/// A Verlet list: every pair of people present at `anchor` with `D_ij(anchor) ≤ reach`, found
+/// by the grid. It answers a query at `q` with cutoff `c` exactly as the grid would (the same
+/// pairs, tested by the same [`Binned::within`]) while `c + m₁ + m₂ ≤ reach`, `m₁ ≥ m₂` the two
+/// largest displacements `|qᵢ − anchorᵢ|` of people present at `q`:
+/// `D_ij(q) ≥ D_ij(anchor) − |Δᵢ| − |Δⱼ|` (triangle inequality), so a pair left out of the list
+/// has `D_ij(q) > reach − m₁ − m₂ ≥ c`. Every query checks this from the anchor afresh, for any
+/// `q` (a trial point, a new run after [`Population::reset_departures`]); when it fails the
+/// list is rebuilt at `q` with `reach = c + skin`. In a walking crowd at `h = 0.01` a list
+/// lasts several steps, and a query is one pass over the people plus one over the list,
+/// instead of a grid built and searched each step.
+#[derive(Debug, Default)]
+struct NeighbourList {
+    /// The positions the list was built at (empty: no list).
+    anchor: Vec<f64>,
+    /// Who was present at `anchor`: a person absent then is in no pair of the list, so the
+    /// list cannot answer for a configuration where they are present.
+    listed: Vec<bool>,
+    reach: f64,
+    /// The pairs of people `(i, j)`, `i < j`, in the grid's cell order.
+    pairs: Vec<(u32, u32)>,
+    /// Scratch: presence at the configuration of the query.
+    present: Vec<bool>,
+    /// Queries the current list has answered.
+    served: usize,
+    /// Queries left to the plain grid before a list is tried again.
+    plain_left: usize,
+    /// Lists built so far (for tests).
+    builds: usize,
+}
+
+/// A list that answers fewer queries than this before it fails (a crowd moving a large part
+/// of the skin each step: the jams at `h = 0.1`) costs more than the plain grid, which then
+/// answers the next [`PLAIN_SPELL`] queries before a list is tried again.
+const MIN_SERVED: usize = 3;
+/// See [`MIN_SERVED`].
+const PLAIN_SPELL: usize = 8;
+
+impl NeighbourList {
+    /// Calls `f(i, j)` for every present pair with `D_ij(q) ≤ cutoff` and returns `true`,
+    /// from the current list or from one built now; or returns `false` without calling `f`
+    /// when the plain grid should answer instead (see [`MIN_SERVED`]).
+    fn answer(
+        &mut self,
+        grid: &mut CellGrid,
+        pop: &Population,
+        q: &[f64],
+        cutoff: f64,
+        mut f: impl FnMut(usize, usize),
+    ) -> bool {
+        if self.plain_left > 0 {
+            self.plain_left -= 1;
+            return false;
+        }
+        if self.select(pop, q, cutoff, &mut f) {
+            self.served += 1;
+            return true;
+        }
+        if !self.anchor.is_empty() && self.served < MIN_SERVED {
+            self.anchor.clear();
+            self.plain_left = PLAIN_SPELL;
+            return false;
+        }
+        self.rebuild(grid, pop, q, cutoff);
+        self.served = 0;
+        let answered = self.select(pop, q, cutoff, &mut f);
+        self.served += usize::from(answered);
+        answered
+    }
+
+    /// Calls `f(i, j)` for every present pair with `D_ij(q) ≤ cutoff`, in the list's order,
+    /// and returns `true`; or returns `false` without calling `f` when the list cannot be
+    /// proven to hold them all at `q`.
+    fn select(
+        &mut self,
+        pop: &Population,
+        q: &[f64],
+        cutoff: f64,
+        mut f: impl FnMut(usize, usize),
+    ) -> bool {
+        let n = pop.len();
+        if self.anchor.len() != q.len() || q.len() != 2 * n || cutoff.is_nan() {
+            return false;
+        }
+        self.present.clear();
+        // The two largest squared displacements of present people.
+        let (mut m1, mut m2) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            let here = pop.is_present(q, i);
+            self.present.push(here);
+            if !here {
+                continue;
+            }
+            if !self.listed[i] {
+                return false;
+            }
+            let d = (q[2 * i] - self.anchor[2 * i]).powi(2)
+                + (q[2 * i + 1] - self.anchor[2 * i + 1]).powi(2);
+            if d > m1 {
+                m2 = m1;
+                m1 = d;
+            } else if d > m2 {
+                m2 = d;
+            }
+        }
+        let moved = m1.sqrt() + m2.sqrt();
+        // Every quantity compared is a distance computed to a few ulps; the relative margin is
+        // far above that, so rounding cannot hide a pair.
+        let margin = 1e-9 * (self.reach + 2.0 * pop.max_radius() + moved);
+        // Written so that a NaN (a position that is not a number) fails it.
+        let proven = cutoff.max(0.0) + moved + margin <= self.reach;
+        if !proven {
+            return false;
+        }
+        for &(i, j) in &self.pairs {
+            let (i, j) = (i as usize, j as usize);
+            if !(self.present[i] && self.present[j]) {
+                continue;
+            }
+            let a = Binned::at(pop, q, i);
+            if a.within(&Binned::at(pop, q, j), cutoff) {
+                f(i, j);
+            }
+        }
+        true
+    }
+
+    /// Builds the list at `q` for queries with cutoffs up to `cutoff + skin`.
+    fn rebuild(&mut self, grid: &mut CellGrid, pop: &Population, q: &[f64], cutoff: f64) {
+        let cutoff = cutoff.max(0.0);
+        let reach = cutoff + Self::skin(pop, cutoff);
+        // Two disks with D_ij ≤ reach have centres closer than r_i + r_j + reach ≤ cell, so
+        // they lie in the same or neighbouring cells of a grid of that size.
+        let cell = 2.0 * pop.max_radius() + reach + 1e-12;
+        grid.fill(pop, q, cell);
+        self.pairs.clear();
+        grid.for_each_pair_within(reach, |a, b| {
+            let (i, j) = if a < b { (a, b) } else { (b, a) };
+            self.pairs.push((i as u32, j as u32));
+        });
+        self.listed.clear();
+        self.listed.resize(pop.len(), false);
+        for &i in &grid.people {
+            self.listed[i] = true;
+        }
+        self.anchor.clear();
+        self.anchor.extend_from_slice(q);
+        self.reach = reach;
+        self.builds += 1;
+    }
+
+    /// How far beyond the cutoff the list reaches: as far again as the cutoff (itself twice
+    /// a step's movement), and at least the largest radius: a crowd walking at its usual pace
+    /// at `h = 0.01` keeps a list for several steps, and the list holds a few times the pairs
+    /// within the cutoff, each tested again at a query for a few nanoseconds.
+    fn skin(pop: &Population, cutoff: f64) -> f64 {
+        cutoff.max(pop.max_radius())
+    }
+}
+
 impl ConstraintFamily for DiskPairs {
     fn name(&self) -> &str {
         "pairs of people"
@@ -387,12 +566,17 @@ impl ConstraintFamily for DiskPairs {
             }
             return;
         }
-        // Two disks with D_ij ≤ cutoff have centres closer than r_i + r_j + cutoff ≤ cell, so
-        // they lie in the same or neighbouring cells of a grid of that size.
+        let mut broad = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let BroadPhase { grid, list } = &mut *broad;
+        let mut push = |i, j| out.push(self.member(i, j));
+        if u32::try_from(n).is_ok() && list.answer(grid, pop, q, cutoff, &mut push) {
+            return;
+        }
+        // The grid at this cutoff: while lists do not pay, or when none can answer (a cutoff
+        // that is not a number).
         let cell = 2.0 * pop.max_radius() + cutoff.max(0.0) + 1e-12;
-        let mut grid = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
         grid.fill(pop, q, cell);
-        grid.for_each_pair_within(cutoff, |a, b| out.push(self.member(a, b)));
+        grid.for_each_pair_within(cutoff, push);
     }
 
     /// `|⟨∇D_ij, x − q⟩| = |⟨e_ij, Δⱼ − Δᵢ⟩| ≤ |Δᵢ| + |Δⱼ|`, bounded by the sum of the two
@@ -518,5 +702,103 @@ mod tests {
                 );
             }
         }
+    }
+
+    fn sorted_candidates(fam: &DiskPairs, q: &[f64], cutoff: f64) -> Vec<usize> {
+        let mut found = Vec::new();
+        fam.candidates(0.0, q, cutoff, &mut found);
+        let count = found.len();
+        found.sort_unstable();
+        found.dedup();
+        assert_eq!(found.len(), count, "a pair was proposed twice");
+        found
+    }
+
+    fn lists_built(fam: &DiskPairs) -> usize {
+        fam.scratch.lock().unwrap().list.builds
+    }
+
+    /// A crowd walking in small random steps, now and then one person jumping, now and then a
+    /// configuration unrelated to the last, at cutoffs that change from query to query: the
+    /// neighbour list answers exactly as brute force every time, and is reused for most steps.
+    #[test]
+    fn the_neighbour_list_answers_as_brute_force_while_reused_and_rebuilt() {
+        let n = 120;
+        let radii: Vec<f64> = (0..n).map(|i| 0.15 + 0.01 * (i % 6) as f64).collect();
+        let fam = DiskPairs::new(Arc::new(Population::new(radii)));
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut q: Vec<f64> = (0..2 * n).map(|_| rng.gen_range(0.0..6.0)).collect();
+        let queries = 300;
+        for k in 0..queries {
+            match k % 50 {
+                17 => {
+                    let i = rng.gen_range(0..n);
+                    q[2 * i] += rng.gen_range(-2.0..2.0);
+                }
+                33 => q.iter_mut().for_each(|v| *v = rng.gen_range(0.0..6.0)),
+                _ => q.iter_mut().for_each(|v| *v += rng.gen_range(-0.01..0.01)),
+            }
+            let cutoff = [0.0, 0.02, 0.05, 0.2][k % 4];
+            assert_eq!(
+                sorted_candidates(&fam, &q, cutoff),
+                {
+                    let mut brute = fam.brute_force_candidates(&q, cutoff);
+                    brute.sort_unstable();
+                    brute
+                },
+                "query {k}, cutoff {cutoff}"
+            );
+        }
+        let builds = lists_built(&fam);
+        assert!(
+            (10..queries / 2).contains(&builds),
+            "{builds} lists for {queries} queries"
+        );
+    }
+
+    /// The list's proof covers the people present when it was built: a person outside the
+    /// room then (in no pair of the list) who is present at the query, a step away from a
+    /// neighbour, makes it rebuild — here after the departures are cleared for a new run, the
+    /// one way a person can come back.
+    #[test]
+    fn a_person_absent_when_the_list_was_built_is_found_when_present_again() {
+        let room = crate::crowd::Room::rectangle(0.0, 0.0, 10.0, 10.0);
+        let pop = Arc::new(Population::new(vec![0.2; 3]).with_room(room));
+        let fam = DiskPairs::new(Arc::clone(&pop));
+        // Person 0 wholly outside the left wall; 1 inside, next to the wall; 2 far away.
+        let mut q = vec![-0.21, 5.0, 0.25, 5.0, 8.0, 8.0];
+        // Queried a few times, so that the list has paid (`MIN_SERVED`).
+        for _ in 0..MIN_SERVED {
+            assert!(sorted_candidates(&fam, &q, 0.1).is_empty());
+        }
+        assert!(pop.has_departed(0));
+        pop.reset_departures();
+        // 0.02 inwards: present again, 0.04 from person 1.
+        q[0] = -0.19;
+        assert_eq!(sorted_candidates(&fam, &q, 0.1), vec![fam.member(0, 1)]);
+        assert_eq!(lists_built(&fam), 2);
+    }
+
+    /// A crowd that moves most of the skin at every query (a jam at a long step): each list
+    /// fails at its second or third query, so the plain grid answers most queries, and every
+    /// answer is still exactly brute force's.
+    #[test]
+    fn a_crowd_too_fast_for_its_lists_is_answered_by_the_plain_grid() {
+        let n = 80;
+        let fam = DiskPairs::new(Arc::new(Population::new(vec![0.2; n])));
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut q: Vec<f64> = (0..2 * n).map(|_| rng.gen_range(0.0..5.0)).collect();
+        let queries = 100;
+        for k in 0..queries {
+            q.iter_mut().for_each(|v| *v += rng.gen_range(-0.15..0.15));
+            let mut brute = fam.brute_force_candidates(&q, 0.1);
+            brute.sort_unstable();
+            assert_eq!(sorted_candidates(&fam, &q, 0.1), brute, "query {k}");
+        }
+        let builds = lists_built(&fam);
+        assert!(
+            (2..=queries / PLAIN_SPELL).contains(&builds),
+            "{builds} lists for {queries} queries"
+        );
     }
 }
