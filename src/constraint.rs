@@ -461,6 +461,15 @@ pub trait ConstraintFamily: Send + Sync {
     /// `g`, `∇_q g` (and `∂ₜg` if `want_dt`) of member `index` at `(t, q)`, into `out`.
     fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow);
 
+    /// `gᵢ(t, q)` of member `index` alone (the check of the true constraints after each step
+    /// needs nothing more). The default linearizes into `scratch` and keeps the value; the
+    /// families built on a [`ConstraintKernel`] evaluate it on plain `f64`, the operations of
+    /// the dual numbers' real parts, so the same number without the derivatives.
+    fn value(&self, index: usize, t: f64, q: &[f64], scratch: &mut LinearizedRow) -> f64 {
+        self.linearize(index, t, q, false, scratch);
+        scratch.value
+    }
+
     /// The second-order data of member `index` at `(t, q)` (A3, A4).
     fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData;
 
@@ -640,6 +649,11 @@ impl<C: ConstraintKernel<K>, const K: usize> ConstraintFamily for KernelFamily<C
         out.columns.extend_from_slice(&inst.support);
         out.gradient.clear();
         out.gradient.extend_from_slice(&lin.gradient);
+    }
+
+    fn value(&self, index: usize, t: f64, q: &[f64], _: &mut LinearizedRow) -> f64 {
+        let inst = &self.instances[index];
+        self.kernel.value(&inst.params, t, self.gather(index, q))
     }
 
     fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData {

@@ -857,8 +857,7 @@ impl<'p> Stepper<'p> {
         };
         for &(fi, idx) in &self.row_origin {
             if families[fi].culls() {
-                families[fi].linearize(idx, t, x, false, &mut self.lin);
-                consider(self.lin.value, fi, idx);
+                consider(families[fi].value(idx, t, x, &mut self.lin), fi, idx);
             }
         }
         let _ = self.problem.for_each_linearized(

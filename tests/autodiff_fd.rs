@@ -1,7 +1,8 @@
 //! Every derivative the library computes by autodiff — `g`, `∇g`, `∂ₜg`, `D²g`, `∂ₜ∇g` —
 //! against central finite differences, for every shipped constraint kernel and a user-style
 //! one, both through the kernel helpers (`linearize`, `second_order`) and through the family
-//! API (`ConstraintFamily::linearize`, `ConstraintFamily::second_order`).
+//! API (`ConstraintFamily::linearize`, `ConstraintFamily::second_order`, and
+//! `ConstraintFamily::value`, which must give the linearization's value to the bit).
 //!
 //! First derivatives: central differences of the `f64` value with step `1e-6`, relative
 //! tolerance `1e-5`. Second derivatives: central differences (step `1e-5`) of the autodiff
@@ -171,6 +172,16 @@ fn check_family(
     fam.linearize(index, t, q, true, &mut lin);
     let so = fam.second_order(index, t, q);
     prop_assert_eq!(&so.columns, &lin.columns);
+    // The value alone (the check of the true constraints) is the linearization's value, to
+    // the bit: the same operations on plain floats as on the dual numbers' real parts.
+    let alone = fam.value(index, t, q, &mut LinearizedRow::default());
+    prop_assert_eq!(
+        alone.to_bits(),
+        g0.to_bits(),
+        "value {} against {}",
+        alone,
+        g0
+    );
     prop_assert!((so.value - g0).abs() <= 1e-12 * g0.abs().max(1.0));
     prop_assert!(lin.columns.iter().all(|&c| c < n) && fam.min_dimension() <= n);
     let g = dense_grad(t, q);

@@ -613,6 +613,12 @@ impl ConstraintFamily for DiskPairs {
         out.gradient.extend_from_slice(&lin.gradient);
     }
 
+    fn value(&self, index: usize, t: f64, q: &[f64], _: &mut LinearizedRow) -> f64 {
+        let (i, j) = self.pair(index);
+        let r = self.population.radius(i) + self.population.radius(j);
+        DiskPairKernel.value(&r, t, Self::gather(q, i, j))
+    }
+
     fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData {
         let (i, j) = self.pair(index);
         let r = self.population.radius(i) + self.population.radius(j);

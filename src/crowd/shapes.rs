@@ -353,6 +353,11 @@ impl ConstraintFamily for PersonShapes {
         out.gradient.extend_from_slice(&lin.gradient);
     }
 
+    fn value(&self, index: usize, t: f64, q: &[f64], _: &mut LinearizedRow) -> f64 {
+        let (i, s) = self.split(index);
+        PersonShapeKernel.value(&self.params(i, s), t, [q[2 * i], q[2 * i + 1]])
+    }
+
     fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData {
         let (i, s) = self.split(index);
         let so = second_order(
