@@ -211,17 +211,30 @@ impl Population {
                     return false;
                 }
                 let p = Self::position(q, i);
-                let in_box = self.room_box.is_some_and(|[x0, y0, x1, y1]| {
-                    x0 < p[0] && p[0] < x1 && y0 < p[1] && p[1] < y1
-                });
-                let inside =
-                    in_box || room.contains(p) || room.boundary_distance(p) < self.radii[i];
+                let inside = self.strictly_in_box(p)
+                    || room.contains(p)
+                    || room.boundary_distance(p) < self.radii[i];
                 if !inside {
                     self.departed.set(i);
                 }
                 inside
             }
         }
+    }
+
+    /// Whether `p` lies strictly inside the room when it is an axis-aligned rectangle (a
+    /// shortcut of [`Room::contains`], asked for every person several times a step).
+    fn strictly_in_box(&self, p: [f64; 2]) -> bool {
+        self.room_box
+            .is_some_and(|[x0, y0, x1, y1]| x0 < p[0] && p[0] < x1 && y0 < p[1] && p[1] < y1)
+    }
+
+    /// Whether a room is set and `p` is not inside it ([`Room::contains`], with the
+    /// rectangle's shortcut).
+    pub fn outside_room(&self, p: [f64; 2]) -> bool {
+        self.room
+            .as_ref()
+            .is_some_and(|room| !(self.strictly_in_box(p) || room.contains(p)))
     }
 
     /// Whether person `i` has been seen leaving (latched).
@@ -245,6 +258,44 @@ impl Population {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rectangle's shortcut says what the polygon test says: inside, outside, on an edge
+    /// and at a corner, for a rectangle and for an L-shaped room; never outside without a room.
+    #[test]
+    fn outside_room_agrees_with_the_polygon_test() {
+        let rectangle = Room::rectangle(0.0, 0.0, 4.0, 2.0);
+        let l_shape = Room {
+            vertices: vec![
+                [0.0, 0.0],
+                [4.0, 0.0],
+                [4.0, 1.0],
+                [1.0, 1.0],
+                [1.0, 3.0],
+                [0.0, 3.0],
+            ],
+        };
+        let points = [
+            [1.0, 1.0],
+            [3.9, 0.1],
+            [5.0, 1.0],
+            [-1.0, 1.0],
+            [0.0, 1.0],
+            [4.0, 1.0],
+            [2.0, 2.0],
+            [2.0, 0.0],
+            [0.0, 0.0],
+            [4.0, 2.0],
+            [0.5, 2.5],
+            [2.0, 2.5],
+        ];
+        for room in [rectangle, l_shape] {
+            let pop = Population::new(vec![0.2]).with_room(room.clone());
+            for p in points {
+                assert_eq!(pop.outside_room(p), !room.contains(p), "{p:?} in {room:?}");
+            }
+        }
+        assert!(!Population::new(vec![0.2]).outside_room([1e9, 1e9]));
+    }
 
     #[test]
     fn presence_needs_the_whole_disk_out() {

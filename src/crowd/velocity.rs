@@ -158,14 +158,12 @@ impl DesiredVelocity {
 impl Perturbation for DesiredVelocity {
     fn eval(&self, _t: f64, q: &[f64], out: &mut [f64]) {
         out.iter_mut().for_each(|v| *v = 0.0);
-        let room = self.population.room();
         for (field, people) in &self.terms {
             for &i in people {
                 let p = Population::position(q, i);
                 let speed = self.speeds[i];
                 // Who has left keeps walking out, even where that path crosses the room again.
-                let outside =
-                    room.is_some_and(|r| !r.contains(p)) || self.population.has_departed(i);
+                let outside = self.population.has_departed(i) || self.population.outside_room(p);
                 // The nearest exit is looked for only for who is outside (it was computed for
                 // everyone, a segment distance per exit per person per step, and then unused).
                 let v = match outside.then(|| self.nearest_exit_normal(p)).flatten() {
