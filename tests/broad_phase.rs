@@ -5,8 +5,9 @@
 
 use proptest::prelude::*;
 use std::collections::HashSet;
+use std::sync::Arc;
 use sweeping::constraint::{ConstraintFamily, LinearizedRow};
-use sweeping::crowd::{DiskPairs, Motion, PersonShapes, Population, Room, Shape};
+use sweeping::crowd::{rectangle_walls, DiskPairs, Motion, PersonShapes, Population, Room, Shape};
 
 /// A crowd of `n` people: clustered (many neighbours per cell), spread over a large square
 /// (the sparse grid), or mixed; some radii differ so that the grid cell follows the largest.
@@ -217,4 +218,31 @@ fn the_shape_drift_bound_is_attained_by_a_person_walking_into_a_wall() {
         assert!((bound - step).abs() <= 1e-12, "bound {bound}, step {step}");
         check_drift(&fam, 0.0, &q, &x);
     }
+}
+
+#[test]
+fn drift_bounds_leave_out_who_has_left_and_count_who_is_leaving() {
+    // Person 2 is wholly outside the room and far away, taking a long stride. Until presence
+    // has been asked (which latches the departure), the bounds count them: larger, so still
+    // bounds. Once they are seen leaving, the bounds are the exact drifts of the two people
+    // left, walking into each other and into the wall at x = 0.
+    let room = Room::rectangle(0.0, 0.0, 10.0, 10.0);
+    let pop = Population::new(vec![0.2; 3]).with_room(room).shared();
+    let pairs = DiskPairs::new(Arc::clone(&pop));
+    let walls = PersonShapes::new(
+        "walls",
+        Arc::clone(&pop),
+        rectangle_walls(0.0, 0.0, 10.0, 10.0),
+    );
+    let q = [1.0, 5.0, 3.0, 5.0, 50.0, 50.0];
+    let x = [0.7, 5.0, 2.5, 5.0, 60.0, 50.0];
+    assert_eq!(pairs.linearization_drift_bound(0.0, &q, &x), 10.0 + 0.5);
+    assert_eq!(walls.linearization_drift_bound(0.0, &q, &x), 10.0);
+    let mut found = Vec::new();
+    pairs.candidates(0.0, &q, 0.0, &mut found);
+    assert!(pop.has_departed(2));
+    assert!((pairs.linearization_drift_bound(0.0, &q, &x) - 0.8).abs() < 1e-12);
+    assert!((walls.linearization_drift_bound(0.0, &q, &x) - 0.5).abs() < 1e-12);
+    check_drift(&pairs, 0.0, &q, &x);
+    check_drift(&walls, 0.0, &q, &x);
 }

@@ -16,6 +16,7 @@ mod population;
 mod shapes;
 pub mod synthetic;
 pub mod velocity;
+mod verlet;
 
 /// Builds a crowd in code; the TOML scenes use it too (defined in [`crate::scene`]).
 pub use crate::scene::CrowdBuilder;

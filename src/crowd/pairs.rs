@@ -1,5 +1,6 @@
 //! Pairs of people: `D_ij(q) = |qᵢ − qⱼ| − (rᵢ + rⱼ) ≥ 0`, culled by a uniform grid.
 
+use super::verlet::{Anchor, ListPolicy};
 use super::Population;
 use crate::constraint::{
     linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
@@ -344,10 +345,10 @@ impl CellGrid {
     }
 }
 
-/// A Verlet list: every pair of people present at `anchor` with `D_ij(anchor) ≤ reach`, found
-/// by the grid. It answers a query at `q` with cutoff `c` exactly as the grid would (the same
-/// pairs, tested by the same [`Binned::within`]) while `c + m₁ + m₂ ≤ reach`, `m₁ ≥ m₂` the two
-/// largest displacements `|qᵢ − anchorᵢ|` of people present at `q`:
+/// A Verlet list: every pair of people present at the anchor with `D_ij(anchor) ≤ reach`,
+/// found by the grid. It answers a query at `q` with cutoff `c` exactly as the grid would (the
+/// same pairs, tested by the same [`Binned::within`]) while `c + m₁ + m₂ ≤ reach`, `m₁ ≥ m₂`
+/// the two largest displacements `|qᵢ − anchorᵢ|` of people present at `q`:
 /// `D_ij(q) ≥ D_ij(anchor) − |Δᵢ| − |Δⱼ|` (triangle inequality), so a pair left out of the list
 /// has `D_ij(q) > reach − m₁ − m₂ ≥ c`. Every query checks this from the anchor afresh, for any
 /// `q` (a trial point, a new run after [`Population::reset_departures`]); when it fails the
@@ -356,35 +357,17 @@ impl CellGrid {
 /// instead of a grid built and searched each step.
 #[derive(Debug, Default)]
 struct NeighbourList {
-    /// The positions the list was built at (empty: no list).
-    anchor: Vec<f64>,
-    /// Who was present at `anchor`: a person absent then is in no pair of the list, so the
-    /// list cannot answer for a configuration where they are present.
-    listed: Vec<bool>,
+    anchor: Anchor,
     reach: f64,
     /// The pairs of people `(i, j)`, `i < j`, in the grid's cell order.
     pairs: Vec<(u32, u32)>,
-    /// Scratch: presence at the configuration of the query.
-    present: Vec<bool>,
-    /// Queries the current list has answered.
-    served: usize,
-    /// Queries left to the plain grid before a list is tried again.
-    plain_left: usize,
-    /// Lists built so far (for tests).
-    builds: usize,
+    policy: ListPolicy,
 }
-
-/// A list that answers fewer queries than this before it fails (a crowd moving a large part
-/// of the skin each step: the jams at `h = 0.1`) costs more than the plain grid, which then
-/// answers the next [`PLAIN_SPELL`] queries before a list is tried again.
-const MIN_SERVED: usize = 3;
-/// See [`MIN_SERVED`].
-const PLAIN_SPELL: usize = 8;
 
 impl NeighbourList {
     /// Calls `f(i, j)` for every present pair with `D_ij(q) ≤ cutoff` and returns `true`,
     /// from the current list or from one built now; or returns `false` without calling `f`
-    /// when the plain grid should answer instead (see [`MIN_SERVED`]).
+    /// when the plain grid should answer instead (see [`ListPolicy`]).
     fn answer(
         &mut self,
         grid: &mut CellGrid,
@@ -393,24 +376,20 @@ impl NeighbourList {
         cutoff: f64,
         mut f: impl FnMut(usize, usize),
     ) -> bool {
-        if self.plain_left > 0 {
-            self.plain_left -= 1;
+        if self.policy.plain_turn() {
             return false;
         }
-        if self.select(pop, q, cutoff, &mut f) {
-            self.served += 1;
-            return true;
+        if !self.select(pop, q, cutoff, &mut f) {
+            if !self.policy.rebuild_now(&mut self.anchor) {
+                return false;
+            }
+            self.rebuild(grid, pop, q, cutoff);
+            if !self.select(pop, q, cutoff, &mut f) {
+                return false;
+            }
         }
-        if !self.anchor.is_empty() && self.served < MIN_SERVED {
-            self.anchor.clear();
-            self.plain_left = PLAIN_SPELL;
-            return false;
-        }
-        self.rebuild(grid, pop, q, cutoff);
-        self.served = 0;
-        let answered = self.select(pop, q, cutoff, &mut f);
-        self.served += usize::from(answered);
-        answered
+        self.policy.served();
+        true
     }
 
     /// Calls `f(i, j)` for every present pair with `D_ij(q) ≤ cutoff`, in the list's order,
@@ -423,43 +402,23 @@ impl NeighbourList {
         cutoff: f64,
         mut f: impl FnMut(usize, usize),
     ) -> bool {
-        let n = pop.len();
-        if self.anchor.len() != q.len() || q.len() != 2 * n || cutoff.is_nan() {
+        if cutoff.is_nan() {
             return false;
         }
-        self.present.clear();
-        // The two largest squared displacements of present people.
-        let (mut m1, mut m2) = (0.0f64, 0.0f64);
-        for i in 0..n {
-            let here = pop.is_present(q, i);
-            self.present.push(here);
-            if !here {
-                continue;
-            }
-            if !self.listed[i] {
-                return false;
-            }
-            let d = (q[2 * i] - self.anchor[2 * i]).powi(2)
-                + (q[2 * i + 1] - self.anchor[2 * i + 1]).powi(2);
-            if d > m1 {
-                m2 = m1;
-                m1 = d;
-            } else if d > m2 {
-                m2 = d;
-            }
-        }
-        let moved = m1.sqrt() + m2.sqrt();
+        let Some(moved) = self.anchor.moved(pop, q) else {
+            return false;
+        };
+        let [m1, m2] = moved.largest;
         // Every quantity compared is a distance computed to a few ulps; the relative margin is
         // far above that, so rounding cannot hide a pair.
-        let margin = 1e-9 * (self.reach + 2.0 * pop.max_radius() + moved);
-        // Written so that a NaN (a position that is not a number) fails it.
-        let proven = cutoff.max(0.0) + moved + margin <= self.reach;
-        if !proven {
+        let margin = 1e-9 * (self.reach + 2.0 * pop.max_radius() + m1 + m2);
+        if cutoff.max(0.0) + m1 + m2 + margin > self.reach {
             return false;
         }
+        let present = self.anchor.present();
         for &(i, j) in &self.pairs {
             let (i, j) = (i as usize, j as usize);
-            if !(self.present[i] && self.present[j]) {
+            if !(present[i] && present[j]) {
                 continue;
             }
             let a = Binned::at(pop, q, i);
@@ -483,15 +442,9 @@ impl NeighbourList {
             let (i, j) = if a < b { (a, b) } else { (b, a) };
             self.pairs.push((i as u32, j as u32));
         });
-        self.listed.clear();
-        self.listed.resize(pop.len(), false);
-        for &i in &grid.people {
-            self.listed[i] = true;
-        }
-        self.anchor.clear();
-        self.anchor.extend_from_slice(q);
+        self.anchor.set(pop, q, grid.people.iter().copied());
         self.reach = reach;
-        self.builds += 1;
+        self.policy.built();
     }
 
     /// How far beyond the cutoff the list reaches: as far again as the cutoff (itself twice
@@ -580,11 +533,13 @@ impl ConstraintFamily for DiskPairs {
     }
 
     /// `|⟨∇D_ij, x − q⟩| = |⟨e_ij, Δⱼ − Δᵢ⟩| ≤ |Δᵢ| + |Δⱼ|`, bounded by the sum of the two
-    /// largest displacements of present people.
+    /// largest displacements of people not seen leaving (who include the present ones).
     fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
         let (mut m1, mut m2) = (0.0f64, 0.0f64);
         for i in 0..self.n() {
-            if !self.population.is_present(q, i) {
+            // Everyone not seen leaving: the present people and perhaps a few more (who left
+            // since presence was last asked), so still a bound, without presence's geometry.
+            if self.population.has_departed(i) {
                 continue;
             }
             // Squared displacements; the roots of the two largest at the end (monotone and
@@ -721,7 +676,7 @@ mod tests {
     }
 
     fn lists_built(fam: &DiskPairs) -> usize {
-        fam.scratch.lock().unwrap().list.builds
+        fam.scratch.lock().unwrap().list.policy.builds()
     }
 
     /// A crowd walking in small random steps, now and then one person jumping, now and then a
@@ -774,7 +729,7 @@ mod tests {
         // Person 0 wholly outside the left wall; 1 inside, next to the wall; 2 far away.
         let mut q = vec![-0.21, 5.0, 0.25, 5.0, 8.0, 8.0];
         // Queried a few times, so that the list has paid (`MIN_SERVED`).
-        for _ in 0..MIN_SERVED {
+        for _ in 0..crate::crowd::verlet::MIN_SERVED {
             assert!(sorted_candidates(&fam, &q, 0.1).is_empty());
         }
         assert!(pop.has_departed(0));
@@ -803,7 +758,7 @@ mod tests {
         }
         let builds = lists_built(&fam);
         assert!(
-            (2..=queries / PLAIN_SPELL).contains(&builds),
+            (2..=queries / crate::crowd::verlet::PLAIN_SPELL).contains(&builds),
             "{builds} lists for {queries} queries"
         );
     }

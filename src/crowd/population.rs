@@ -203,6 +203,7 @@ impl Population {
     /// Whether person `i` is still in the room at configuration `q`: not yet departed, and
     /// with a disk not wholly outside the room. A departure seen here is latched (the type's
     /// documentation), so `q` should be a configuration of the run (not a trial point).
+    #[inline]
     pub fn is_present(&self, q: &[f64], i: usize) -> bool {
         match &self.room {
             None => true,
@@ -224,6 +225,7 @@ impl Population {
 
     /// Whether `p` lies strictly inside the room when it is an axis-aligned rectangle (a
     /// shortcut of [`Room::contains`], asked for every person several times a step).
+    #[inline]
     fn strictly_in_box(&self, p: [f64; 2]) -> bool {
         self.room_box
             .is_some_and(|[x0, y0, x1, y1]| x0 < p[0] && p[0] < x1 && y0 < p[1] && p[1] < y1)
@@ -238,6 +240,7 @@ impl Population {
     }
 
     /// Whether person `i` has been seen leaving (latched).
+    #[inline]
     pub fn has_departed(&self, i: usize) -> bool {
         self.departed.get(i)
     }

@@ -1,5 +1,6 @@
 //! People against walls and obstacles: exact segments and disks, fixed or moving.
 
+use super::verlet::{Anchor, ListPolicy};
 use super::Population;
 use crate::constraint::{
     linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
@@ -7,7 +8,7 @@ use crate::constraint::{
 };
 use num_dual::DualNum;
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// How a wall or obstacle moves: its displacement `o(t)` from where it was declared.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -148,14 +149,16 @@ impl ConstraintKernel<2> for PersonShapeKernel {
 /// Every present person against every shape: member `i·S + s` is person `i` against shape `s`.
 ///
 /// Candidates are found by testing each person against each shape (`O(N·S)`, with `S` the
-/// handful of walls and obstacles of a room); members with `g > cutoff` are omitted and the
-/// stepper's culling proof covers them with the drift bound `max_i |Δᵢ|` (`|∇g| = 1` on one
-/// person's two coordinates).
+/// handful of walls and obstacles of a room), kept as a neighbour list that answers the next
+/// steps' queries for as long as the displacements since prove it complete (a Verlet list);
+/// members with `g > cutoff` are omitted and the stepper's culling proof covers them with the
+/// drift bound `max_i |Δᵢ|` (`|∇g| = 1` on one person's two coordinates).
 pub struct PersonShapes {
     name: String,
     population: Arc<Population>,
     shapes: Vec<(Shape, Motion)>,
     moving: bool,
+    scratch: Mutex<ShapeScratch>,
 }
 
 impl PersonShapes {
@@ -171,6 +174,7 @@ impl PersonShapes {
             population,
             shapes,
             moving,
+            scratch: Mutex::new(ShapeScratch::default()),
         }
     }
 
@@ -190,6 +194,217 @@ impl PersonShapes {
             motion: m.clone(),
             person_radius: self.population.radius(person),
         }
+    }
+
+    /// Each shape where it is at `t`, with its bounding box, into `placed`.
+    fn place(&self, t: f64, placed: &mut Vec<Placed>) {
+        placed.clear();
+        placed.extend(self.shapes.iter().map(|(shape, motion)| {
+            let o: [f64; 2] = motion.offset(t);
+            let shape = match *shape {
+                Shape::Segment { a, b } => Shape::Segment {
+                    a: [a[0] + o[0], a[1] + o[1]],
+                    b: [b[0] + o[0], b[1] + o[1]],
+                },
+                Shape::Disk { center, radius } => Shape::Disk {
+                    center: [center[0] + o[0], center[1] + o[1]],
+                    radius,
+                },
+            };
+            let bbox = match shape {
+                Shape::Segment { a, b } => [
+                    a[0].min(b[0]),
+                    a[1].min(b[1]),
+                    a[0].max(b[0]),
+                    a[1].max(b[1]),
+                ],
+                Shape::Disk { center, radius } => [
+                    center[0] - radius,
+                    center[1] - radius,
+                    center[0] + radius,
+                    center[1] + radius,
+                ],
+            };
+            Placed {
+                shape,
+                offset: o,
+                bbox,
+            }
+        }));
+    }
+
+    /// Pushes the members of person `i` against each of the shapes `placed` that pass
+    /// [`member_within`](Self::member_within), in the shapes' order.
+    fn members_within(
+        &self,
+        placed: &[Placed],
+        q: &[f64],
+        i: usize,
+        cutoff: f64,
+        out: &mut Vec<usize>,
+    ) {
+        for (s, shape) in placed.iter().enumerate() {
+            if self.member_within(shape, q, i, cutoff) {
+                out.push(i * placed.len() + s);
+            }
+        }
+    }
+
+    /// Whether person `i` may have `g ≤ cutoff` against the `placed` shape: a person whose
+    /// centre is farther than `r + cutoff` from the shape's box has `g > cutoff` and is
+    /// rejected without evaluating `g`; otherwise `g` is evaluated in plain floating point
+    /// (the kernel's formula) and kept up to a slack far above the kernel's other roundings
+    /// (returning more is allowed).
+    fn member_within(&self, placed: &Placed, q: &[f64], i: usize, cutoff: f64) -> bool {
+        let p = [q[2 * i], q[2 * i + 1]];
+        let slack = 1e-12 * (1.0 + p[0].abs() + p[1].abs() + cutoff.abs());
+        let radius = self.population.radius(i);
+        let reach = radius + cutoff + slack;
+        let bbox = placed.bbox;
+        let dx = (bbox[0] - p[0]).max(p[0] - bbox[2]).max(0.0);
+        let dy = (bbox[1] - p[1]).max(p[1] - bbox[3]).max(0.0);
+        if dx > reach || dy > reach {
+            return false;
+        }
+        let g = match placed.shape {
+            Shape::Segment { a, b } => super::segment_distance(p, a, b),
+            Shape::Disk { center, radius } => {
+                ((p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2)).sqrt() - radius
+            }
+        } - radius;
+        g <= cutoff + slack
+    }
+}
+
+/// A shape where it is at the time of a query: the shape moved by its offset, the offset, and
+/// the moved shape's bounding box.
+#[derive(Debug, Clone)]
+struct Placed {
+    shape: Shape,
+    offset: [f64; 2],
+    bbox: [f64; 4],
+}
+
+/// The shapes placed at the last query's time, and the neighbour list.
+#[derive(Debug, Default)]
+struct ShapeScratch {
+    placed: Vec<Placed>,
+    list: ShapeList,
+}
+
+/// A Verlet list of the members `(i, s)` with `g_is ≤ reach` at the anchor (people at the
+/// anchor's positions, shapes at its time). `g_is = dist(qᵢ − o_s(t), S_s) − rᵢ` changes by at
+/// most `|Δqᵢ| + |Δo_s|` (a distance is 1-Lipschitz), so the list holds every member with
+/// `g_is ≤ c` at a query while `c + m₁ + max_s |Δo_s| ≤ reach`, `m₁` the largest displacement
+/// of a present person since the anchor. The members are tested again at the query by the
+/// plain search's own test, in the plain search's order (person by person), so the answer is
+/// the plain search's, member for member.
+#[derive(Debug, Default)]
+struct ShapeList {
+    anchor: Anchor,
+    /// Each shape's offset at the anchor's time.
+    offsets: Vec<[f64; 2]>,
+    reach: f64,
+    /// Members `(person, shape)`, person by person.
+    members: Vec<(u32, u32)>,
+    policy: ListPolicy,
+}
+
+impl ShapeList {
+    /// Pushes the members with `g ≤ cutoff` at `q` (shapes `placed` at the query's time) and
+    /// returns `true`, from the list or from one built now; or returns `false` without pushing
+    /// when the plain search should answer (see [`ListPolicy`]).
+    fn answer(
+        &mut self,
+        fam: &PersonShapes,
+        placed: &[Placed],
+        q: &[f64],
+        cutoff: f64,
+        out: &mut Vec<usize>,
+    ) -> bool {
+        if self.policy.plain_turn() {
+            return false;
+        }
+        if !self.select(fam, placed, q, cutoff, out) {
+            if !self.policy.rebuild_now(&mut self.anchor) {
+                return false;
+            }
+            self.rebuild(fam, placed, q, cutoff);
+            if !self.select(fam, placed, q, cutoff, out) {
+                return false;
+            }
+        }
+        self.policy.served();
+        true
+    }
+
+    /// Pushes the members with `g ≤ cutoff` and returns `true`, or returns `false` without
+    /// pushing when the list cannot be proven to hold them all.
+    fn select(
+        &mut self,
+        fam: &PersonShapes,
+        placed: &[Placed],
+        q: &[f64],
+        cutoff: f64,
+        out: &mut Vec<usize>,
+    ) -> bool {
+        let pop = &fam.population;
+        if self.offsets.len() != placed.len() {
+            return false;
+        }
+        let Some(moved) = self.anchor.moved(pop, q) else {
+            return false;
+        };
+        let shift = placed
+            .iter()
+            .zip(&self.offsets)
+            .map(|(p, o)| (p.offset[0] - o[0]).hypot(p.offset[1] - o[1]))
+            .fold(0.0, f64::max);
+        let m1 = moved.largest[0];
+        // The plain search keeps members up to `cutoff + slack` (its `slack`, at most the first
+        // term), and distances are computed to a few ulps (the second).
+        let margin = 2e-12 * (1.0 + moved.extent + cutoff.abs())
+            + 1e-9 * (self.reach + pop.max_radius() + m1 + shift);
+        // Written so that a NaN (a shape's offset that is not a number) fails it.
+        let proven = cutoff.max(0.0) + m1 + shift + margin <= self.reach;
+        if !proven {
+            return false;
+        }
+        let present = self.anchor.present();
+        let shapes = placed.len();
+        for &(i, s) in &self.members {
+            let (i, s) = (i as usize, s as usize);
+            if present[i] && fam.member_within(&placed[s], q, i, cutoff) {
+                out.push(i * shapes + s);
+            }
+        }
+        true
+    }
+
+    /// Builds the list at `q` (shapes `placed` at its time) for cutoffs up to `cutoff + skin`.
+    fn rebuild(&mut self, fam: &PersonShapes, placed: &[Placed], q: &[f64], cutoff: f64) {
+        let pop = &fam.population;
+        let cutoff = cutoff.max(0.0);
+        // As far again as the cutoff, and at least the largest radius (as the pairs' list).
+        let reach = cutoff + cutoff.max(pop.max_radius());
+        self.members.clear();
+        let mut listed = Vec::new();
+        for i in 0..pop.len() {
+            if !pop.is_present(q, i) {
+                continue;
+            }
+            listed.push(i);
+            for (s, shape) in placed.iter().enumerate() {
+                if fam.member_within(shape, q, i, reach) {
+                    self.members.push((i as u32, s as u32));
+                }
+            }
+        }
+        self.anchor.set(pop, q, listed);
+        self.offsets.clear();
+        self.offsets.extend(placed.iter().map(|p| p.offset));
+        self.reach = reach;
+        self.policy.built();
     }
 }
 
@@ -258,75 +473,29 @@ impl ConstraintFamily for PersonShapes {
     }
 
     fn candidates(&self, t: f64, q: &[f64], cutoff: f64, out: &mut Vec<usize>) {
-        let s_count = self.shapes.len();
-        // Each shape where it is at t, with its bounding box: a person whose centre is farther
-        // than r + cutoff from the box has g > cutoff and is skipped without evaluating g.
-        let placed: Vec<(Shape, [f64; 4])> = self
-            .shapes
-            .iter()
-            .map(|(shape, motion)| {
-                let o: [f64; 2] = motion.offset(t);
-                let moved = match *shape {
-                    Shape::Segment { a, b } => Shape::Segment {
-                        a: [a[0] + o[0], a[1] + o[1]],
-                        b: [b[0] + o[0], b[1] + o[1]],
-                    },
-                    Shape::Disk { center, radius } => Shape::Disk {
-                        center: [center[0] + o[0], center[1] + o[1]],
-                        radius,
-                    },
-                };
-                let bbox = match moved {
-                    Shape::Segment { a, b } => [
-                        a[0].min(b[0]),
-                        a[1].min(b[1]),
-                        a[0].max(b[0]),
-                        a[1].max(b[1]),
-                    ],
-                    Shape::Disk { center, radius } => [
-                        center[0] - radius,
-                        center[1] - radius,
-                        center[0] + radius,
-                        center[1] + radius,
-                    ],
-                };
-                (moved, bbox)
-            })
-            .collect();
-        for i in 0..self.population.len() {
-            if !self.population.is_present(q, i) {
-                continue;
-            }
-            let p = [q[2 * i], q[2 * i + 1]];
-            // The kernel computes g with other roundings: a slack far above them keeps every
-            // member with g ≤ cutoff (returning more is allowed).
-            let slack = 1e-12 * (1.0 + p[0].abs() + p[1].abs() + cutoff.abs());
-            let reach = self.population.radius(i) + cutoff + slack;
-            for (s, (shape, bbox)) in placed.iter().enumerate() {
-                let dx = (bbox[0] - p[0]).max(p[0] - bbox[2]).max(0.0);
-                let dy = (bbox[1] - p[1]).max(p[1] - bbox[3]).max(0.0);
-                if dx > reach || dy > reach {
-                    continue;
-                }
-                // The kernel's value at t in plain floating point (the same formula).
-                let g = match *shape {
-                    Shape::Segment { a, b } => super::segment_distance(p, a, b),
-                    Shape::Disk { center, radius } => {
-                        ((p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2)).sqrt() - radius
-                    }
-                } - self.population.radius(i);
-                if g <= cutoff + slack {
-                    out.push(i * s_count + s);
-                }
+        let mut scratch = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let ShapeScratch { placed, list } = &mut *scratch;
+        self.place(t, placed);
+        let pop = &self.population;
+        if cutoff.is_finite()
+            && u32::try_from(pop.len()).is_ok()
+            && list.answer(self, placed, q, cutoff, out)
+        {
+            return;
+        }
+        for i in 0..pop.len() {
+            if pop.is_present(q, i) {
+                self.members_within(placed, q, i, cutoff, out);
             }
         }
     }
 
     fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
         // The largest squared displacement, then one square root (monotone and correctly
-        // rounded, so the same number as the largest root).
+        // rounded, so the same number as the largest root), over everyone not seen leaving
+        // (the present people and perhaps a few more: still a bound).
         (0..self.population.len())
-            .filter(|&i| self.population.is_present(q, i))
+            .filter(|&i| !self.population.has_departed(i))
             .map(|i| (x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2))
             .fold(0.0, f64::max)
             .sqrt()
@@ -378,5 +547,130 @@ impl ConstraintFamily for PersonShapes {
 
     fn min_dimension(&self) -> usize {
         2 * self.population.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The plain search's answer: every present person against every placed shape.
+    fn plain(fam: &PersonShapes, t: f64, q: &[f64], cutoff: f64) -> Vec<usize> {
+        let mut placed = Vec::new();
+        fam.place(t, &mut placed);
+        let mut out = Vec::new();
+        for i in 0..fam.population.len() {
+            if fam.population.is_present(q, i) {
+                fam.members_within(&placed, q, i, cutoff, &mut out);
+            }
+        }
+        out
+    }
+
+    fn lists_built(fam: &PersonShapes) -> usize {
+        fam.scratch.lock().unwrap().list.policy.builds()
+    }
+
+    /// A room's walls, a pillar, a wall sliding at constant speed and one on a path, with a
+    /// crowd walking in small random steps (now and then scattered afresh) while time runs:
+    /// every answer is the plain search's, member for member and in its order; it holds every
+    /// member with `g ≤ cutoff` (evaluated by the family's own `value`) and nothing beyond the
+    /// slack; and lists are reused for most queries.
+    #[test]
+    fn the_walls_list_answers_as_the_plain_search_while_walls_move() {
+        let n = 100;
+        let radii: Vec<f64> = (0..n).map(|i| 0.15 + 0.02 * (i % 5) as f64).collect();
+        let pop = Arc::new(Population::new(radii));
+        let mut shapes = rectangle_walls(0.0, 0.0, 8.0, 8.0);
+        shapes.push((
+            Shape::Disk {
+                center: [4.0, 4.0],
+                radius: 0.5,
+            },
+            Motion::Static,
+        ));
+        shapes.push((
+            Shape::Segment {
+                a: [1.0, 2.0],
+                b: [3.0, 2.0],
+            },
+            Motion::Velocity([0.0, 0.5]),
+        ));
+        shapes.push((
+            Shape::Segment {
+                a: [6.0, 1.0],
+                b: [6.0, 3.0],
+            },
+            Motion::Path(vec![
+                (0.0, [0.0, 0.0]),
+                (1.0, [-1.0, 0.5]),
+                (2.0, [0.0, 0.0]),
+            ]),
+        ));
+        let fam = PersonShapes::new("walls", Arc::clone(&pop), shapes);
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let mut q: Vec<f64> = (0..2 * n).map(|_| rng.gen_range(0.3..7.7)).collect();
+        let queries = 300;
+        for k in 0..queries {
+            let t = 0.01 * k as f64;
+            if k % 100 == 50 {
+                q.iter_mut().for_each(|v| *v = rng.gen_range(0.3..7.7));
+            } else {
+                q.iter_mut().for_each(|v| *v += rng.gen_range(-0.01..0.01));
+            }
+            let cutoff = [0.0, 0.03, 0.1, 0.3][k % 4];
+            let mut found = Vec::new();
+            fam.candidates(t, &q, cutoff, &mut found);
+            assert_eq!(found, plain(&fam, t, &q, cutoff), "query {k}");
+            let mut scratch = LinearizedRow::default();
+            for m in 0..fam.count() {
+                let g = fam.value(m, t, &q, &mut scratch);
+                let kept = found.contains(&m);
+                assert!(
+                    kept || g > cutoff,
+                    "query {k}: member {m} at g = {g} missed"
+                );
+                assert!(
+                    !kept || g <= cutoff + 1e-9,
+                    "query {k}: member {m} at g = {g} kept"
+                );
+            }
+        }
+        let builds = lists_built(&fam);
+        assert!(
+            (5..queries / 3).contains(&builds),
+            "{builds} lists for {queries} queries"
+        );
+    }
+
+    /// People standing still while a wall slides towards them: only the wall's own movement
+    /// invalidates the list, and every answer is still the plain search's.
+    #[test]
+    fn a_wall_moving_towards_people_standing_still_is_not_missed() {
+        let pop = Arc::new(Population::new(vec![0.2; 3]));
+        let wall = (
+            Shape::Segment {
+                a: [0.0, 0.0],
+                b: [10.0, 0.0],
+            },
+            Motion::Velocity([0.0, 1.0]),
+        );
+        let fam = PersonShapes::new("walls", pop, vec![wall]);
+        let q = [1.0, 3.0, 5.0, 3.5, 9.0, 6.0];
+        let mut reached = 0;
+        for k in 0..300 {
+            let t = 0.01 * k as f64;
+            let mut found = Vec::new();
+            fam.candidates(t, &q, 0.05, &mut found);
+            assert_eq!(found, plain(&fam, t, &q, 0.05), "t = {t}");
+            reached = reached.max(found.len());
+        }
+        // The wall (at y = t) came within the cutoff of the nearest person (y = 3) from
+        // t = 2.75 on, and of nobody else.
+        assert_eq!(reached, 1);
+        let builds = lists_built(&fam);
+        assert!((2..100).contains(&builds), "{builds} lists");
     }
 }

@@ -1,0 +1,156 @@
+//! What the neighbour lists of the pairs ([`super::DiskPairs`]) and of the walls
+//! ([`super::PersonShapes`]) share: where a list was built, how far the present people have
+//! moved since, and when keeping lists pays.
+//!
+//! A list built at a configuration `anchor` holds every member with `gᵢ(anchor) ≤ reach`. A
+//! member's value changes by at most how far its people (and its shape) moved since, since
+//! `gᵢ` is a distance minus radii (1-Lipschitz in each centre), so the list holds every member
+//! with `gᵢ(q) ≤ c` while `c +` (those displacements) `≤ reach`. Each query checks that afresh
+//! from the anchor, whatever happened in between.
+
+use super::Population;
+
+/// The configuration a list was built at, and who was present then: a person absent then is in
+/// no member of the list, so the list cannot answer where they are present.
+#[derive(Debug, Default)]
+pub(super) struct Anchor {
+    q: Vec<f64>,
+    listed: Vec<bool>,
+    /// Presence at the configuration of the last call to [`moved`](Self::moved).
+    present: Vec<bool>,
+}
+
+/// How far the present people have moved since the anchor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Moved {
+    /// The two largest displacements `|qᵢ − anchorᵢ|` of present people, largest first.
+    pub largest: [f64; 2],
+    /// The largest `|xᵢ| + |yᵢ|` of a present person at the query: the scale of the rounding
+    /// of anything computed from their position.
+    pub extent: f64,
+}
+
+impl Anchor {
+    /// Whether a list is built.
+    pub fn is_set(&self) -> bool {
+        !self.q.is_empty()
+    }
+
+    /// Drops the list's anchor: the next query builds anew.
+    pub fn forget(&mut self) {
+        self.q.clear();
+    }
+
+    /// The list is being built at `q` with the people `present`.
+    pub fn set(&mut self, pop: &Population, q: &[f64], present: impl IntoIterator<Item = usize>) {
+        self.q.clear();
+        self.q.extend_from_slice(q);
+        self.listed.clear();
+        self.listed.resize(pop.len(), false);
+        for i in present {
+            self.listed[i] = true;
+        }
+    }
+
+    /// Who is present at `q` (kept for [`present`](Self::present)) and how far they moved since
+    /// the anchor; `None` when no anchor is set, `q` has another dimension, someone present now
+    /// was absent at the anchor, or a position is not a number.
+    pub fn moved(&mut self, pop: &Population, q: &[f64]) -> Option<Moved> {
+        let n = pop.len();
+        if !self.is_set() || self.q.len() != q.len() || q.len() != 2 * n {
+            return None;
+        }
+        self.present.clear();
+        // Squared displacements; the roots of the two largest at the end (monotone and
+        // correctly rounded, so the same numbers as the two largest roots).
+        let (mut m1, mut m2, mut extent) = (0.0f64, 0.0f64, 0.0f64);
+        for i in 0..n {
+            let here = pop.is_present(q, i);
+            self.present.push(here);
+            if !here {
+                continue;
+            }
+            if !self.listed[i] {
+                return None;
+            }
+            let (x, y) = (q[2 * i], q[2 * i + 1]);
+            let d = (x - self.q[2 * i]).powi(2) + (y - self.q[2 * i + 1]).powi(2);
+            if d > m1 {
+                m2 = m1;
+                m1 = d;
+            } else if d > m2 {
+                m2 = d;
+            }
+            extent = extent.max(x.abs() + y.abs());
+        }
+        let moved = Moved {
+            largest: [m1.sqrt(), m2.sqrt()],
+            extent,
+        };
+        // A NaN anywhere fails every comparison that would prove a list complete; say so here.
+        (!(m1.is_nan() || extent.is_nan())).then_some(moved)
+    }
+
+    /// Presence of each person at the configuration of the last [`moved`](Self::moved).
+    pub fn present(&self) -> &[bool] {
+        &self.present
+    }
+}
+
+/// A list that answers fewer queries than this before it fails (a crowd moving a large part of
+/// the skin each step: the jams at `h = 0.1`) costs more than the plain search, which then
+/// answers the next [`PLAIN_SPELL`] queries before a list is tried again.
+pub(super) const MIN_SERVED: usize = 3;
+/// See [`MIN_SERVED`].
+pub(super) const PLAIN_SPELL: usize = 8;
+
+/// When keeping a list pays (see [`MIN_SERVED`]).
+#[derive(Debug, Default)]
+pub(super) struct ListPolicy {
+    /// Queries the current list has answered.
+    served: usize,
+    /// Queries left to the plain search before a list is tried again.
+    plain_left: usize,
+    /// Lists built so far.
+    builds: usize,
+}
+
+impl ListPolicy {
+    /// Whether the plain search answers this query (a spell after a list that did not pay).
+    pub fn plain_turn(&mut self) -> bool {
+        if self.plain_left > 0 {
+            self.plain_left -= 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// The list answered a query.
+    pub fn served(&mut self) {
+        self.served += 1;
+    }
+
+    /// The list (if `anchor` is set) could not answer: whether to build one now, or (`false`:
+    /// the last list did not pay) to forget it and let the plain search answer for a spell.
+    pub fn rebuild_now(&mut self, anchor: &mut Anchor) -> bool {
+        if anchor.is_set() && self.served < MIN_SERVED {
+            anchor.forget();
+            self.plain_left = PLAIN_SPELL;
+            return false;
+        }
+        true
+    }
+
+    /// A list was built.
+    pub fn built(&mut self) {
+        self.served = 0;
+        self.builds += 1;
+    }
+
+    /// Lists built so far (read by the tests).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub fn builds(&self) -> usize {
+        self.builds
+    }
+}
