@@ -684,37 +684,46 @@ mod tests {
     /// neighbour list answers exactly as brute force every time, and is reused for most steps.
     #[test]
     fn the_neighbour_list_answers_as_brute_force_while_reused_and_rebuilt() {
-        let n = 120;
-        let radii: Vec<f64> = (0..n).map(|i| 0.15 + 0.01 * (i % 6) as f64).collect();
-        let fam = DiskPairs::new(Arc::new(Population::new(radii)));
-        let mut rng = ChaCha8Rng::seed_from_u64(11);
-        let mut q: Vec<f64> = (0..2 * n).map(|_| rng.gen_range(0.0..6.0)).collect();
-        let queries = 300;
-        for k in 0..queries {
-            match k % 50 {
-                17 => {
-                    let i = rng.gen_range(0..n);
-                    q[2 * i] += rng.gen_range(-2.0..2.0);
+        // Near the origin, and far from it (where rounding is 1e5 times coarser).
+        for origin in [0.0, 1e5 + 0.37] {
+            let n = 120;
+            let radii: Vec<f64> = (0..n).map(|i| 0.15 + 0.01 * (i % 6) as f64).collect();
+            let fam = DiskPairs::new(Arc::new(Population::new(radii)));
+            let mut rng = ChaCha8Rng::seed_from_u64(11);
+            let mut scatter = |q: &mut Vec<f64>| {
+                q.clear();
+                q.extend((0..2 * n).map(|_| origin + rng.gen_range(0.0..6.0)));
+            };
+            let mut q = Vec::new();
+            scatter(&mut q);
+            let mut rng = ChaCha8Rng::seed_from_u64(12);
+            let queries = 300;
+            for k in 0..queries {
+                match k % 50 {
+                    17 => {
+                        let i = rng.gen_range(0..n);
+                        q[2 * i] += rng.gen_range(-2.0..2.0);
+                    }
+                    33 => scatter(&mut q),
+                    _ => q.iter_mut().for_each(|v| *v += rng.gen_range(-0.01..0.01)),
                 }
-                33 => q.iter_mut().for_each(|v| *v = rng.gen_range(0.0..6.0)),
-                _ => q.iter_mut().for_each(|v| *v += rng.gen_range(-0.01..0.01)),
+                let cutoff = [0.0, 0.02, 0.05, 0.2][k % 4];
+                assert_eq!(
+                    sorted_candidates(&fam, &q, cutoff),
+                    {
+                        let mut brute = fam.brute_force_candidates(&q, cutoff);
+                        brute.sort_unstable();
+                        brute
+                    },
+                    "origin {origin}, query {k}, cutoff {cutoff}"
+                );
             }
-            let cutoff = [0.0, 0.02, 0.05, 0.2][k % 4];
-            assert_eq!(
-                sorted_candidates(&fam, &q, cutoff),
-                {
-                    let mut brute = fam.brute_force_candidates(&q, cutoff);
-                    brute.sort_unstable();
-                    brute
-                },
-                "query {k}, cutoff {cutoff}"
+            let builds = lists_built(&fam);
+            assert!(
+                (10..queries / 2).contains(&builds),
+                "origin {origin}: {builds} lists for {queries} queries"
             );
         }
-        let builds = lists_built(&fam);
-        assert!(
-            (10..queries / 2).contains(&builds),
-            "{builds} lists for {queries} queries"
-        );
     }
 
     /// The list's proof covers the people present when it was built: a person outside the

@@ -580,28 +580,35 @@ mod tests {
     /// slack; and lists are reused for most queries.
     #[test]
     fn the_walls_list_answers_as_the_plain_search_while_walls_move() {
+        // Near the origin, and far from it (where rounding is 1e5 times coarser).
+        for o in [0.0, 1e5 + 0.37] {
+            walls_list_against_plain_search(o);
+        }
+    }
+
+    fn walls_list_against_plain_search(o: f64) {
         let n = 100;
         let radii: Vec<f64> = (0..n).map(|i| 0.15 + 0.02 * (i % 5) as f64).collect();
         let pop = Arc::new(Population::new(radii));
-        let mut shapes = rectangle_walls(0.0, 0.0, 8.0, 8.0);
+        let mut shapes = rectangle_walls(o, o, o + 8.0, o + 8.0);
         shapes.push((
             Shape::Disk {
-                center: [4.0, 4.0],
+                center: [o + 4.0, o + 4.0],
                 radius: 0.5,
             },
             Motion::Static,
         ));
         shapes.push((
             Shape::Segment {
-                a: [1.0, 2.0],
-                b: [3.0, 2.0],
+                a: [o + 1.0, o + 2.0],
+                b: [o + 3.0, o + 2.0],
             },
             Motion::Velocity([0.0, 0.5]),
         ));
         shapes.push((
             Shape::Segment {
-                a: [6.0, 1.0],
-                b: [6.0, 3.0],
+                a: [o + 6.0, o + 1.0],
+                b: [o + 6.0, o + 3.0],
             },
             Motion::Path(vec![
                 (0.0, [0.0, 0.0]),
@@ -611,19 +618,19 @@ mod tests {
         ));
         let fam = PersonShapes::new("walls", Arc::clone(&pop), shapes);
         let mut rng = ChaCha8Rng::seed_from_u64(21);
-        let mut q: Vec<f64> = (0..2 * n).map(|_| rng.gen_range(0.3..7.7)).collect();
+        let mut q: Vec<f64> = (0..2 * n).map(|_| o + rng.gen_range(0.3..7.7)).collect();
         let queries = 300;
         for k in 0..queries {
             let t = 0.01 * k as f64;
             if k % 100 == 50 {
-                q.iter_mut().for_each(|v| *v = rng.gen_range(0.3..7.7));
+                q.iter_mut().for_each(|v| *v = o + rng.gen_range(0.3..7.7));
             } else {
                 q.iter_mut().for_each(|v| *v += rng.gen_range(-0.01..0.01));
             }
             let cutoff = [0.0, 0.03, 0.1, 0.3][k % 4];
             let mut found = Vec::new();
             fam.candidates(t, &q, cutoff, &mut found);
-            assert_eq!(found, plain(&fam, t, &q, cutoff), "query {k}");
+            assert_eq!(found, plain(&fam, t, &q, cutoff), "origin {o}, query {k}");
             let mut scratch = LinearizedRow::default();
             for m in 0..fam.count() {
                 let g = fam.value(m, t, &q, &mut scratch);
