@@ -13,9 +13,12 @@
 //! before`, then `--baseline before` after the change).
 
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion};
+use std::sync::Arc;
 use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
 use sweeping::backends::{make_projector, BackendChoice};
+use sweeping::constraint::ConstraintFamily;
 use sweeping::crowd::synthetic::{Start, SyntheticCrowd};
+use sweeping::crowd::{DiskPairs, Population};
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::{Stepper, StepperSettings};
 
@@ -163,7 +166,9 @@ fn recorded_runs(c: &mut Criterion) {
 
 /// The pairs' broad phase alone (`DiskPairs::candidates`) on the spread start of 5000, at the
 /// cutoffs a step asks for: 0 (the smallest), 0.05 (about twice the drift of a step at h =
-/// 0.01) and 0.2. `cargo bench --bench step -- broad_phase`.
+/// 0.01) and 0.2. `list`: a query the neighbour list answers (most steps of a walking crowd);
+/// `build`: the first query of a fresh family, which searches the grid at the cutoff plus the
+/// skin and keeps the list. `cargo bench --bench step -- broad_phase`.
 fn broad_phase(c: &mut Criterion) {
     let mut group = c.benchmark_group("broad_phase");
     let problem = SyntheticCrowd {
@@ -179,15 +184,36 @@ fn broad_phase(c: &mut Criterion) {
         .iter()
         .find(|f| f.name() == "pairs of people")
         .expect("the pair family");
+    // The synthetic crowd's people all have radius 0.2.
+    let population = Population::new(vec![0.2; q.len() / 2]).shared();
     let mut out = Vec::new();
     for cutoff in [0.0, 0.05, 0.2] {
-        group.bench_with_input(BenchmarkId::new("pairs-5000", cutoff), &cutoff, |b, &c| {
-            b.iter(|| {
-                out.clear();
-                pairs.candidates(0.0, &q, c, &mut out);
-                out.len()
-            })
-        });
+        group.bench_with_input(
+            BenchmarkId::new("pairs-5000-list", cutoff),
+            &cutoff,
+            |b, &c| {
+                b.iter(|| {
+                    out.clear();
+                    pairs.candidates(0.0, &q, c, &mut out);
+                    out.len()
+                })
+            },
+        );
+        group.bench_with_input(
+            BenchmarkId::new("pairs-5000-build", cutoff),
+            &cutoff,
+            |b, &c| {
+                b.iter_batched(
+                    || DiskPairs::new(Arc::clone(&population)),
+                    |fresh| {
+                        out.clear();
+                        fresh.candidates(0.0, &q, c, &mut out);
+                        out.len()
+                    },
+                    BatchSize::SmallInput,
+                )
+            },
+        );
     }
     group.finish();
 }

@@ -57,7 +57,8 @@ impl Anchor {
     /// was absent at the anchor, or a position is not a number.
     pub fn moved(&mut self, pop: &Population, q: &[f64]) -> Option<Moved> {
         let n = pop.len();
-        if !self.is_set() || self.q.len() != q.len() || q.len() != 2 * n {
+        // No anchor (an empty one), or another dimension.
+        if self.q.len() != 2 * n || q.len() != 2 * n {
             return None;
         }
         self.present.clear();
@@ -75,6 +76,9 @@ impl Anchor {
             }
             let (x, y) = (q[2 * i], q[2 * i + 1]);
             let d = (x - self.q[2 * i]).powi(2) + (y - self.q[2 * i + 1]).powi(2);
+            if d.is_nan() {
+                return None; // a position that is not a number: nothing can be proven
+            }
             if d > m1 {
                 m2 = m1;
                 m1 = d;
@@ -83,12 +87,10 @@ impl Anchor {
             }
             extent = extent.max(x.abs() + y.abs());
         }
-        let moved = Moved {
+        Some(Moved {
             largest: [m1.sqrt(), m2.sqrt()],
             extent,
-        };
-        // A NaN anywhere fails every comparison that would prove a list complete; say so here.
-        (!(m1.is_nan() || extent.is_nan())).then_some(moved)
+        })
     }
 
     /// Presence of each person at the configuration of the last [`moved`](Self::moved).
@@ -113,6 +115,8 @@ pub(super) struct ListPolicy {
     plain_left: usize,
     /// Lists built so far.
     builds: usize,
+    /// Queries answered by a list so far.
+    answered: usize,
 }
 
 impl ListPolicy {
@@ -129,6 +133,7 @@ impl ListPolicy {
     /// The list answered a query.
     pub fn served(&mut self) {
         self.served += 1;
+        self.answered += 1;
     }
 
     /// The list (if `anchor` is set) could not answer: whether to build one now, or (`false`:
@@ -152,5 +157,91 @@ impl ListPolicy {
     #[cfg_attr(not(test), allow(dead_code))]
     pub fn builds(&self) -> usize {
         self.builds
+    }
+
+    /// Queries answered by a list so far (read by the tests).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub fn answered(&self) -> usize {
+        self.answered
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::crowd::Room;
+
+    /// The two largest displacements of present people (largest first, whoever comes first),
+    /// the extent, and who is present; `None` without an anchor, for another dimension, for a
+    /// person present now but absent at the anchor, and for a position that is not a number.
+    #[test]
+    fn moved_reports_the_two_largest_displacements_of_present_people() {
+        let room = Room::rectangle(-100.0, -100.0, 100.0, 100.0);
+        let pop = Population::new(vec![0.2; 4]).with_room(room);
+        let at = [0.0, 0.0, 10.0, 0.0, 20.0, 0.0, 200.0, 0.0];
+        let mut anchor = Anchor::default();
+        assert_eq!(anchor.moved(&pop, &at), None);
+        anchor.set(&pop, &at, [0, 1, 2]);
+        // Person 1 moves 3, person 2 moves 4 (after 1), person 0 moves 1; person 3 is outside
+        // the room and moves 50 (not counted).
+        let q = [1.0, 0.0, 10.0, 3.0, 16.0, 0.0, 250.0, 0.0];
+        let moved = anchor.moved(&pop, &q).expect("a proof");
+        assert_eq!(moved.largest, [4.0, 3.0]);
+        assert_eq!(moved.extent, 16.0);
+        assert_eq!(anchor.present(), &[true, true, true, false]);
+        // Largest first whatever the order they come in.
+        let q = [1.0, 0.0, 10.0, 4.0, 17.0, 0.0, 250.0, 0.0];
+        assert_eq!(anchor.moved(&pop, &q).unwrap().largest, [4.0, 3.0]);
+        assert_eq!(anchor.moved(&pop, &q[..6]), None);
+        // Without a room (where a position that is not a number is not a departure).
+        let anywhere = Population::new(vec![0.2; 4]);
+        let mut free = Anchor::default();
+        free.set(&anywhere, &at, 0..4);
+        let mut nan = q;
+        nan[2] = f64::NAN;
+        assert_eq!(free.moved(&anywhere, &nan), None);
+        assert_eq!(free.moved(&anywhere, &q).unwrap().largest, [50.0, 4.0]);
+        // Person 3 back inside (a new run), but absent at the anchor.
+        pop.reset_departures();
+        let mut back = q;
+        back[6] = 50.0;
+        assert_eq!(anchor.moved(&pop, &back), None);
+        anchor.forget();
+        assert!(!anchor.is_set());
+        assert_eq!(anchor.moved(&pop, &q), None);
+    }
+
+    /// A list pays once it has answered `MIN_SERVED` queries: one that fails sooner is
+    /// forgotten and the plain search answers the next `PLAIN_SPELL`; then a list is built again.
+    #[test]
+    fn the_policy_hands_a_spell_to_the_plain_search_after_a_list_that_did_not_pay() {
+        let pop = Population::new(vec![0.2]);
+        let mut anchor = Anchor::default();
+        let mut policy = ListPolicy::default();
+        // No list yet: build.
+        assert!(!policy.plain_turn());
+        assert!(policy.rebuild_now(&mut anchor));
+        anchor.set(&pop, &[0.0, 0.0], [0]);
+        policy.built();
+        policy.served();
+        // It fails at its second query: forgotten, and a spell of the plain search.
+        assert!(!policy.plain_turn());
+        assert!(!policy.rebuild_now(&mut anchor));
+        assert!(!anchor.is_set());
+        for _ in 0..PLAIN_SPELL {
+            assert!(policy.plain_turn());
+        }
+        assert!(!policy.plain_turn());
+        assert!(policy.rebuild_now(&mut anchor));
+        anchor.set(&pop, &[0.0, 0.0], [0]);
+        policy.built();
+        for _ in 0..MIN_SERVED {
+            assert!(!policy.plain_turn());
+            policy.served();
+        }
+        // Paid: rebuilt when it fails, without a spell.
+        assert!(policy.rebuild_now(&mut anchor));
+        assert!(anchor.is_set());
+        assert_eq!((policy.builds(), policy.answered()), (2, 1 + MIN_SERVED));
     }
 }
