@@ -688,15 +688,18 @@ mod tests {
     /// neighbour list answers exactly as brute force every time, and is reused for most steps.
     #[test]
     fn the_neighbour_list_answers_as_brute_force_while_reused_and_rebuilt() {
-        // Near the origin, and far from it (where rounding is 1e5 times coarser).
-        for origin in [0.0, 1e5 + 0.37] {
+        // Near the origin, far from it (where rounding is 1e5 times coarser), and the same
+        // crowd 20 times larger (radii of 3–4: the grid's cells must grow with them).
+        for (origin, scale) in [(0.0, 1.0), (1e5 + 0.37, 1.0), (0.0, 20.0)] {
             let n = 120;
-            let radii: Vec<f64> = (0..n).map(|i| 0.15 + 0.01 * (i % 6) as f64).collect();
+            let radii: Vec<f64> = (0..n)
+                .map(|i| scale * (0.15 + 0.01 * (i % 6) as f64))
+                .collect();
             let fam = DiskPairs::new(Arc::new(Population::new(radii)));
             let mut rng = ChaCha8Rng::seed_from_u64(11);
             let mut scatter = |q: &mut Vec<f64>| {
                 q.clear();
-                q.extend((0..2 * n).map(|_| origin + rng.gen_range(0.0..6.0)));
+                q.extend((0..2 * n).map(|_| origin + scale * rng.gen_range(0.0..6.0)));
             };
             let mut q = Vec::new();
             scatter(&mut q);
@@ -706,12 +709,14 @@ mod tests {
                 match k % 50 {
                     17 => {
                         let i = rng.gen_range(0..n);
-                        q[2 * i] += rng.gen_range(-2.0..2.0);
+                        q[2 * i] += scale * rng.gen_range(-2.0..2.0);
                     }
                     33 => scatter(&mut q),
-                    _ => q.iter_mut().for_each(|v| *v += rng.gen_range(-0.01..0.01)),
+                    _ => q
+                        .iter_mut()
+                        .for_each(|v| *v += scale * rng.gen_range(-0.01..0.01)),
                 }
-                let cutoff = [0.0, 0.02, 0.05, 0.2][k % 4];
+                let cutoff = scale * [0.0, 0.02, 0.05, 0.2][k % 4];
                 assert_eq!(
                     sorted_candidates(&fam, &q, cutoff),
                     {
@@ -829,5 +834,26 @@ mod tests {
         assert!(sorted_candidates(&fam, &q, 0.1).is_empty());
         assert!(pop.has_departed(0));
         assert_eq!(lists_built(&fam), 1);
+    }
+
+    /// A list built at cutoff 0 reaches as far as its skin (the largest radius): a query at the
+    /// same positions with a cutoff just below that is answered from it, and finds pairs up to
+    /// that distance (the grid's cells must be `2 r_max + reach` wide to have found them).
+    #[test]
+    fn a_list_answers_up_to_its_reach_at_the_positions_it_was_built_at() {
+        let r = 3.0;
+        // Pairs (0, 1), (2, 3), (4, 5), (6, 7) at D = 0.5, 1.5, 2.5 and 2.9, far from each other.
+        let mut q = Vec::new();
+        for (k, d) in [0.5, 1.5, 2.5, 2.9].into_iter().enumerate() {
+            let x = 100.0 * k as f64;
+            q.extend([x, 0.0, x + 2.0 * r + d, 0.0]);
+        }
+        let fam = DiskPairs::new(Arc::new(Population::new(vec![r; 8])));
+        for _ in 0..crate::crowd::verlet::MIN_SERVED {
+            assert!(sorted_candidates(&fam, &q, 0.0).is_empty());
+        }
+        let all: Vec<usize> = (0..4).map(|k| fam.member(2 * k, 2 * k + 1)).collect();
+        assert_eq!(sorted_candidates(&fam, &q, 2.95), all);
+        assert_eq!(lists_used(&fam), (1, crate::crowd::verlet::MIN_SERVED + 1));
     }
 }
