@@ -1,6 +1,6 @@
 //! Pairs of people: `D_ij(q) = |qᵢ − qⱼ| − (rᵢ + rⱼ) ≥ 0`, culled by a uniform grid.
 
-use super::verlet::{Anchor, ListPolicy};
+use super::verlet::{self, Anchor, ListPolicy, NeighbourSearch};
 use super::Population;
 use crate::constraint::{
     linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
@@ -365,6 +365,12 @@ struct NeighbourList {
     policy: ListPolicy,
 }
 
+impl NeighbourSearch for NeighbourList {
+    fn policy_and_anchor(&mut self) -> (&mut ListPolicy, &mut Anchor) {
+        (&mut self.policy, &mut self.anchor)
+    }
+}
+
 impl NeighbourList {
     /// Calls `f(i, j)` for every present pair with `D_ij(q) ≤ cutoff` and returns `true`,
     /// from the current list or from one built now; or returns `false` without calling `f`
@@ -377,20 +383,11 @@ impl NeighbourList {
         cutoff: f64,
         mut f: impl FnMut(usize, usize),
     ) -> bool {
-        if self.policy.plain_turn() {
-            return false;
-        }
-        if !self.select(pop, q, cutoff, &mut f) {
-            if !self.policy.rebuild_now(&mut self.anchor) {
-                return false;
-            }
-            self.rebuild(grid, pop, q, cutoff);
-            if !self.select(pop, q, cutoff, &mut f) {
-                return false;
-            }
-        }
-        self.policy.served();
-        true
+        verlet::answer(
+            self,
+            |list| list.select(pop, q, cutoff, &mut f),
+            |list| list.rebuild(grid, pop, q, cutoff),
+        )
     }
 
     /// Calls `f(i, j)` for every present pair with `D_ij(q) ≤ cutoff`, in the list's order,
@@ -673,6 +670,14 @@ mod tests {
         found
     }
 
+    /// Three people of radius 0.2 in a 10 m × 10 m room, and their pairs.
+    fn three_people_in_a_room() -> (Arc<Population>, DiskPairs) {
+        let room = crate::crowd::Room::rectangle(0.0, 0.0, 10.0, 10.0);
+        let pop = Arc::new(Population::new(vec![0.2; 3]).with_room(room));
+        let fam = DiskPairs::new(Arc::clone(&pop));
+        (pop, fam)
+    }
+
     fn lists_built(fam: &DiskPairs) -> usize {
         lists_used(fam).0
     }
@@ -741,9 +746,7 @@ mod tests {
     /// one way a person can come back.
     #[test]
     fn a_person_absent_when_the_list_was_built_is_found_when_present_again() {
-        let room = crate::crowd::Room::rectangle(0.0, 0.0, 10.0, 10.0);
-        let pop = Arc::new(Population::new(vec![0.2; 3]).with_room(room));
-        let fam = DiskPairs::new(Arc::clone(&pop));
+        let (pop, fam) = three_people_in_a_room();
         // Person 0 wholly outside the left wall; 1 inside, next to the wall; 2 far away.
         let mut q = vec![-0.21, 5.0, 0.25, 5.0, 8.0, 8.0];
         // Queried a few times, so that the list has paid (`MIN_SERVED`).
@@ -821,9 +824,7 @@ mod tests {
     /// out of its pairs at once, without a new list.
     #[test]
     fn a_person_leaving_while_the_list_holds_drops_out_of_its_pairs() {
-        let room = crate::crowd::Room::rectangle(0.0, 0.0, 10.0, 10.0);
-        let pop = Arc::new(Population::new(vec![0.2; 3]).with_room(room));
-        let fam = DiskPairs::new(Arc::clone(&pop));
+        let (pop, fam) = three_people_in_a_room();
         // Person 0 half out of the left wall (present), 0.04 from person 1.
         let mut q = vec![-0.19, 5.0, 0.25, 5.0, 8.0, 8.0];
         for _ in 0..crate::crowd::verlet::MIN_SERVED {

@@ -1,6 +1,6 @@
 //! People against walls and obstacles: exact segments and disks, fixed or moving.
 
-use super::verlet::{Anchor, ListPolicy};
+use super::verlet::{self, Anchor, ListPolicy, NeighbourSearch};
 use super::Population;
 use crate::constraint::{
     linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
@@ -310,6 +310,12 @@ struct ShapeList {
     policy: ListPolicy,
 }
 
+impl NeighbourSearch for ShapeList {
+    fn policy_and_anchor(&mut self) -> (&mut ListPolicy, &mut Anchor) {
+        (&mut self.policy, &mut self.anchor)
+    }
+}
+
 impl ShapeList {
     /// Pushes the members with `g ≤ cutoff` at `q` (shapes `placed` at the query's time) and
     /// returns `true`, from the list or from one built now; or returns `false` without pushing
@@ -322,20 +328,11 @@ impl ShapeList {
         cutoff: f64,
         out: &mut Vec<usize>,
     ) -> bool {
-        if self.policy.plain_turn() {
-            return false;
-        }
-        if !self.select(fam, placed, q, cutoff, out) {
-            if !self.policy.rebuild_now(&mut self.anchor) {
-                return false;
-            }
-            self.rebuild(fam, placed, q, cutoff);
-            if !self.select(fam, placed, q, cutoff, out) {
-                return false;
-            }
-        }
-        self.policy.served();
-        true
+        verlet::answer(
+            self,
+            |list| list.select(fam, placed, q, cutoff, out),
+            |list| list.rebuild(fam, placed, q, cutoff),
+        )
     }
 
     /// Pushes the members with `g ≤ cutoff` and returns `true`, or returns `false` without

@@ -99,6 +99,36 @@ impl Anchor {
     }
 }
 
+/// A neighbour list: its policy and its anchor, for [`answer`].
+pub(super) trait NeighbourSearch {
+    fn policy_and_anchor(&mut self) -> (&mut ListPolicy, &mut Anchor);
+}
+
+/// One query to `list`: `true` when `select` answered it from the current list, or from one
+/// that `rebuild` built at the query's configuration; `false` (nothing selected) when the
+/// plain search should answer instead ([`ListPolicy`]).
+pub(super) fn answer<L: NeighbourSearch>(
+    list: &mut L,
+    mut select: impl FnMut(&mut L) -> bool,
+    rebuild: impl FnOnce(&mut L),
+) -> bool {
+    if list.policy_and_anchor().0.plain_turn() {
+        return false;
+    }
+    if !select(list) {
+        let (policy, anchor) = list.policy_and_anchor();
+        if !policy.rebuild_now(anchor) {
+            return false;
+        }
+        rebuild(list);
+        if !select(list) {
+            return false;
+        }
+    }
+    list.policy_and_anchor().0.served();
+    true
+}
+
 /// A list that answers fewer queries than this before it fails (a crowd moving a large part of
 /// the skin each step: the jams at `h = 0.1`) costs more than the plain search, which then
 /// answers the next [`PLAIN_SPELL`] queries before a list is tried again.
