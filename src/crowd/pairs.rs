@@ -430,7 +430,7 @@ impl NeighbourList {
     /// Builds the list at `q` for queries with cutoffs up to `cutoff + skin`.
     fn rebuild(&mut self, grid: &mut CellGrid, pop: &Population, q: &[f64], cutoff: f64) {
         let cutoff = cutoff.max(0.0);
-        let reach = cutoff + Self::skin(pop, cutoff);
+        let reach = cutoff + verlet::skin(pop, cutoff);
         // Two disks with D_ij ≤ reach have centres closer than r_i + r_j + reach ≤ cell, so
         // they lie in the same or neighbouring cells of a grid of that size.
         let cell = 2.0 * pop.max_radius() + reach + 1e-12;
@@ -440,14 +440,6 @@ impl NeighbourList {
         self.anchor.set(pop, q, grid.people.iter().copied());
         self.reach = reach;
         self.policy.built();
-    }
-
-    /// How far beyond the cutoff the list reaches: as far again as the cutoff (itself twice
-    /// a step's movement), and at least the largest radius: a crowd walking at its usual pace
-    /// at `h = 0.01` keeps a list for several steps, and the list holds a few times the pairs
-    /// within the cutoff, each tested again at a query for a few nanoseconds.
-    fn skin(pop: &Population, cutoff: f64) -> f64 {
-        cutoff.max(pop.max_radius())
     }
 }
 

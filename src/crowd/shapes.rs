@@ -382,8 +382,7 @@ impl ShapeList {
     fn rebuild(&mut self, fam: &PersonShapes, placed: &[Placed], q: &[f64], cutoff: f64) {
         let pop = &fam.population;
         let cutoff = cutoff.max(0.0);
-        // As far again as the cutoff, and at least the largest radius (as the pairs' list).
-        let reach = cutoff + cutoff.max(pop.max_radius());
+        let reach = cutoff + verlet::skin(pop, cutoff);
         self.members.clear();
         let mut listed = Vec::new();
         for i in 0..pop.len() {

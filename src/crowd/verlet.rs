@@ -99,6 +99,14 @@ impl Anchor {
     }
 }
 
+/// How far beyond the cutoff `c ≥ 0` a list reaches: as far again as the cutoff (itself twice
+/// a step's movement), and at least the largest radius: a crowd walking at its usual pace at
+/// `h = 0.01` keeps a list for several steps, and the list holds a few times the members within
+/// the cutoff, each tested again at a query for a few nanoseconds.
+pub(super) fn skin(pop: &Population, cutoff: f64) -> f64 {
+    cutoff.max(pop.max_radius())
+}
+
 /// A neighbour list: its policy and its anchor, for [`answer`].
 pub(super) trait NeighbourSearch {
     fn policy_and_anchor(&mut self) -> (&mut ListPolicy, &mut Anchor);
