@@ -192,6 +192,13 @@ impl Binned {
 }
 
 impl CellGrid {
+    /// Fills the grid for pairs with `D_ij ≤ reach`: two disks that close have centres closer
+    /// than `r_i + r_j + reach ≤` the cell's side, so they lie in the same or neighbouring
+    /// cells.
+    fn fill_reaching(&mut self, pop: &Population, q: &[f64], reach: f64) {
+        self.fill(pop, q, 2.0 * pop.max_radius() + reach + 1e-12);
+    }
+
     fn fill(&mut self, pop: &Population, q: &[f64], cell: f64) {
         self.people.clear();
         self.keys.clear();
@@ -431,10 +438,7 @@ impl NeighbourList {
     fn rebuild(&mut self, grid: &mut CellGrid, pop: &Population, q: &[f64], cutoff: f64) {
         let cutoff = cutoff.max(0.0);
         let reach = cutoff + verlet::skin(pop, cutoff);
-        // Two disks with D_ij ≤ reach have centres closer than r_i + r_j + reach ≤ cell, so
-        // they lie in the same or neighbouring cells of a grid of that size.
-        let cell = 2.0 * pop.max_radius() + reach + 1e-12;
-        grid.fill(pop, q, cell);
+        grid.fill_reaching(pop, q, reach);
         self.pairs.clear();
         grid.for_each_pair_within(reach, |a, b| self.pairs.push((a as u32, b as u32)));
         self.anchor.set(pop, q, grid.people.iter().copied());
@@ -514,15 +518,14 @@ impl ConstraintFamily for DiskPairs {
         }
         // The grid at this cutoff: while lists do not pay, or when none can answer (a cutoff
         // that is not a number).
-        let cell = 2.0 * pop.max_radius() + cutoff.max(0.0) + 1e-12;
-        grid.fill(pop, q, cell);
+        grid.fill_reaching(pop, q, cutoff.max(0.0));
         grid.for_each_pair_within(cutoff, push);
     }
 
     /// `|⟨∇D_ij, x − q⟩| = |⟨e_ij, Δⱼ − Δᵢ⟩| ≤ |Δᵢ| + |Δⱼ|`, bounded by the sum of the two
     /// largest displacements of people not seen leaving (who include the present ones).
     fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
-        let (mut m1, mut m2) = (0.0f64, 0.0f64);
+        let mut top = [0.0f64; 2];
         for i in 0..self.n() {
             // Everyone not seen leaving: the present people and perhaps a few more (who left
             // since presence was last asked), so still a bound, without presence's geometry.
@@ -532,14 +535,9 @@ impl ConstraintFamily for DiskPairs {
             // Squared displacements; the roots of the two largest at the end (monotone and
             // correctly rounded, so the same numbers as the two largest roots).
             let d = (x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2);
-            if d > m1 {
-                m2 = m1;
-                m1 = d;
-            } else if d > m2 {
-                m2 = d;
-            }
+            verlet::keep_two_largest(&mut top, d);
         }
-        m1.sqrt() + m2.sqrt()
+        top[0].sqrt() + top[1].sqrt()
     }
 
     fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {

@@ -233,6 +233,15 @@ impl PersonShapes {
         }));
     }
 
+    /// The plain search: every present person against every `placed` shape, person by person.
+    fn plain_search(&self, placed: &[Placed], q: &[f64], cutoff: f64, out: &mut Vec<usize>) {
+        for i in 0..self.population.len() {
+            if self.population.is_present(q, i) {
+                self.members_within(placed, q, i, cutoff, out);
+            }
+        }
+    }
+
     /// Pushes the members of person `i` against each of the shapes `placed` that pass
     /// [`member_within`](Self::member_within), in the shapes' order.
     fn members_within(
@@ -479,11 +488,7 @@ impl ConstraintFamily for PersonShapes {
         {
             return;
         }
-        for i in 0..pop.len() {
-            if pop.is_present(q, i) {
-                self.members_within(placed, q, i, cutoff, out);
-            }
-        }
+        self.plain_search(placed, q, cutoff, out);
     }
 
     fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
@@ -557,11 +562,7 @@ mod tests {
         let mut placed = Vec::new();
         fam.place(t, &mut placed);
         let mut out = Vec::new();
-        for i in 0..fam.population.len() {
-            if fam.population.is_present(q, i) {
-                fam.members_within(&placed, q, i, cutoff, &mut out);
-            }
-        }
+        fam.plain_search(&placed, q, cutoff, &mut out);
         out
     }
 

@@ -64,7 +64,7 @@ impl Anchor {
         self.present.clear();
         // Squared displacements; the roots of the two largest at the end (monotone and
         // correctly rounded, so the same numbers as the two largest roots).
-        let (mut m1, mut m2, mut extent) = (0.0f64, 0.0f64, 0.0f64);
+        let (mut top, mut extent) = ([0.0f64; 2], 0.0f64);
         for i in 0..n {
             let here = pop.is_present(q, i);
             self.present.push(here);
@@ -79,16 +79,11 @@ impl Anchor {
             if d.is_nan() {
                 return None; // a position that is not a number: nothing can be proven
             }
-            if d > m1 {
-                m2 = m1;
-                m1 = d;
-            } else if d > m2 {
-                m2 = d;
-            }
+            keep_two_largest(&mut top, d);
             extent = extent.max(x.abs() + y.abs());
         }
         Some(Moved {
-            largest: [m1.sqrt(), m2.sqrt()],
+            largest: top.map(f64::sqrt),
             extent,
         })
     }
@@ -96,6 +91,16 @@ impl Anchor {
     /// Presence of each person at the configuration of the last [`moved`](Self::moved).
     pub fn present(&self) -> &[bool] {
         &self.present
+    }
+}
+
+/// Keeps in `top` the two largest values seen, largest first (`d` is the next one).
+pub(super) fn keep_two_largest(top: &mut [f64; 2], d: f64) {
+    if d > top[0] {
+        top[1] = top[0];
+        top[0] = d;
+    } else if d > top[1] {
+        top[1] = d;
     }
 }
 
