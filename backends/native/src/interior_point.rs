@@ -65,31 +65,47 @@ struct NormalMatrix {
 
 impl NormalMatrix {
     fn new(a: &SparseRows) -> Self {
-        let n = a.n_cols();
+        let (m, n) = (a.n_rows(), a.n_cols());
         let (ptr, idx) = (a.row_ptr(), a.col_idx());
-        // Every (row ≤ column) pair that a row of A touches, and the diagonal.
-        let mut pairs: Vec<(usize, usize)> = (0..n).map(|j| (j, j)).collect();
-        for i in 0..a.n_rows() {
-            for k in ptr[i]..ptr[i + 1] {
-                for l in ptr[i]..ptr[i + 1] {
-                    let (p, q) = (idx[k], idx[l]);
-                    if p <= q {
-                        pairs.push((q, p));
+        // The rows touching each column (the transpose's pattern), by counting: every
+        // column's entries of `I + AᵀA` are then gathered from its own rows, and only a
+        // column's few entries are sorted, not every pair of the matrix at once (that sort
+        // was most of this function on a jam's normal matrix).
+        let mut col_start = vec![0usize; n + 1];
+        for &c in idx {
+            col_start[c + 1] += 1;
+        }
+        for j in 0..n {
+            col_start[j + 1] += col_start[j];
+        }
+        let mut next = col_start.clone();
+        let mut col_rows = vec![0usize; idx.len()];
+        for i in 0..m {
+            for &c in &idx[ptr[i]..ptr[i + 1]] {
+                col_rows[next[c]] = i;
+                next[c] += 1;
+            }
+        }
+        // Column q holds the diagonal and every p < q that shares a row with q.
+        let mut colptr = Vec::with_capacity(n + 1);
+        colptr.push(0);
+        let mut rowval = Vec::with_capacity(n + 2 * idx.len());
+        let mut seen = vec![usize::MAX; n];
+        for q in 0..n {
+            let start = rowval.len();
+            seen[q] = q;
+            rowval.push(q);
+            for &i in &col_rows[col_start[q]..col_start[q + 1]] {
+                for &p in &idx[ptr[i]..ptr[i + 1]] {
+                    if p < q && seen[p] != q {
+                        seen[p] = q;
+                        rowval.push(p);
                     }
                 }
             }
+            rowval[start..].sort_unstable();
+            colptr.push(rowval.len());
         }
-        // Sorted by column, then row: the order of a CSC matrix.
-        pairs.sort_unstable();
-        pairs.dedup();
-        let mut colptr = vec![0usize; n + 1];
-        for &(col, _) in &pairs {
-            colptr[col + 1] += 1;
-        }
-        for j in 0..n {
-            colptr[j + 1] += colptr[j];
-        }
-        let rowval: Vec<usize> = pairs.iter().map(|&(_, row)| row).collect();
         let position = |row: usize, col: usize| -> usize {
             let range = colptr[col]..colptr[col + 1];
             range.start
@@ -98,8 +114,17 @@ impl NormalMatrix {
                     .expect("every pair was entered in the pattern")
         };
         let val = a.values();
-        let (mut slots, mut coefficients, mut row_slots) = (Vec::new(), Vec::new(), vec![0]);
-        for i in 0..a.n_rows() {
+        let pairs: usize = (0..m)
+            .map(|i| {
+                let t = ptr[i + 1] - ptr[i];
+                t * (t + 1) / 2
+            })
+            .sum();
+        let mut slots = Vec::with_capacity(pairs);
+        let mut coefficients = Vec::with_capacity(pairs);
+        let mut row_slots = Vec::with_capacity(m + 1);
+        row_slots.push(0);
+        for i in 0..m {
             for k in ptr[i]..ptr[i + 1] {
                 for l in ptr[i]..ptr[i + 1] {
                     let (p, q) = (idx[k], idx[l]);
@@ -111,7 +136,9 @@ impl NormalMatrix {
             }
             row_slots.push(slots.len());
         }
-        let diagonal = (0..n).map(|j| position(j, j)).collect();
+        let diagonal = (0..n)
+            .map(|j| colptr[j] + rowval[colptr[j]..colptr[j + 1]].partition_point(|&r| r < j))
+            .collect();
         let nnz = rowval.len();
         Self {
             csc: CscMatrix::new(n, n, colptr, rowval, vec![0.0; nnz]),
