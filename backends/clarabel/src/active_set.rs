@@ -363,6 +363,8 @@ pub struct Orderings {
     /// Factorizations ordered by AMD, and from memory.
     by_amd: u64,
     by_memory: u64,
+    /// In a [`fork`](Orderings::fork), `next` when it was made: ranks from there on are new.
+    forked_at: u64,
 }
 
 /// [`Orderings`] with the names of a problem's unknowns.
@@ -383,6 +385,38 @@ impl Orderings {
     /// How many sparse factorizations were ordered by AMD, and how many from memory.
     pub fn stats(&self) -> (u64, u64) {
         (self.by_amd, self.by_memory)
+    }
+
+    /// A copy of this memory for blocks solved on another thread: it orders their
+    /// factorizations from what this memory holds, and what it learns is taken back by
+    /// [`Orderings::join`]. Blocks have disjoint nodes, so forks never disagree about a node.
+    pub fn fork(&self) -> Orderings {
+        Orderings {
+            by_amd: 0,
+            by_memory: 0,
+            forked_at: self.next,
+            ..self.clone()
+        }
+    }
+
+    /// Takes back what `forked`, a [`fork`](Orderings::fork) of this memory made since, has
+    /// learned: its nodes' new ranks (after every rank handed out here, in their own order),
+    /// its counts, and, when it factored anything, its last fill and staleness. Joining forks
+    /// in a fixed order gives the same memory whichever thread ran which.
+    pub fn join(&mut self, forked: Orderings) {
+        let since = forked.forked_at;
+        for (node, rank) in forked.ranks {
+            if rank >= since {
+                self.ranks.insert(node, rank - since + self.next);
+            }
+        }
+        self.next += forked.next - since;
+        if forked.by_amd + forked.by_memory > 0 {
+            self.amd_fill = forked.amd_fill;
+            self.stale = forked.stale;
+        }
+        self.by_amd += forked.by_amd;
+        self.by_memory += forked.by_memory;
     }
 
     /// The ordering (QDLDL's `perm`: position → node) of `nodes` by their remembered ranks,
@@ -1667,5 +1701,42 @@ mod tests {
         assert!(o.ordering(&b).is_some());
         o.forget_older();
         assert!(o.ranks.is_empty());
+    }
+
+    #[test]
+    fn forks_joined_in_order_rank_their_nodes_after_the_memory_and_each_other() {
+        let u = |j: usize| Node::Unknown(j);
+        let mut main = Orderings::default();
+        main.record(&[u(0), u(1), u(2)], &[2, 0, 1], 2.0, false);
+        let (mut a, mut b) = (main.fork(), main.fork());
+        assert_eq!(a.stats(), (0, 0));
+        // Fork `a` orders two of the memory's nodes anew; fork `b` two new nodes.
+        a.record(&[u(0), u(1)], &[1, 0], 3.0, false);
+        b.record(&[u(5), u(6)], &[0, 1], 1.5, false);
+        main.join(a);
+        main.join(b);
+        assert_eq!(main.stats(), (3, 0));
+        // u2 keeps its rank; u1 and u0 as fork `a` placed them, then fork `b`'s nodes.
+        assert_eq!(
+            main.ordering(&[u(0), u(1), u(2), u(5)]),
+            Some(vec![2, 1, 0, 3])
+        );
+        assert_eq!(main.ordering(&[u(6), u(5)]), Some(vec![1, 0]));
+        // Both forks ranked from the same point: their ranks do not collide after the join.
+        let mut ranks: Vec<u64> = main.ranks.values().copied().collect();
+        ranks.sort_unstable();
+        ranks.dedup();
+        assert_eq!(ranks.len(), main.ranks.len());
+        assert!(ranks.iter().all(|&r| r < main.next));
+        // The last fork that factored sets the fill the next orderings are held to.
+        assert_eq!(main.amd_fill, 1.5);
+        // A fork that factored nothing changes nothing.
+        let (fill, stale) = (main.amd_fill, main.stale);
+        let idle = main.fork();
+        main.join(idle);
+        assert_eq!(
+            (main.amd_fill, main.stale, main.stats()),
+            (fill, stale, (3, 0))
+        );
     }
 }

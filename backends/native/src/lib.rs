@@ -6,7 +6,9 @@
 //! 1. **Blocks.** [`sweeping_api::Blocks`] splits the rows into connected components (rows
 //!    sharing an unknown). Unknowns touched by no row keep `x = y`; on a crowd most people
 //!    touch nobody and contacts form small clusters, each solved on its own. A block whose
-//!    rows all hold at `y` is answered `x = y`, `λ = 0` (exact).
+//!    rows all hold at `y` is answered `x = y`, `λ = 0` (exact). When two or more blocks are
+//!    large (an evacuation through several doors: a queue at each), each is solved on a
+//!    thread of its own ([`NativeSettings::parallel_rows`]), with the same answers as on one.
 //! 2. **Dual active set.** Each block runs the Lawson–Hanson method on the dual
 //!    `min ½‖Aᵀλ‖² − λᵀ(b − Ay)`, `λ ≥ 0` (see [the method](sweeping_clarabel::active_set)); every step solves
 //!    the quasi-definite KKT system of the working set (factored with QDLDL, ordered as the
@@ -106,7 +108,20 @@ pub struct NativeSettings {
     /// block by the interior-point method of this crate and finish from its guess, before
     /// any fallback. Default `true`.
     pub interior_point: bool,
+    /// Blocks of at least this many rows are solved on threads of their own (scoped threads,
+    /// as many as [`std::thread::available_parallelism`] allows) when a projection has two or
+    /// more of them, as an evacuation through several doors has (a queue at each); the
+    /// other blocks share one more. `0` never does. Default [`PARALLEL_ROWS`].
+    ///
+    /// The answers do not depend on the number of threads: each block's factorizations are
+    /// ordered from the memory as it stood before the projection (see [`Orderings::fork`]).
+    pub parallel_rows: usize,
 }
+
+/// The default [`NativeSettings::parallel_rows`]: blocks that take milliseconds (a queue of
+/// a hundred people or more), against tens of microseconds to start a thread and copy the
+/// ordering memory.
+pub const PARALLEL_ROWS: usize = 400;
 
 impl Default for NativeSettings {
     fn default() -> Self {
@@ -115,6 +130,7 @@ impl Default for NativeSettings {
             max_iterations: 0,
             warm_start: true,
             interior_point: true,
+            parallel_rows: PARALLEL_ROWS,
         }
     }
 }
@@ -227,19 +243,37 @@ impl NativeProjector {
     pub fn orderings(&self) -> &Orderings {
         &self.orderings
     }
+}
 
+/// What solving a block reads besides the ordering memory, shared by the threads that solve
+/// blocks at once.
+struct BlockContext<'a> {
+    settings: &'a NativeSettings,
+    /// Multipliers of the rows active at the previous solve, by key.
+    previous: &'a FastMap<RowKey, f64>,
+    /// Whether a fallback backend takes the blocks this one cannot certify.
+    has_fallback: bool,
+    /// The certificate's tolerance (absolute).
+    tol: f64,
+}
+
+/// A block's answer, or the reason it failed with the iterations spent.
+type BlockResult = Result<Projection, (Failure, u32)>;
+
+impl BlockContext<'_> {
     /// Solves one block: a certified answer, or the reason it failed with the iterations
     /// spent.
     ///
     /// `straight`: skip the active-set attempt and rescue at once.
     /// `unknowns[j]`: the index of the block's unknown `j` in the whole problem.
     fn solve_block(
-        &mut self,
+        &self,
+        orderings: &mut Orderings,
         block: &ProjectionProblem,
         unknowns: &[usize],
-        tol: f64,
         straight: bool,
-    ) -> Result<Projection, (Failure, u32)> {
+    ) -> BlockResult {
+        let tol = self.tol;
         let m = block.n_rows();
         let mut r = vec![0.0; m];
         block.a().mul_vec(block.y(), &mut r);
@@ -268,7 +302,7 @@ impl NativeProjector {
         let lambda = support.iter().map(|&i| join[i]).collect();
         let rescue = self.settings.interior_point;
         let cap = match self.settings.max_iterations {
-            0 if self.fallback.is_some() || rescue => DEFAULT_ITERATIONS,
+            0 if self.has_fallback || rescue => DEFAULT_ITERATIONS,
             0 => cap_on_its_own(m),
             c => c,
         };
@@ -280,8 +314,7 @@ impl NativeProjector {
         let (first, cap) = if rescue && straight {
             (Err(Failure::Cap(0)), 0)
         } else {
-            let outcome =
-                active_set::solve_remembering(block, start, cap, &mut self.orderings, unknowns);
+            let outcome = active_set::solve_remembering(block, start, cap, orderings, unknowns);
             (outcome, cap)
         };
         let (outcome, rescued) = match first {
@@ -289,7 +322,7 @@ impl NativeProjector {
             Err(Failure::Cap(_) | Failure::Cycling(_)) if rescue => {
                 // The cold multipliers, for a rescue that must start over.
                 let cold = (0..m).map(|i| own_multiplier(block, i, r[i])).collect();
-                let memory = (&mut self.orderings, unknowns);
+                let memory = (&mut *orderings, unknowns);
                 let outcome = rescue_by_interior_point(block, &r, cold, tol, memory)
                     .map_err(|(failure, spent)| (failure, cap.saturating_add(spent)))?;
                 (outcome, true)
@@ -594,6 +627,115 @@ fn finish(
         .map_err(|failure| (failure, cap.saturating_add(spent)))
 }
 
+/// Every block solved, in order: on this thread, or, when two or more blocks have at least
+/// [`NativeSettings::parallel_rows`] rows, each such block on a thread of its own and the
+/// others together (see [`parallel_groups`]). Each group orders its factorizations from a
+/// [fork](Orderings::fork) of `orderings`, joined back in the order of the groups, so the
+/// answers do not depend on how many threads ran them.
+fn solve_blocks(
+    context: &BlockContext<'_>,
+    orderings: &mut Orderings,
+    blocks: &Blocks,
+    streaks: &[u32],
+) -> Vec<BlockResult> {
+    let all = blocks.blocks();
+    let solve = |orderings: &mut Orderings, index: usize| {
+        let block = &all[index];
+        let straight = goes_straight_to_rescue(streaks[index]);
+        context.solve_block(orderings, &block.problem, &block.cols, straight)
+    };
+    let sizes: Vec<usize> = all.iter().map(|block| block.rows.len()).collect();
+    let groups = parallel_groups(&sizes, context.settings.parallel_rows);
+    if groups.len() < 2 {
+        return (0..all.len())
+            .map(|index| solve(orderings, index))
+            .collect();
+    }
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let workers = workers_for(&groups, &sizes, threads);
+    // One fork per group, all from the memory as it stood: the answers are those of any
+    // number of threads.
+    let solve_groups = |mine: &[usize]| -> Vec<(usize, Vec<BlockResult>, Orderings)> {
+        mine.iter()
+            .map(|&g| {
+                let mut fork = orderings.fork();
+                let results = groups[g].iter().map(|&b| solve(&mut fork, b)).collect();
+                (g, results, fork)
+            })
+            .collect()
+    };
+    let mut done: Vec<(usize, Vec<BlockResult>, Orderings)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = workers[1..]
+            .iter()
+            .map(|mine| scope.spawn(|| solve_groups(mine)))
+            .collect();
+        let mut done = solve_groups(&workers[0]);
+        for handle in handles {
+            match handle.join() {
+                Ok(theirs) => done.extend(theirs),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        done
+    });
+    done.sort_by_key(|(g, _, _)| *g);
+    let mut results: Vec<Option<BlockResult>> = (0..all.len()).map(|_| None).collect();
+    for (g, group_results, fork) in done {
+        orderings.join(fork);
+        for (&b, result) in groups[g].iter().zip(group_results) {
+            results[b] = Some(result);
+        }
+    }
+    results
+        .into_iter()
+        .map(|result| result.expect("every block is in exactly one group"))
+        .collect()
+}
+
+/// The blocks (by index, of `rows` rows each) grouped for threads: every block of at least
+/// `parallel_rows` rows on its own, in order, then the rest together. A single group when
+/// fewer than two blocks are that large (or `parallel_rows` is `0`): nothing to share out.
+fn parallel_groups(rows: &[usize], parallel_rows: usize) -> Vec<Vec<usize>> {
+    let large: Vec<usize> = (0..rows.len())
+        .filter(|&b| parallel_rows > 0 && rows[b] >= parallel_rows)
+        .collect();
+    if large.len() < 2 {
+        return vec![(0..rows.len()).collect()];
+    }
+    let rest: Vec<usize> = (0..rows.len())
+        .filter(|&b| rows[b] < parallel_rows)
+        .collect();
+    let mut groups: Vec<Vec<usize>> = large.into_iter().map(|b| vec![b]).collect();
+    if !rest.is_empty() {
+        groups.push(rest);
+    }
+    groups
+}
+
+/// The groups shared out among at most `threads` workers (at least one), largest first to
+/// the least loaded (by rows), each worker's groups in order.
+fn workers_for(groups: &[Vec<usize>], rows: &[usize], threads: usize) -> Vec<Vec<usize>> {
+    let load = |g: usize| groups[g].iter().map(|&b| rows[b]).sum::<usize>();
+    let mut by_load: Vec<usize> = (0..groups.len()).collect();
+    by_load.sort_by_key(|&g| std::cmp::Reverse(load(g)));
+    let count = threads.clamp(1, groups.len());
+    let mut workers: Vec<(usize, Vec<usize>)> = vec![(0, Vec::new()); count];
+    for g in by_load {
+        let lightest = (0..count)
+            .min_by_key(|&w| workers[w].0)
+            .expect("at least one worker");
+        workers[lightest].0 += load(g);
+        workers[lightest].1.push(g);
+    }
+    workers
+        .into_iter()
+        .map(|(_, mut mine)| {
+            mine.sort_unstable();
+            mine
+        })
+        .collect()
+}
+
 impl Projector for NativeProjector {
     fn name(&self) -> &str {
         NAME
@@ -641,16 +783,34 @@ impl Projector for NativeProjector {
         self.orderings.forget_older();
         let setup_seconds = setup_start.elapsed().as_secs_f64();
         let solve_start = Instant::now();
+        let streaks: Vec<u32> = blocks
+            .blocks()
+            .iter()
+            .map(|block| {
+                block.problem.row_keys().map_or(0, |keys| {
+                    keys.iter()
+                        .filter_map(|k| self.rescued.get(k))
+                        .fold(0, |acc, &s| acc.max(s))
+                })
+            })
+            .collect();
+        let context = BlockContext {
+            settings: &self.settings,
+            previous: &self.previous,
+            has_fallback: self.fallback.is_some(),
+            tol,
+        };
+        let results = solve_blocks(&context, &mut self.orderings, &blocks, &streaks);
         let mut answers = Vec::with_capacity(blocks.blocks().len());
         let mut rescued_blocks = Vec::with_capacity(blocks.blocks().len());
-        for (index, block) in blocks.blocks().iter().enumerate() {
-            let streak = block.problem.row_keys().map_or(0, |keys| {
-                keys.iter()
-                    .filter_map(|k| self.rescued.get(k))
-                    .fold(0, |acc, &s| acc.max(s))
-            });
-            let straight = goes_straight_to_rescue(streak);
-            let answer = match self.solve_block(&block.problem, &block.cols, tol, straight) {
+        for (index, ((block, result), streak)) in blocks
+            .blocks()
+            .iter()
+            .zip(results)
+            .zip(&streaks)
+            .enumerate()
+        {
+            let answer = match result {
                 Ok(answer) => answer,
                 Err((Failure::Infeasible { rows }, _)) => {
                     let global: Vec<usize> = rows.iter().map(|&t| block.rows[t]).collect();
@@ -745,6 +905,38 @@ mod tests {
     ) -> Result<active_set::Outcome, (Failure, u32)> {
         let memory = (&mut Orderings::default(), &names(p.dim())[..]);
         rescue_by_interior_point(p, r, cold, tol, memory)
+    }
+
+    #[test]
+    fn blocks_go_to_threads_only_when_two_or_more_are_large() {
+        // One large block: nothing to share out.
+        assert_eq!(parallel_groups(&[3, 500, 2], 400), vec![vec![0, 1, 2]]);
+        // Two large blocks, each on its own, the rest together, in order.
+        assert_eq!(
+            parallel_groups(&[3, 500, 2, 400, 399], 400),
+            vec![vec![1], vec![3], vec![0, 2, 4]]
+        );
+        // Only large blocks: no group of the rest.
+        assert_eq!(parallel_groups(&[400, 401], 400), vec![vec![0], vec![1]]);
+        // `0` never shares out.
+        assert_eq!(parallel_groups(&[500, 500], 0), vec![vec![0, 1]]);
+    }
+
+    #[test]
+    fn groups_go_largest_first_to_the_least_loaded_worker() {
+        let rows = [10, 900, 500, 450, 5];
+        let groups = vec![vec![1], vec![2], vec![3], vec![0, 4]];
+        // Two workers: 900 on one, 500 then 450 on the other (950), and the 15 of the rest
+        // back on the first.
+        assert_eq!(workers_for(&groups, &rows, 2), vec![vec![0, 3], vec![1, 2]]);
+        // As many workers as groups: one each; more threads than groups do not add workers.
+        assert_eq!(
+            workers_for(&groups, &rows, 8),
+            vec![vec![0], vec![1], vec![2], vec![3]]
+        );
+        // One thread (or none reported): every group on it, in order.
+        assert_eq!(workers_for(&groups, &rows, 1), vec![vec![0, 1, 2, 3]]);
+        assert_eq!(workers_for(&groups, &rows, 0), vec![vec![0, 1, 2, 3]]);
     }
 
     #[test]
