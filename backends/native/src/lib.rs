@@ -907,6 +907,45 @@ mod tests {
         rescue_by_interior_point(p, r, cold, tol, memory)
     }
 
+    /// A chain `x_{j+1} − x_j ≥ 1` of 41 unknowns at spacing 1 but for the first pair (0.5):
+    /// only the first row is violated at `y`, and each solve pushes the next one out of
+    /// place, so rows join one per iteration (41 iterations from a cold start).
+    fn cascade() -> ProjectionProblem {
+        let m = 40;
+        let rows: Vec<Vec<(usize, f64)>> = (0..m).map(|j| vec![(j, -1.0), (j + 1, 1.0)]).collect();
+        let y = (0..=m)
+            .map(|j| if j == 0 { 0.5 } else { j as f64 })
+            .collect();
+        ProjectionProblem::new(y, SparseRows::from_rows(m + 1, &rows), vec![1.0; m]).unwrap()
+    }
+
+    #[test]
+    fn alone_the_active_set_gets_forty_plus_half_the_rows_and_with_a_rescue_sixteen() {
+        let p = cascade();
+        // No rescue, no fallback: 40 + 40/2 iterations, enough for the cascade, which starts
+        // from the violated row alone (rows tight at `y` do not start in the support).
+        let alone = NativeProjector::new(NativeSettings {
+            interior_point: false,
+            ..NativeSettings::default()
+        })
+        .project(&p)
+        .unwrap();
+        assert!(
+            alone.stats.iterations > DEFAULT_ITERATIONS,
+            "{:?}",
+            alone.stats
+        );
+        assert_eq!(alone.stats.rescues, 0);
+        let mut ax = vec![0.0; p.n_rows()];
+        p.a().mul_vec(&alone.x, &mut ax);
+        assert!(ax.iter().all(|&gap| gap >= 1.0 - 1e-12), "{ax:?}");
+        // With the rescue: the active set stops at 16 iterations and the interior point
+        // takes the block.
+        let rescued = NativeProjector::default().project(&p).unwrap();
+        assert_eq!(rescued.stats.rescues, 1, "{:?}", rescued.stats);
+        assert!(sweeping_api::conformance::max_gap(&rescued.x, &alone.x) < 1e-9);
+    }
+
     #[test]
     fn blocks_go_to_threads_only_when_two_or_more_are_large() {
         // One large block: nothing to share out.
