@@ -1708,35 +1708,39 @@ mod tests {
         let u = |j: usize| Node::Unknown(j);
         let mut main = Orderings::default();
         main.record(&[u(0), u(1), u(2)], &[2, 0, 1], 2.0, false);
-        let (mut a, mut b) = (main.fork(), main.fork());
-        assert_eq!(a.stats(), (0, 0));
-        // Fork `a` orders two of the memory's nodes anew; fork `b` two new nodes.
+        main.record(&[u(0), u(1), u(2)], &[2, 0, 1], 2.1, true);
+        let (mut a, mut b, idle) = (main.fork(), main.fork(), main.fork());
+        // A fork orders from the memory as it stood, and counts only its own factorizations.
+        let known = [u(0), u(1), u(2)];
+        assert_eq!(a.ordering(&known), Some(vec![2, 0, 1]));
+        assert_eq!(a.ordering(&known), main.ordering(&known));
+        assert_eq!((a.stats(), main.stats()), ((0, 0), (1, 1)));
+        // Fork `a` orders two of the memory's nodes anew (AMD); fork `b` two new nodes from
+        // memory.
         a.record(&[u(0), u(1)], &[1, 0], 3.0, false);
-        b.record(&[u(5), u(6)], &[0, 1], 1.5, false);
+        b.record(&[u(5), u(6)], &[0, 1], 1.5, true);
         main.join(a);
+        // `a` ran AMD: the fill the next orderings are held to is its own.
+        assert_eq!(main.amd_fill, 3.0);
         main.join(b);
-        assert_eq!(main.stats(), (3, 0));
-        // u2 keeps its rank; u1 and u0 as fork `a` placed them, then fork `b`'s nodes.
+        assert_eq!(main.stats(), (2, 2));
+        // u2 keeps its rank; u1 and u0 as fork `a` placed them, then fork `b`'s nodes, each
+        // rank handed out once.
         assert_eq!(
             main.ordering(&[u(0), u(1), u(2), u(5)]),
             Some(vec![2, 1, 0, 3])
         );
         assert_eq!(main.ordering(&[u(6), u(5)]), Some(vec![1, 0]));
-        // Both forks ranked from the same point: their ranks do not collide after the join.
+        assert_eq!(main.next, 6 + 2 + 2);
         let mut ranks: Vec<u64> = main.ranks.values().copied().collect();
         ranks.sort_unstable();
-        ranks.dedup();
-        assert_eq!(ranks.len(), main.ranks.len());
-        assert!(ranks.iter().all(|&r| r < main.next));
-        // The last fork that factored sets the fill the next orderings are held to.
-        assert_eq!(main.amd_fill, 1.5);
-        // A fork that factored nothing changes nothing.
-        let (fill, stale) = (main.amd_fill, main.stale);
-        let idle = main.fork();
+        assert_eq!(ranks, vec![3, 6, 7, 8, 9]);
+        // The last fork that factored sets the fill and staleness the next orderings are held
+        // to (`b` reused an ordering: the AMD fill it was held to stays `main`'s 2.0).
+        assert_eq!((main.amd_fill, main.stale), (2.0, false));
+        // A fork that factored nothing changes nothing, though made before the others joined.
+        main.amd_fill = 3.5;
         main.join(idle);
-        assert_eq!(
-            (main.amd_fill, main.stale, main.stats()),
-            (fill, stale, (3, 0))
-        );
+        assert_eq!((main.amd_fill, main.stats(), main.next), (3.5, (2, 2), 10));
     }
 }
