@@ -136,9 +136,7 @@ impl NormalMatrix {
             }
             row_slots.push(slots.len());
         }
-        let diagonal = (0..n)
-            .map(|j| colptr[j] + rowval[colptr[j]..colptr[j + 1]].partition_point(|&r| r < j))
-            .collect();
+        let diagonal = (0..n).map(|j| position(j, j)).collect();
         let nnz = rowval.len();
         Self {
             csc: CscMatrix::new(n, n, colptr, rowval, vec![0.0; nnz]),
