@@ -77,6 +77,12 @@ pub struct Start {
     pub lambda: Vec<f64>,
     /// For every row, the positive multiplier it starts from if it joins the support later.
     pub join: Vec<f64>,
+    /// How many of the rows violated at an iteration join the support: all of them (`None`),
+    /// or at most this many, the most violated first. Rows joining together that are
+    /// linearly dependent on the support make its equations inconsistent, and the method then
+    /// leaves one row per iteration; on a jam whose support already holds more rows than
+    /// unknowns, joining the most violated row alone keeps that from happening again.
+    pub join_at_most: Option<usize>,
 }
 
 /// A converged answer.
@@ -341,7 +347,7 @@ const STALE_FILL: f64 = 1.25;
 ///     orderings.forget_older();
 ///     // Every row starts in the support: a sparse factorization (AMD the first time,
 ///     // the remembered ordering the second).
-///     let start = Start { support: (0..n - 1).collect(), lambda: vec![1.0; n - 1], join: vec![1.0; n - 1] };
+///     let start = Start { support: (0..n - 1).collect(), lambda: vec![1.0; n - 1], join: vec![1.0; n - 1], join_at_most: None };
 ///     let out = solve_remembering(&p, start, 50, &mut orderings, &names).unwrap();
 ///     assert!((out.x[n - 1] - out.x[0] - (n - 1) as f64).abs() < 1e-9);
 /// }
@@ -1042,6 +1048,7 @@ fn solve_with(
         mut support,
         mut lambda,
         join,
+        join_at_most,
     } = start;
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
     let tol = ACTIVE_TOL * scale;
@@ -1162,7 +1169,14 @@ fn solve_with(
         aggressive = false;
         let mut joined: Vec<(usize, f64)> = support.iter().copied().zip(lambda).collect();
         // Joining rows go last: the factored system then only has rows appended.
-        joined.extend(joining_rows(&violated, &r, &ad, &join, proper)?);
+        let violation = |i: usize| r[i] - ad[i];
+        joined.extend(joining_rows(
+            &violated,
+            violation,
+            &join,
+            proper,
+            join_at_most,
+        )?);
         (support, lambda) = joined.into_iter().unzip();
         debug_assert!(support.len() > k);
     }
@@ -1214,28 +1228,35 @@ fn drop_negative(
 }
 
 /// The violated rows that join the support, with their starting multipliers: all of them
-/// from their remembered multipliers, or (Lawson–Hanson `proper`) only the steepest descent
-/// direction of the dual, the largest `rᵢ − aᵢ·d`, from zero.
+/// (or the `at_most` most violated, in the order of `violated`) from their remembered
+/// multipliers, or (Lawson–Hanson `proper`) only the steepest descent direction of the dual,
+/// the largest `violation`, from zero.
 fn joining_rows(
     violated: &[usize],
-    r: &[f64],
-    ad: &[f64],
+    violation: impl Fn(usize) -> f64,
     join: &[f64],
     proper: bool,
+    at_most: Option<usize>,
 ) -> Result<Vec<(usize, f64)>, Failure> {
     if proper {
         let steepest = violated
             .iter()
             .copied()
-            .max_by(|&a, &b| (r[a] - ad[a]).total_cmp(&(r[b] - ad[b])))
+            .max_by(|&a, &b| violation(a).total_cmp(&violation(b)))
             .ok_or(Failure::Numerical("no steepest row"))?;
-        Ok(vec![(steepest, f64::MIN_POSITIVE)])
-    } else {
-        Ok(violated
-            .iter()
-            .map(|&i| (i, join[i].max(f64::MIN_POSITIVE)))
-            .collect())
+        return Ok(vec![(steepest, f64::MIN_POSITIVE)]);
     }
+    let mut joining = violated.to_vec();
+    if let Some(k) = at_most.filter(|&k| k < joining.len()) {
+        // The most violated first (ties by index), then back in the order of `violated`.
+        joining.sort_by(|&a, &b| violation(b).total_cmp(&violation(a)).then(a.cmp(&b)));
+        joining.truncate(k);
+        joining.sort_unstable();
+    }
+    Ok(joining
+        .into_iter()
+        .map(|i| (i, join[i].max(f64::MIN_POSITIVE)))
+        .collect())
 }
 
 /// The support without its entry `blocking` and without any entry that `lambda` leaves
@@ -1544,6 +1565,33 @@ mod tests {
     }
 
     #[test]
+    fn at_most_k_violated_rows_join_the_most_violated_first_in_index_order() {
+        let violated = [1, 3, 4, 7];
+        let violation = |i: usize| [0.0, 0.5, 0.0, 2.0, 0.5, 0.0, 0.0, 1.0][i];
+        let join: Vec<f64> = (0..8).map(|i| 0.1 * i as f64).collect();
+        let rows = |at_most| -> Vec<usize> {
+            joining_rows(&violated, violation, &join, false, at_most)
+                .unwrap()
+                .into_iter()
+                .map(|(i, _)| i)
+                .collect()
+        };
+        assert_eq!(rows(None), vec![1, 3, 4, 7]);
+        assert_eq!(rows(Some(1)), vec![3]);
+        assert_eq!(rows(Some(2)), vec![3, 7]);
+        // Rows 1 and 4 are as violated: the lower index goes first.
+        assert_eq!(rows(Some(3)), vec![1, 3, 7]);
+        assert_eq!(rows(Some(4)), vec![1, 3, 4, 7]);
+        assert_eq!(rows(Some(10)), vec![1, 3, 4, 7]);
+        // Each starts from its remembered multiplier.
+        let two = joining_rows(&violated, violation, &join, false, Some(2)).unwrap();
+        assert_eq!(two, vec![(3, join[3]), (7, join[7])]);
+        // Lawson–Hanson proper: the steepest alone, from zero, whatever the bound.
+        let proper = joining_rows(&violated, violation, &join, true, Some(3)).unwrap();
+        assert_eq!(proper, vec![(3, f64::MIN_POSITIVE)]);
+    }
+
+    #[test]
     fn shrink_drops_the_blocking_row_and_non_positive_ones() {
         let (support, lambda) = shrink(&[4, 7, 9, 12], &[0.5, 0.0, 2.0, -1e-300], 2);
         assert_eq!(support, vec![4]);
@@ -1641,6 +1689,7 @@ mod tests {
             support: (0..30).collect(),
             lambda: vec![1.0; 30],
             join: vec![1.0; 35],
+            join_at_most: None,
         };
         let mut orderings = Orderings::default();
         let names: Vec<usize> = (0..39).collect();

@@ -55,6 +55,7 @@ pub(crate) fn polish(
             support,
             lambda,
             join,
+            join_at_most: None,
         };
         let cap = ITERATIONS.saturating_add(u32::try_from(rows.len() / 2).unwrap_or(u32::MAX));
         match active_set::solve(&block.problem, start, cap) {
@@ -124,6 +125,7 @@ mod tests {
             lambda: support.iter().map(|&i| z[i]).collect(),
             support,
             join: z.iter().map(|v| v.max(f64::MIN_POSITIVE)).collect(),
+            join_at_most: None,
         };
         assert!(matches!(
             active_set::solve(&problem, start, ITERATIONS),
