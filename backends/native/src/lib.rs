@@ -32,8 +32,10 @@
 //!    iterate is the answer if it passes the KKT check, with a hundredth of the tolerance and
 //!    against every row of the block, and every row keeping a multiplier is tight to that;
 //!    otherwise the active-set method finishes exactly from
-//!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished), and
-//!    if that runs out too (or the first interior point stalls short of a guess), the interior
+//!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished),
+//!    the most violated row joining alone (on a jam that guess already holds more rows than
+//!    unknowns, and rows joining together add dependent ones, which then leave one per
+//!    iteration), and if that runs out too (or the first interior point stalls short of a guess), the interior
 //!    point runs again on every row. A block rescued three
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
 //!    except at powers of two, which find out when the jam is over. Counted in
