@@ -563,8 +563,8 @@ pub(crate) mod tests {
         );
         let r = [1.0, 0.0, 0.0];
         if let Some(it) = solve(&a, &r, 1e-10, 30) {
-            // It diverges: to the cap, or to a breakdown just before it (the refined
-            // solves of its last iterations overflow at 1e196).
+            // It diverges (its residuals pass 1e196, so its solves are refined from some
+            // iteration on): to the cap, or to a breakdown one iteration before it.
             assert!(!it.converged);
             assert!((29..=30).contains(&it.iterations), "{}", it.iterations);
         }
