@@ -32,7 +32,7 @@ use sweeping_api::SparseRows;
 /// Fraction of the step to the boundary that an iteration takes.
 const TO_BOUNDARY: f64 = 0.99;
 
-/// Where the method stopped.
+/// Where the method stopped: the converged iterate, or the most accurate one measured.
 #[derive(Debug, Clone)]
 pub(crate) struct Iterate {
     /// The multipliers `λ > 0`.
@@ -43,8 +43,8 @@ pub(crate) struct Iterate {
     pub iterations: u32,
     /// Whether the duality measure and both residuals reached the tolerance.
     pub converged: bool,
-    /// The largest of the duality measure and both residuals at the last iterate measured
-    /// (the tolerance's scale): how far a stalled run got.
+    /// The largest of the duality measure and both residuals at this iterate (the
+    /// tolerance's scale): how far a stalled run got.
     pub accuracy: f64,
 }
 
@@ -308,9 +308,10 @@ fn starting_point(
 
 /// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` until the duality measure `μ` and both
 /// residuals are at most `tolerance` (absolute), or `max_iterations`, or until the normal
-/// matrix can no longer be factored or its directions are no longer finite (the iterate
-/// reached then, not converged). `None` without rows, when the first factorization fails, or
-/// when a step overflows.
+/// matrix can no longer be factored or its directions are no longer finite (then, not
+/// converged, the most accurate iterate measured, or the one a step after it when that was
+/// the last measured). `None` without rows, when the first factorization fails, or when a step
+/// overflows.
 pub(crate) fn solve(
     a: &SparseRows,
     r: &[f64],
@@ -343,6 +344,12 @@ pub(crate) fn solve(
     // without it.
     let mut refine = false;
     let mut last_residual = f64::INFINITY;
+    // The multipliers and slacks of the best accuracy measured, returned when the method
+    // does not converge: after a breakdown the last iterate can be far worse than an earlier
+    // one. On the 2000-person evacuation's door queues the dual residual stalled near 1e-11
+    // (refined or not) until a step of 1e-30 left it at 3e-3; the iterate before, at 4e-12,
+    // is a guess the active set finishes from.
+    let mut best: Option<(f64, Vec<f64>, Vec<f64>)> = None;
     // Where the method stopped without converging: the cap, or a breakdown (below).
     let mut stopped = max_iterations;
     for iterations in 1..=max_iterations {
@@ -371,6 +378,9 @@ pub(crate) fn solve(
         }
         refine |= residual > last_residual && residual > tolerance;
         last_residual = residual;
+        if best.as_ref().is_none_or(|b| accuracy < b.0) {
+            best = Some((accuracy, lambda.clone(), slack.clone()));
+        }
         for i in 0..m {
             w[i] = lambda[i] / slack[i];
         }
@@ -429,6 +439,10 @@ pub(crate) fn solve(
             return None;
         }
     }
+    let (accuracy, lambda, slack) = match best {
+        Some(best) if best.0 < accuracy => best,
+        _ => (accuracy, lambda, slack),
+    };
     Some(Iterate {
         lambda,
         slack,

@@ -17,7 +17,12 @@
 //! went back to that twice more and ran out of iterations. Joining the most violated row
 //! alone, it finishes in under 400.
 //!
-//! The native method must solve both blocks on its own and agree with Clarabel, an
+//! `data/door_queue_breakdown_qp.json`, from the same scene's first 30 s (1804 rows on 1474
+//! coordinates): its interior point's dual residual stalls near 1e-11, refined or not, until
+//! a step of 1e-30 leaves it at 3e-3. The iterate it returned, the last, was no guess; the one
+//! before the breakdown, at 4e-12, is, and the finish takes 51 iterations from it.
+//!
+//! The native method must solve these blocks on its own and agree with Clarabel, an
 //! independent interior-point solver.
 
 use sweeping_api::conformance::max_gap;
@@ -42,6 +47,13 @@ fn a_door_queue_is_rescued_without_fallback_and_agrees_with_clarabel() {
 fn a_door_queue_with_more_tight_rows_than_unknowns_is_finished_without_fallback() {
     let problem = load("door_queue_loops_qp.json");
     assert_eq!((problem.n_rows(), problem.dim()), (2073, 1572));
+    solved_natively_as_clarabel_solves_it(&problem);
+}
+
+#[test]
+fn a_door_queue_whose_interior_point_breaks_down_is_finished_from_its_best_iterate() {
+    let problem = load("door_queue_breakdown_qp.json");
+    assert_eq!((problem.n_rows(), problem.dim()), (1804, 1474));
     solved_natively_as_clarabel_solves_it(&problem);
 }
 
