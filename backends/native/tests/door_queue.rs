@@ -23,6 +23,11 @@
 //! a step of 1e-30 leaves it at 3e-3. The iterate it returned, the last, was no guess; the one
 //! before the breakdown, at 4e-12, is, and the finish takes 51 iterations from it.
 //!
+//! `data/door_queue_drop_qp.json` (1756 rows on 1258 coordinates): from its interior point's
+//! guess of 1590 rows the finish's first pass dropped every row with a negative multiplier
+//! at once, 480 of them after some ray steps, and ran out of iterations taking them back one
+//! by one. Leaving one at a time too, it finishes in 44 iterations.
+//!
 //! The native method must solve these blocks on its own and agree with Clarabel, an
 //! independent interior-point solver.
 
@@ -59,6 +64,13 @@ fn a_door_queue_with_more_tight_rows_than_unknowns_is_finished_without_fallback(
 fn a_door_queue_whose_interior_point_breaks_down_is_finished_from_its_best_iterate() {
     let problem = load("door_queue_breakdown_qp.json");
     assert_eq!((problem.n_rows(), problem.dim()), (1804, 1474));
+    solved_natively_as_clarabel_solves_it(&problem);
+}
+
+#[test]
+fn a_door_queue_whose_guess_holds_many_loose_rows_is_finished_one_row_at_a_time() {
+    let problem = load("door_queue_drop_qp.json");
+    assert_eq!((problem.n_rows(), problem.dim()), (1756, 1258));
     solved_natively_as_clarabel_solves_it(&problem);
 }
 
