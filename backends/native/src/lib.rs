@@ -33,9 +33,9 @@
 //!    against every row of the block, and every row keeping a multiplier is tight to that;
 //!    otherwise the active-set method finishes exactly from
 //!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished),
-//!    the most violated row joining alone (on a jam that guess already holds more rows than
-//!    unknowns, and rows joining together add dependent ones, which then leave one per
-//!    iteration), and if that runs out too (or the first interior point stalls short of a guess), the interior
+//!    the most violated row joining alone and rows leaving one at a time (on a jam that
+//!    guess already holds more rows than unknowns, and rows joining together add dependent
+//!    ones, which then leave one per iteration), and if that runs out too (or the first interior point stalls short of a guess), the interior
 //!    point runs again on every row. A block rescued three
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
 //!    except at powers of two, which find out when the jam is over. Counted in
@@ -480,7 +480,8 @@ fn cap_on_its_own(m: usize) -> u32 {
 /// The active-set method's start from an interior point's iterate `it` (as Clarabel's answers
 /// are polished): the rows whose multiplier exceeds their slack, with those multipliers; a row
 /// that joins later starts from its iterate's multiplier when positive, from `cold` otherwise,
-/// and only the most violated row joins at an iteration.
+/// and only the most violated row joins at an iteration (rows then also leave one at a time:
+/// see [`Start::join_at_most`]).
 ///
 /// On a jam the guess already holds more rows than unknowns. When every violated row joined
 /// at once, the door queues of the 2000-person evacuation took in 100–200 rows at a time,
