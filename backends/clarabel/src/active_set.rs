@@ -1252,16 +1252,22 @@ fn joining_rows(
             .ok_or(Failure::Numerical("no steepest row"))?;
         return Ok(vec![(steepest, f64::MIN_POSITIVE)]);
     }
-    let mut joining = violated.to_vec();
-    if let Some(k) = at_most.filter(|&k| k < joining.len()) {
-        // The most violated first (ties by index), then back in the order of `violated`.
-        joining.sort_by(|&a, &b| violation(b).total_cmp(&violation(a)).then(a.cmp(&b)));
-        joining.truncate(k);
-        joining.sort_unstable();
-    }
+    let most_violated: Vec<usize>;
+    let joining = match at_most.filter(|&k| k < violated.len()) {
+        Some(k) => {
+            // The most violated first (ties by index), then back in the order of `violated`.
+            let mut chosen = violated.to_vec();
+            chosen.sort_by(|&a, &b| violation(b).total_cmp(&violation(a)).then(a.cmp(&b)));
+            chosen.truncate(k);
+            chosen.sort_unstable();
+            most_violated = chosen;
+            &most_violated[..]
+        }
+        None => violated,
+    };
     Ok(joining
-        .into_iter()
-        .map(|i| (i, join[i].max(f64::MIN_POSITIVE)))
+        .iter()
+        .map(|&i| (i, join[i].max(f64::MIN_POSITIVE)))
         .collect())
 }
 

@@ -424,7 +424,7 @@ fn rescue_by_interior_point(
         match finish(
             block,
             start,
-            POLISH_ITERATIONS.max(cap_on_its_own(m)),
+            finish_cap(m),
             spent,
             (&mut *orderings, unknowns),
         ) {
@@ -468,7 +468,13 @@ fn cold_start(r: &[f64], cold: Vec<f64>) -> (Start, u32) {
         join: cold,
         join_at_most: None,
     };
-    (start, POLISH_ITERATIONS.max(cap_on_its_own(r.len())))
+    (start, finish_cap(r.len()))
+}
+
+/// Iterations the active-set method gets when it finishes a rescue of a block of `m` rows:
+/// [`POLISH_ITERATIONS`], or [`cap_on_its_own`] when that is more.
+fn finish_cap(m: usize) -> u32 {
+    POLISH_ITERATIONS.max(cap_on_its_own(m))
 }
 
 /// Iterations the active-set method gets on a block of `m` rows when nothing takes over after
