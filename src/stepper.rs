@@ -13,8 +13,11 @@
 //! 2. **broad phase** — each family proposes the members that may matter (all of them, unless
 //!    the family culls far-apart pairs);
 //! 3. **assembly** — each candidate is linearized at `(t_{k+1}, q_k)` by autodiff into the row
-//!    `∇gᵢ · x ≥ ⟨∇gᵢ, q_k⟩ − gᵢ`;
-//! 4. **projection** — one QP, solved by any [`Projector`];
+//!    `∇gᵢ · x ≥ ⟨∇gᵢ, q_k⟩ − gᵢ`, written in the displacement `u = x − q_k` as
+//!    `∇gᵢ · u ≥ −gᵢ`;
+//! 4. **projection** — one QP, solved by any [`Projector`]: `u` is the projection of
+//!    `y − q_k` (`h f`, computed as such), so the backend sees the step's own numbers wherever
+//!    the scene lies, and `q_{k+1} = q_k + u`;
 //! 5. **check** — the proof that culling lost nothing (below), then the largest violation of
 //!    the *true* constraints `gᵢ(t_{k+1}, q_{k+1}) ≥ 0`.
 //!
@@ -399,7 +402,10 @@ pub struct Stepper<'p> {
     n_steps: usize,
     t: f64,
     q: Vec<f64>,
+    /// The prediction `y`.
     y: Vec<f64>,
+    /// Its displacement `y − q_k`, computed as such (`h f`), not as a difference.
+    dy: Vec<f64>,
     f: Vec<f64>,
     rows: SparseRows,
     b: Vec<f64>,
@@ -471,6 +477,7 @@ impl<'p> Stepper<'p> {
             t: problem.t0(),
             q: problem.q0().to_vec(),
             y: vec![0.0; dim],
+            dy: vec![0.0; dim],
             f: vec![0.0; dim],
             rows: SparseRows::new(dim),
             b: Vec::new(),
@@ -523,27 +530,31 @@ impl<'p> Stepper<'p> {
         }
     }
 
-    /// The prediction `y = q_k + h f(t_k, q_k)` (or its averaged form) into `self.y`.
+    /// The prediction `y = q_k + h f(t_k, q_k)` (or its averaged form) into `self.y`, its
+    /// displacement `y − q_k` into `self.dy`.
     fn predict(&mut self, t_k: f64, h: f64) -> Result<(), SweepError> {
         let pert = self.problem.perturbation();
         match self.settings.prediction {
             Prediction::Averaged { points } if pert.is_time_dependent() => {
                 let (nodes, weights) = gauss_legendre(points);
-                self.y.copy_from_slice(&self.q);
+                self.dy.iter_mut().for_each(|d| *d = 0.0);
                 for (s, w) in nodes.iter().zip(weights) {
                     let ts = t_k + 0.5 * h * (1.0 + s);
                     pert.eval(ts, &self.q, &mut self.f);
-                    for (yi, fi) in self.y.iter_mut().zip(&self.f) {
-                        *yi += 0.5 * h * w * fi;
+                    for (di, fi) in self.dy.iter_mut().zip(&self.f) {
+                        *di += 0.5 * h * w * fi;
                     }
                 }
             }
             _ => {
                 pert.eval(t_k, &self.q, &mut self.f);
-                for ((yi, qi), fi) in self.y.iter_mut().zip(&self.q).zip(&self.f) {
-                    *yi = qi + h * fi;
+                for (di, fi) in self.dy.iter_mut().zip(&self.f) {
+                    *di = h * fi;
                 }
             }
+        }
+        for ((yi, qi), di) in self.y.iter_mut().zip(&self.q).zip(&self.dy) {
+            *yi = qi + di;
         }
         if let Some(i) = self.y.iter().position(|v| !v.is_finite()) {
             return Err(SweepError::NonFinite {
@@ -558,7 +569,8 @@ impl<'p> Stepper<'p> {
         Ok(())
     }
 
-    /// Assembles the rows of `Q̃(t_next, q_k)` for the candidates within each family's cutoff.
+    /// Assembles the rows of `Q̃(t_next, q_k)` for the candidates within each family's cutoff,
+    /// in the displacement `u = x − q_k`: `∇gᵢ · u ≥ −gᵢ`.
     fn assemble(&mut self, t_next: f64, times: &mut StageTimes) -> Result<(), SweepError> {
         self.rows.clear();
         self.b.clear();
@@ -594,21 +606,14 @@ impl<'p> Stepper<'p> {
                         norm,
                     });
                 }
-                // Row of Q̃: ∇g · x ≥ ∇g · q − g.
-                let rhs: f64 = lin
-                    .columns
-                    .iter()
-                    .zip(&lin.gradient)
-                    .map(|(&c, gv)| gv * self.q[c])
-                    .sum::<f64>()
-                    - lin.value;
+                // Row of Q̃ in the displacement u = x − q_k: ∇g · u ≥ −g (see `step`).
                 self.rows.push_row(
                     lin.columns
                         .iter()
                         .copied()
                         .zip(lin.gradient.iter().copied()),
                 );
-                self.b.push(rhs);
+                self.b.push(-lin.value);
                 self.row_origin.push((fi, idx));
             }
             times.assembly += t1.elapsed().as_secs_f64();
@@ -616,13 +621,13 @@ impl<'p> Stepper<'p> {
         Ok(())
     }
 
-    /// A failed solve of a far prediction, retried once on the same QP written relative to
-    /// `q_k` and scaled by `s = ‖y − q_k‖∞`: `min ½‖u − (y − q_k)/s‖²` s.t.
-    /// `A u ≥ (b − A q_k)/s`, then `x = q_k + s u`, `λ = s μ`. Done only when `q_k` satisfies
-    /// every row (the row at `x = q_k` reads `gᵢ(t_{k+1}, q_k) ≥ 0`, true for constraints that
-    /// do not move): the set is then not empty, so an "infeasible" answer at speed 1e8 is the
-    /// solver's scaling, not the problem's. The answer is then KKT-checked on the original QP like any other; when
-    /// the retry fails too, the error says that the prediction is too far to be resolved.
+    /// A failed solve of a far prediction, retried once on the same QP (already written in
+    /// the displacement `u = x − q_k`) scaled by `s = ‖h f‖∞`: `min ½‖v − h f/s‖²` s.t.
+    /// `A v ≥ b/s`, then `u = s v`, `λ = s μ`. Done only when `u = 0` satisfies every row
+    /// (`gᵢ(t_{k+1}, q_k) ≥ 0`, true for constraints that do not move): the set is then not
+    /// empty, so an "infeasible" answer at speed 1e8 is the solver's scaling, not the
+    /// problem's. The answer is then KKT-checked on the original QP like any other; when the
+    /// retry fails too, the error says that the prediction is too far to be resolved.
     fn rescaled_projection(
         &self,
         projector: &mut dyn Projector,
@@ -636,30 +641,18 @@ impl<'p> Stepper<'p> {
             rows: qp.n_rows(),
             source,
         };
-        let far = qp
-            .y()
-            .iter()
-            .zip(&self.q)
-            .map(|(y, q)| (y - q).abs())
-            .fold(0.0, f64::max);
+        let far = qp.y().iter().fold(0.0, |m: f64, d| m.max(d.abs()));
         // Only when q_k satisfies every row is the set known to be non-empty (with a moving
         // constraint g(t_{k+1}, q_k) may be negative, and a squeezed person makes it empty).
         let b_scale = qp.b().iter().fold(1f64, |m, b| m.max(b.abs()));
-        let q_in_set = qp.max_violation(&self.q) <= 1e-9 * b_scale;
+        let q_in_set = qp.max_violation(&vec![0.0; qp.dim()]) <= 1e-9 * b_scale;
         if !(far > 1.0 && far.is_finite() && q_in_set)
             || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
         {
             return Err(fail(first));
         }
-        let mut aq = vec![0.0; qp.n_rows()];
-        qp.a().mul_vec(&self.q, &mut aq);
-        let b: Vec<f64> = qp.b().iter().zip(&aq).map(|(b, a)| (b - a) / far).collect();
-        let y: Vec<f64> = qp
-            .y()
-            .iter()
-            .zip(&self.q)
-            .map(|(y, q)| (y - q) / far)
-            .collect();
+        let b: Vec<f64> = qp.b().iter().map(|b| b / far).collect();
+        let y: Vec<f64> = qp.y().iter().map(|d| d / far).collect();
         // The same rows, so the same keys: a warm-starting backend keeps its memory.
         let scaled = ProjectionProblem::new(y, qp.a().clone(), b)
             .and_then(|p| match qp.row_keys() {
@@ -669,9 +662,7 @@ impl<'p> Stepper<'p> {
             .map_err(fail)?;
         match projector.project(&scaled) {
             Ok(mut sol) => {
-                for (x, q) in sol.x.iter_mut().zip(&self.q) {
-                    *x = q + far * *x;
-                }
+                sol.x.iter_mut().for_each(|x| *x *= far);
                 sol.multipliers.iter_mut().for_each(|l| *l *= far);
                 Ok(sol)
             }
@@ -932,7 +923,12 @@ impl<'p> Stepper<'p> {
                     member: idx as u64,
                 })
                 .collect();
-            let qp = ProjectionProblem::new(self.y.clone(), self.rows.clone(), self.b.clone())
+            // The projection of the displacement: `u = x − q_k` is the projection of `h f`
+            // onto `∇gᵢ · u ≥ −gᵢ`, the scheme's step written relative to `q_k`. Its numbers
+            // are those of the step, wherever the scene lies: written in `x`, a room at 10⁶
+            // put six digits before the ones that matter in `y` and `b`, and tolerances
+            // relative to the data's size let overlaps of 7e-7 through.
+            let qp = ProjectionProblem::new(self.dy.clone(), self.rows.clone(), self.b.clone())
                 .and_then(|p| p.with_row_keys(keys))
                 .map_err(|e| SweepError::Projection {
                     step: self.k,
@@ -940,7 +936,7 @@ impl<'p> Stepper<'p> {
                     rows: self.b.len(),
                     source: e,
                 })?;
-            let sol = match projector.project(&qp) {
+            let mut sol = match projector.project(&qp) {
                 Ok(sol) => sol,
                 Err(e) => self.rescaled_projection(projector, &qp, e, t_next)?,
             };
@@ -962,6 +958,8 @@ impl<'p> Stepper<'p> {
             let tc = Instant::now();
             self.check_kkt(&qp, &sol, t_next)?;
             times.check += tc.elapsed().as_secs_f64();
+            // From the displacement to the point.
+            sol.x.iter_mut().zip(&self.q).for_each(|(x, q)| *x += q);
 
             // The culling proof (module docs): every omitted row holds at x when δ ≤ cutoff.
             let tc = Instant::now();
