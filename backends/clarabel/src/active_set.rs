@@ -471,6 +471,64 @@ impl Orderings {
     }
 }
 
+/// Whether the `LDLᵀ` factor of the symmetric matrix whose upper triangle is `upper`, ordered
+/// by `perm` (position → node, as QDLDL takes it), has at most `budget` entries below its
+/// diagonal. Counted as QDLDL's symbolic analysis counts them (the elimination tree, each
+/// row's entries found by walking up it from the entries of the matrix), but stopping as soon
+/// as the count passes the budget: the cost is at most the budget, not the fill.
+fn factor_entries_within(upper: &CscMatrix<f64>, perm: &[usize], budget: f64) -> bool {
+    const NONE: usize = usize::MAX;
+    let size = perm.len();
+    let mut position = vec![0usize; size];
+    for (p, &node) in perm.iter().enumerate() {
+        position[node] = p;
+    }
+    // The permuted upper triangle by columns: entry (i, j) of `upper` lands in column
+    // max(pᵢ, pⱼ) at row min(pᵢ, pⱼ).
+    let mut start = vec![0usize; size + 1];
+    let mut entries = Vec::with_capacity(upper.nnz());
+    for j in 0..size {
+        for &i in &upper.rowval[upper.colptr[j]..upper.colptr[j + 1]] {
+            let (a, b) = (position[i], position[j]);
+            if a != b {
+                entries.push((a.max(b), a.min(b)));
+                start[a.max(b) + 1] += 1;
+            }
+        }
+    }
+    for k in 0..size {
+        start[k + 1] += start[k];
+    }
+    let mut rows = vec![0usize; entries.len()];
+    let mut fill = start.clone();
+    for (column, row) in entries {
+        rows[fill[column]] = row;
+        fill[column] += 1;
+    }
+    let mut parent = vec![NONE; size];
+    let mut flag = vec![NONE; size];
+    let mut count = 0.0;
+    for k in 0..size {
+        flag[k] = k;
+        for &first in &rows[start[k]..start[k + 1]] {
+            // Row k of L has an entry in each column on the path from `first` up the tree.
+            let mut i = first;
+            while flag[i] != k {
+                if parent[i] == NONE {
+                    parent[i] = k;
+                }
+                count += 1.0;
+                if count > budget {
+                    return false;
+                }
+                flag[i] = k;
+                i = parent[i];
+            }
+        }
+    }
+    true
+}
+
 /// Where iterative refinement stopped.
 struct Refined {
     /// `‖residual‖∞` of the second block.
@@ -543,8 +601,15 @@ impl ActiveSystem {
             let row_ids = active.iter().map(|&i| Node::Row(keys[i]));
             Some(unknown_ids.chain(row_ids).collect::<Vec<Node>>())
         });
+        // A remembered ordering is used only when its factor is predicted to fill no more
+        // than `STALE_FILL` times the last AMD ordering: thousands of rows new to the memory
+        // go last, and eliminating the unknowns before them made a crowd at 1000 m/s fill
+        // 130 times more than AMD (6.8 million entries, 15 s for one factorization).
         let reused = match (&memory, &nodes) {
-            (Some(m), Some(nodes)) => m.orderings.ordering(nodes),
+            (Some(m), Some(nodes)) => m.orderings.ordering(nodes).filter(|perm| {
+                let budget = STALE_FILL * m.orderings.amd_fill * kkt.nnz() as f64;
+                factor_entries_within(&kkt, perm, budget)
+            }),
             _ => None,
         };
         let reordered = reused.is_some();
@@ -645,6 +710,18 @@ impl ActiveSystem {
         if next.len() < kept.len() || next[..kept.len()] != kept[..] {
             return None;
         }
+        // Counted before any is made: each change costs a solve with the old factor and a
+        // copy of `S`, and a jam can take in thousands of rows at once (a crowd at 1000 m/s
+        // pushed 5000 into one support, each of its iterations then took minutes).
+        let leaving: Vec<usize> = self
+            .support
+            .iter()
+            .copied()
+            .filter(|&i| !in_next[i])
+            .collect();
+        if changes_after(&bordered.changes, &leaving, next.len() - kept.len()) > BORDER_MAX {
+            return None;
+        }
         // Rows leaving: a joined row's change is undone, a row of P₀ gets a `Left` change.
         let mut position = vec![usize::MAX; problem.n_rows()];
         bordered
@@ -652,7 +729,7 @@ impl ActiveSystem {
             .iter()
             .enumerate()
             .for_each(|(p, &i)| position[i] = p);
-        for &i in self.support.iter().filter(|&&i| !in_next[i]) {
+        for &i in &leaving {
             match bordered
                 .changes
                 .iter()
@@ -699,6 +776,22 @@ impl ActiveSystem {
         self.support = next.to_vec();
         Some(self)
     }
+}
+
+/// How many changes separate the support from the factored one after `leaving` rows leave
+/// and `joining` rows join, `changes` separating them now: a leaving row that had joined
+/// since the factorization undoes its change, any other adds one, and so does each joining
+/// row.
+fn changes_after(changes: &[Change], leaving: &[usize], joining: usize) -> usize {
+    let undone = leaving
+        .iter()
+        .filter(|&&i| {
+            changes
+                .iter()
+                .any(|c| matches!(c, Change::Joined { row, .. } if *row == i))
+        })
+        .count();
+    changes.len() - undone + (leaving.len() - undone) + joining
 }
 
 impl Bordered {
@@ -1574,6 +1667,86 @@ mod tests {
         let system = ActiveSystem::new(&p, &small, None).unwrap();
         assert!(matches!(system.factor, Factor::Dense(_)));
         assert!(system.bordered_to(&p, &small[..3]).is_none());
+    }
+
+    #[test]
+    fn changes_are_counted_before_any_is_made() {
+        // Two changes so far: row 7 joined, position 2 of the base left.
+        let changes = vec![
+            Change::Joined {
+                row: 7,
+                entries: vec![(0, 1.0)],
+            },
+            Change::Left { position: 2 },
+        ];
+        // Nothing moves: still two.
+        assert_eq!(changes_after(&changes, &[], 0), 2);
+        // Row 7 leaves again (its change undone), row 4 of the base leaves, 3 rows join.
+        assert_eq!(changes_after(&changes, &[7, 4], 3), 2 - 1 + 1 + 3);
+        // From a fresh factor: every leaving and joining row is a change.
+        assert_eq!(changes_after(&[], &[1, 2, 3], 40), 43);
+    }
+
+    #[test]
+    fn a_support_that_takes_in_many_rows_at_once_is_factored_afresh() {
+        let p = random_problem();
+        let base: Vec<usize> = (0..4).chain(26..30).collect();
+        let system = ActiveSystem::sparse(&p, &base).unwrap();
+        // BORDER_MAX + 1 rows join.
+        let mut next = base.clone();
+        next.extend((4..26).chain(30..33));
+        assert!(next.len() - base.len() > BORDER_MAX);
+        assert!(system.bordered_to(&p, &next).is_none());
+    }
+
+    /// QDLDL's count of the entries below the diagonal of the factor of `K_δ` for `support`
+    /// ordered by `perm`, and the matrix.
+    fn qdldl_fill(
+        p: &ProjectionProblem,
+        support: &[usize],
+        perm: &[usize],
+    ) -> (usize, CscMatrix<f64>) {
+        let rows = active_rows(p, support);
+        let unknowns = Unknowns::touched_by(p.dim(), &rows);
+        let kkt = kkt_matrix(&rows, &unknowns);
+        let size = unknowns.base + rows.len();
+        let signs = (0..size)
+            .map(|i| if i < unknowns.base { 1 } else { -1 })
+            .collect();
+        let mut builder = QDLDLSettingsBuilder::default();
+        builder.Dsigns(signs);
+        builder.perm(perm.to_vec());
+        let ldl = QDLDLFactorisation::new(&kkt, Some(builder.build().unwrap())).unwrap();
+        (ldl.nnzL(), kkt)
+    }
+
+    #[test]
+    fn the_fill_of_an_ordering_is_predicted_as_qdldl_counts_it() {
+        use rand::seq::SliceRandom;
+        use rand::SeedableRng;
+        let p = random_problem();
+        let support: Vec<usize> = (0..30).collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let size = ActiveSystem::sparse(&p, &support).unwrap().unknowns.base + support.len();
+        // The natural order (unknowns first: much fill), its reverse (rows first) and
+        // random ones.
+        let mut orders: Vec<Vec<usize>> = vec![(0..size).collect(), (0..size).rev().collect()];
+        for _ in 0..5 {
+            let mut perm: Vec<usize> = (0..size).collect();
+            perm.shuffle(&mut rng);
+            orders.push(perm);
+        }
+        let mut fills = Vec::new();
+        for perm in &orders {
+            let (fill, kkt) = qdldl_fill(&p, &support, perm);
+            assert!(factor_entries_within(&kkt, perm, fill as f64), "{fill}");
+            assert!(
+                !factor_entries_within(&kkt, perm, fill as f64 - 1.0),
+                "{fill}"
+            );
+            fills.push(fill);
+        }
+        assert!(fills[0] > fills[1], "{fills:?}");
     }
 
     #[test]
