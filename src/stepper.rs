@@ -461,10 +461,18 @@ impl<'p> Stepper<'p> {
         // The step count is a usize: a horizon of 1e300 steps would overflow it (and never end).
         let steps = ((settings.t_end - problem.t0()) / settings.h).ceil();
         if steps.is_nan() || steps > 1e12 {
+            // In scientific notation when tiny or huge: h = 1e-300 printed 300 zeros.
+            let readable = |v: f64| {
+                if v == 0.0 || (1e-4..1e7).contains(&v.abs()) {
+                    format!("{v}")
+                } else {
+                    format!("{v:e}")
+                }
+            };
             return Err(SweepError::InvalidInput(format!(
                 "T − t₀ = {} with h = {} would take {steps:.3e} steps (at most 1e12)",
-                settings.t_end - problem.t0(),
-                settings.h
+                readable(settings.t_end - problem.t0()),
+                readable(settings.h)
             )));
         }
         problem.validate(settings.feasibility_tolerance)?;

@@ -349,6 +349,11 @@ fn bad_input_is_a_typed_error() {
         expect_invalid(Stepper::new(&p, settings(h, 1.0)), "time step");
     }
     expect_invalid(Stepper::new(&p, settings(0.1, -1.0)), "final time");
+    // Too many steps, h in scientific notation (it printed three hundred zeros).
+    expect_invalid(
+        Stepper::new(&p, settings(1e-300, 1.0)),
+        "T − t₀ = 1 with h = 1e-300 would take",
+    );
     expect_invalid(Stepper::new(&p, settings(0.1, f64::NAN)), "final time");
     for points in [0, 6] {
         let s = StepperSettings {
