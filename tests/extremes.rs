@@ -142,3 +142,54 @@ fn a_crowd_at_a_thousand_metres_a_second_evacuates_cleanly() {
     // In 0.3 s at 1000 m/s the door has let people out.
     assert!(findings.present_at_end < 150, "{}", findings.present_at_end);
 }
+
+#[test]
+fn people_written_as_touching_walls_obstacles_and_each_other_are_placed() {
+    // Each pair of numbers below is touching on paper and crosses by a few 1e-16 in floating
+    // point (10 − 9.8 = 0.1999999999999993): the scene refused them as crossing the wall and
+    // the obstacle (the pair had a margin already).
+    let text = r#"
+[room]
+rectangle = [0.0, 0.0, 10.0, 10.0]
+[[exits]]
+from = [10.0, 4.4]
+to = [10.0, 5.6]
+[[obstacles]]
+disk = { center = [3.3, 5.0], radius = 0.5 }
+[[people]]
+position = [9.8, 9.8]
+radius = 0.2
+[[people]]
+position = [2.6, 5.0]
+radius = 0.2
+[[people]]
+position = [6.9, 2.0]
+radius = 0.2
+[[people]]
+position = [7.3, 2.0]
+radius = 0.2
+[desired]
+kind = "exit"
+[run]
+t_end = 0.5
+"#;
+    let built = Scene::from_toml_str(text, "touching.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut projector = make_projector(BackendChoice::Native).unwrap();
+    built
+        .run(projector.as_mut(), &mut [])
+        .unwrap_or_else(|failure| panic!("{failure}"));
+    // Beyond rounding, a crossing is still refused.
+    let crossing = text.replace("[9.8, 9.8]", "[9.81, 9.8]");
+    let error = Scene::from_toml_str(&crossing, "touching.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .err()
+        .expect("crossing the wall by 0.01");
+    assert!(
+        error
+            .to_string()
+            .contains("crosses the wall (10, 5.6)–(10, 10)"),
+        "{error}"
+    );
+}

@@ -390,8 +390,14 @@ pub(super) fn shapes_of(o: &Obstacle) -> Vec<Shape> {
     }
 }
 
+/// How far a person placed at `t = 0` may cross a wall, an obstacle or another person:
+/// rounding. A person written as touching a wall (at (9.8, 9.8) with radius 0.2 in a room of
+/// 10) is 0.1999999999999993 from it in floating point, and was refused as crossing it; the
+/// stepper itself accepts `q₀` within `feasibility_tolerance` (1e-9).
+const TOUCHING: f64 = 1e-12;
+
 /// Where a person of a given radius may stand at `t = 0`: inside the room, clear of the walls
-/// and of the obstacles. The message says what is in the way.
+/// and of the obstacles (to within [`TOUCHING`]). The message says what is in the way.
 pub(super) struct Clearance<'a> {
     pub room: &'a RoomPlan,
     pub walls: &'a [Wall],
@@ -408,7 +414,7 @@ impl Clearance<'_> {
         if let Some((a, b)) = self
             .walls
             .iter()
-            .find(|(a, b)| segment_distance(p, *a, *b) < r)
+            .find(|(a, b)| segment_distance(p, *a, *b) < r - TOUCHING)
         {
             return Err(format!(
                 "the person at {} (radius {r}) crosses the wall {}–{}",
@@ -429,7 +435,7 @@ impl Clearance<'_> {
                     motion: o.motion.clone(),
                     person_radius: r,
                 };
-                PersonShapeKernel.value(&params, 0.0, p) < 0.0
+                PersonShapeKernel.value(&params, 0.0, p) < -TOUCHING
             });
             if inside_polygon || touches {
                 return Err(format!(
@@ -544,7 +550,7 @@ fn check_overlaps(cx: &Ctx<'_>, people: &People) -> Result<(), SceneError> {
     for (j, p) in positions.iter().enumerate() {
         if let Some(i) = hash.near(*p).find(|&i| {
             let d = ((p[0] - positions[i][0]).powi(2) + (p[1] - positions[i][1]).powi(2)).sqrt();
-            d < radii[i] + radii[j] - 1e-12
+            d < radii[i] + radii[j] - TOUCHING
         }) {
             let d = ((positions[i][0] - p[0]).powi(2) + (positions[i][1] - p[1]).powi(2)).sqrt();
             return Err(cx.err(

@@ -248,8 +248,11 @@ fn finite<const K: usize>(v: &[f64; K]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+/// A point for messages, its coordinates rounded to 1e-9 (an exit's end computed as
+/// 4.4 + 1.2 printed as 5.6000000000000005).
 fn fmt_pt(p: [f64; 2]) -> String {
-    format!("({}, {})", p[0], p[1])
+    use crate::stepper::display_number;
+    format!("({}, {})", display_number(p[0]), display_number(p[1]))
 }
 
 impl Scene {
