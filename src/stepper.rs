@@ -632,9 +632,11 @@ impl<'p> Stepper<'p> {
     /// A failed solve of a far prediction, retried once on the same QP (already written in
     /// the displacement `u = x − q_k`) scaled by `s = ‖h f‖∞`: `min ½‖v − h f/s‖²` s.t.
     /// `A v ≥ b/s`, then `u = s v`, `λ = s μ`. Done only when `u = 0` satisfies every row
-    /// (`gᵢ(t_{k+1}, q_k) ≥ 0`, true for constraints that do not move): the set is then not
-    /// empty, so an "infeasible" answer at speed 1e8 is the solver's scaling, not the
-    /// problem's. The answer is then KKT-checked on the original QP like any other; when the
+    /// (`gᵢ(t_{k+1}, q_k) ≥ 0`, true for constraints that do not move) to within the
+    /// `violation_tolerance` the stepper accepted `q_k` with: the set is then not empty (up to
+    /// that), so an "infeasible" answer at speed 1e8 is the solver's scaling, not the
+    /// problem's. (Asking for 1e-9 relative, a person left 3.5e-8 inside a wall by a step
+    /// at 1e8 m/s made the next step's false "infeasible" the run's error.) The answer is then KKT-checked on the original QP like any other; when the
     /// retry fails too, the error says that the prediction is too far to be resolved.
     fn rescaled_projection(
         &self,
@@ -650,10 +652,12 @@ impl<'p> Stepper<'p> {
             source,
         };
         let far = qp.y().iter().fold(0.0, |m: f64, d| m.max(d.abs()));
-        // Only when q_k satisfies every row is the set known to be non-empty (with a moving
-        // constraint g(t_{k+1}, q_k) may be negative, and a squeezed person makes it empty).
+        // Only when q_k satisfies every row (as far as the stepper asks) is the set known to
+        // be non-empty (with a moving constraint g(t_{k+1}, q_k) may be negative, and a
+        // squeezed person makes it empty).
         let b_scale = qp.b().iter().fold(1f64, |m, b| m.max(b.abs()));
-        let q_in_set = qp.max_violation(&vec![0.0; qp.dim()]) <= 1e-9 * b_scale;
+        let q_in_set = qp.max_violation(&vec![0.0; qp.dim()])
+            <= 1e-9 * b_scale + self.settings.violation_tolerance;
         if !(far > 1.0 && far.is_finite() && q_in_set)
             || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
         {
