@@ -17,10 +17,11 @@
 
 mod common;
 
-use common::checker::{check_trajectory, scratch, Geometry};
+use common::checker::{check_trajectory, scratch, Findings, Geometry};
 use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::output::TrajectoryWriter;
 use sweeping::scene::{Overrides, Scene};
+use sweeping::stepper::{Run, RunFailure};
 
 /// The paper's evacuation (150 people of radius 0.2 in a 10 × 10 room, a 1.2 m door) with its
 /// lower-left corner at `(x0, y0)`, run for `t_end` seconds.
@@ -50,19 +51,9 @@ t_end = {t_end:?}
     )
 }
 
-/// Runs the room at `(x0, y0)` with `backend`, every step written; what the independent
-/// checker finds, to within `tol`.
-fn run_far(x0: f64, y0: f64, t_end: f64, backend: BackendChoice, tol: f64) -> (f64, f64) {
-    let text = paper_room_at(x0, y0, t_end);
-    let built = Scene::from_toml_str(&text, "far.toml")
-        .and_then(|s| s.build(&Overrides::default()))
-        .unwrap();
-    let dir = scratch(&format!("far-{backend}-{x0}"));
-    let csv = dir.join("trajectory.csv");
-    let mut writer = TrajectoryWriter::new(&csv, built.population.clone(), 1);
-    let mut projector = make_projector(backend).unwrap();
-    let outcome = built.run(projector.as_mut(), &mut [&mut writer]);
-    let geometry = Geometry {
+/// The paper's room at `(x0, y0)`, as the independent checker sees it.
+fn paper_geometry(x0: f64, y0: f64, radii: &[f64]) -> Geometry {
+    Geometry {
         room: vec![
             [x0, y0],
             [x0 + 10.0, y0],
@@ -71,9 +62,37 @@ fn run_far(x0: f64, y0: f64, t_end: f64, backend: BackendChoice, tol: f64) -> (f
         ],
         exits: vec![([x0 + 10.0, y0 + 4.4], [x0 + 10.0, y0 + 5.6])],
         obstacles: Vec::new(),
-        radii: built.population.radii().to_vec(),
-    };
-    let findings = check_trajectory(&csv, &geometry, tol);
+        radii: radii.to_vec(),
+    }
+}
+
+/// Runs the scene `text` (the paper's room at `(x0, y0)`, maybe edited) with `backend`, every
+/// step written under `name`; the run's outcome and what the independent checker finds in
+/// the trajectory, to within `tol`.
+fn run_checked(
+    text: &str,
+    name: &str,
+    (x0, y0): (f64, f64),
+    backend: BackendChoice,
+    tol: f64,
+) -> (Result<Run, Box<RunFailure>>, Findings) {
+    let built = Scene::from_toml_str(text, &format!("{name}.toml"))
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap();
+    let csv = scratch(name).join("trajectory.csv");
+    let mut writer = TrajectoryWriter::new(&csv, built.population.clone(), 1);
+    let mut projector = make_projector(backend).unwrap();
+    let outcome = built.run(projector.as_mut(), &mut [&mut writer]);
+    let geometry = paper_geometry(x0, y0, built.population.radii());
+    (outcome, check_trajectory(&csv, &geometry, tol))
+}
+
+/// Runs the room at `(x0, y0)` with `backend`; the largest overlap and penetration the
+/// checker finds, after asserting that the run completed and nothing exceeded `tol`.
+fn run_far(x0: f64, y0: f64, t_end: f64, backend: BackendChoice, tol: f64) -> (f64, f64) {
+    let text = paper_room_at(x0, y0, t_end);
+    let name = format!("far-{backend}-{x0}");
+    let (outcome, findings) = run_checked(&text, &name, (x0, y0), backend, tol);
     if let Err(failure) = &outcome {
         panic!("({x0}, {y0}) with {backend}: {failure}");
     }
@@ -120,24 +139,15 @@ fn far_from_the_origin_every_backend_stays_clean() {
 fn a_crowd_at_a_thousand_metres_a_second_evacuates_cleanly() {
     let text = paper_room_at(0.0, 0.0, 0.3).replace("radius = 0.2", "radius = 0.2\nspeed = 1000.0");
     assert!(text.contains("speed = 1000.0"));
-    let built = Scene::from_toml_str(&text, "fast.toml")
-        .and_then(|s| s.build(&Overrides::default()))
-        .unwrap();
-    let dir = scratch("extremes-fast");
-    let csv = dir.join("trajectory.csv");
-    let mut writer = TrajectoryWriter::new(&csv, built.population.clone(), 1);
-    let mut projector = make_projector(BackendChoice::Native).unwrap();
-    let run = built
-        .run(projector.as_mut(), &mut [&mut writer])
-        .unwrap_or_else(|failure| panic!("{failure}"));
+    let (outcome, findings) = run_checked(
+        &text,
+        "extremes-fast",
+        (0.0, 0.0),
+        BackendChoice::Native,
+        1e-9,
+    );
+    let run = outcome.unwrap_or_else(|failure| panic!("{failure}"));
     assert!((run.t_final - 0.3).abs() < 1e-9, "{}", run.t_final);
-    let geometry = Geometry {
-        room: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
-        exits: vec![([10.0, 4.4], [10.0, 5.6])],
-        obstacles: Vec::new(),
-        radii: built.population.radii().to_vec(),
-    };
-    let findings = check_trajectory(&csv, &geometry, 1e-9);
     assert!(findings.problems.is_empty(), "{:#?}", findings.problems);
     // In 0.3 s at 1000 m/s the door has let people out.
     assert!(findings.present_at_end < 150, "{}", findings.present_at_end);
@@ -202,26 +212,18 @@ fn a_crowd_at_1e8_metres_a_second_is_never_reported_infeasible() {
     // to 1e-9 relative, was not made: the error blamed the problem. The retry now accepts
     // q_k within the violation tolerance the stepper itself accepted it with.
     let text = paper_room_at(0.0, 0.0, 0.1).replace("radius = 0.2", "radius = 0.2\nspeed = 1e8");
-    let built = Scene::from_toml_str(&text, "vfast.toml")
-        .and_then(|s| s.build(&Overrides::default()))
-        .unwrap();
-    let dir = scratch("extremes-1e8");
-    let csv = dir.join("trajectory.csv");
-    let mut writer = TrajectoryWriter::new(&csv, built.population.clone(), 1);
-    let mut projector = make_projector(BackendChoice::Native).unwrap();
-    let outcome = built.run(projector.as_mut(), &mut [&mut writer]);
+    let (outcome, findings) = run_checked(
+        &text,
+        "extremes-1e8",
+        (0.0, 0.0),
+        BackendChoice::Native,
+        1e-6,
+    );
     if let Err(failure) = &outcome {
         let message = failure.to_string();
         assert!(!message.contains("infeasible"), "{message}");
         assert!(failure.partial.t_final > 0.0, "{message}");
     }
-    let geometry = Geometry {
-        room: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
-        exits: vec![([10.0, 4.4], [10.0, 5.6])],
-        obstacles: Vec::new(),
-        radii: built.population.radii().to_vec(),
-    };
     // What was written holds to the stepper's own tolerance.
-    let findings = check_trajectory(&csv, &geometry, 1e-6);
     assert!(findings.problems.is_empty(), "{:#?}", findings.problems);
 }
