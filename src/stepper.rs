@@ -636,8 +636,9 @@ impl<'p> Stepper<'p> {
     /// `violation_tolerance` the stepper accepted `q_k` with: the set is then not empty (up to
     /// that), so an "infeasible" answer at speed 1e8 is the solver's scaling, not the
     /// problem's. (Asking for 1e-9 relative, a person left 3.5e-8 inside a wall by a step
-    /// at 1e8 m/s made the next step's false "infeasible" the run's error.) The answer is then KKT-checked on the original QP like any other; when the
-    /// retry fails too, the error says that the prediction is too far to be resolved.
+    /// at 1e8 m/s made the next step's false "infeasible" the run's error.) The answer is
+    /// then KKT-checked on the original QP like any other; when the retry fails too, the
+    /// error says that the prediction is too far to be resolved.
     fn rescaled_projection(
         &self,
         projector: &mut dyn Projector,

@@ -313,8 +313,9 @@ enum Node {
 /// fraction of its nodes is remembered there; below it, AMD orders it afresh.
 const REMEMBERED_FRACTION: f64 = 0.5;
 
-/// A reused ordering whose factor has more than this many times the fill (`nnz(L)/nnz(K)`)
-/// of the last AMD ordering makes the next sparse factorization run AMD again.
+/// A remembered ordering predicted to fill more than this many times the last AMD ordering
+/// (`nnz(L)/nnz(K)`) is not used, and one that does makes the next sparse factorization run
+/// AMD again.
 const STALE_FILL: f64 = 1.25;
 
 /// The fill-reducing orderings of recent sparse factorizations, remembered node by node
@@ -327,8 +328,10 @@ const STALE_FILL: f64 = 1.25;
 /// A factorization whose nodes are mostly remembered is ordered by their ranks in the
 /// orderings that placed them last (nodes new to the memory go last, in their own order),
 /// which keeps the fill of the AMD ordering it descends from as long as the support changes
-/// little; when the fill grows beyond `STALE_FILL` (1.25) times that of the last AMD ordering,
-/// the next factorization runs AMD again. The ordering changes only the rounding, and every
+/// little. An ordering whose factor is predicted (by a symbolic count, before any numeric
+/// work) to fill beyond `STALE_FILL` (1.25) times the last AMD ordering is not used: AMD
+/// orders that factorization instead; and when a reused ordering's fill grows beyond it all
+/// the same, the next factorization runs AMD again. The ordering changes only the rounding, and every
 /// answer is still refined against the unregularized system and checked.
 ///
 /// [`Orderings::forget_older`] bounds the memory: call it once per projection.
