@@ -657,8 +657,9 @@ impl<'p> Stepper<'p> {
         // be non-empty (with a moving constraint g(t_{k+1}, q_k) may be negative, and a
         // squeezed person makes it empty).
         let b_scale = qp.b().iter().fold(1f64, |m, b| m.max(b.abs()));
-        let q_in_set = qp.max_violation(&vec![0.0; qp.dim()])
-            <= 1e-9 * b_scale + self.settings.violation_tolerance;
+        // At u = 0 each row reads 0 ≥ bᵢ = −gᵢ(t_{k+1}, q_k).
+        let violation_at_q = qp.b().iter().copied().fold(0.0, sweeping_api::max_or_nan);
+        let q_in_set = violation_at_q <= 1e-9 * b_scale + self.settings.violation_tolerance;
         if !(far > 1.0 && far.is_finite() && q_in_set)
             || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
         {

@@ -693,15 +693,6 @@ impl ActiveSystem {
         let Factor::Sparse(ldl) = &mut self.factor else {
             return None;
         };
-        let unknowns = &mut self.unknowns;
-        let bordered = self.bordered.get_or_insert_with(|| Bordered {
-            base: self.support.clone(),
-            changes: Vec::new(),
-            w: Vec::new(),
-            s: Vec::new(),
-            lu: Vec::new(),
-            pivots: Vec::new(),
-        });
         let mut in_next = vec![false; problem.n_rows()];
         next.iter().for_each(|&i| in_next[i] = true);
         let kept: Vec<usize> = self
@@ -722,9 +713,19 @@ impl ActiveSystem {
             .copied()
             .filter(|&i| !in_next[i])
             .collect();
-        if changes_after(&bordered.changes, &leaving, next.len() - kept.len()) > BORDER_MAX {
+        let changes = self.bordered.as_ref().map_or(&[][..], |b| &b.changes[..]);
+        if changes_after(changes, &leaving, next.len() - kept.len()) > BORDER_MAX {
             return None;
         }
+        let unknowns = &mut self.unknowns;
+        let bordered = self.bordered.get_or_insert_with(|| Bordered {
+            base: self.support.clone(),
+            changes: Vec::new(),
+            w: Vec::new(),
+            s: Vec::new(),
+            lu: Vec::new(),
+            pivots: Vec::new(),
+        });
         // Rows leaving: a joined row's change is undone, a row of P₀ gets a `Left` change.
         let mut position = vec![usize::MAX; problem.n_rows()];
         bordered
