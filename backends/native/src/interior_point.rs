@@ -39,6 +39,13 @@ pub(crate) struct Iterate {
     pub lambda: Vec<f64>,
     /// The slacks `s = A d − r > 0` (up to the primal residual).
     pub slack: Vec<f64>,
+    /// The multipliers one iteration before `lambda` (equal to them when there was none).
+    /// With [`Self::previous_slack`], Tapia's indicators of which rows are active: as `μ → 0`
+    /// an active row keeps its multiplier and its slack shrinks with `μ`, an inactive one the
+    /// other way round (El-Bakry, Tapia & Zhang, 1994).
+    pub previous_lambda: Vec<f64>,
+    /// The slacks one iteration before `slack` (equal to them when there was none).
+    pub previous_slack: Vec<f64>,
     /// Interior-point iterations (one factorization each).
     pub iterations: u32,
     /// Whether the duality measure and both residuals reached the tolerance.
@@ -47,6 +54,9 @@ pub(crate) struct Iterate {
     /// tolerance's scale): how far a stalled run got.
     pub accuracy: f64,
 }
+
+/// The multipliers and slacks of an iterate.
+type Previous = (Vec<f64>, Vec<f64>);
 
 /// The normal matrix `I + AᵀWA`, its pattern fixed, and its factorization.
 struct NormalMatrix {
@@ -349,7 +359,9 @@ pub(crate) fn solve(
     // one. On the 2000-person evacuation's door queues the dual residual stalled near 1e-11
     // (refined or not) until a step of 1e-30 left it at 3e-3; the iterate before, at 4e-12,
     // is a guess the active set finishes from.
-    let mut best: Option<(f64, Vec<f64>, Vec<f64>)> = None;
+    let mut best: Option<(f64, Vec<f64>, Vec<f64>, Previous)> = None;
+    // The iterate before the current one, for Tapia's indicators (see `Iterate`).
+    let mut previous: Previous = (lambda.clone(), slack.clone());
     // Where the method stopped without converging: the cap, or a breakdown (below).
     let mut stopped = max_iterations;
     for iterations in 1..=max_iterations {
@@ -368,9 +380,12 @@ pub(crate) fn solve(
         let residual = worst(&r_p).max(worst(&r_d));
         accuracy = mu.max(residual);
         if accuracy <= tolerance {
+            let (previous_lambda, previous_slack) = previous;
             return Some(Iterate {
                 lambda,
                 slack,
+                previous_lambda,
+                previous_slack,
                 iterations,
                 converged: true,
                 accuracy,
@@ -379,7 +394,7 @@ pub(crate) fn solve(
         refine |= residual > last_residual && residual > tolerance;
         last_residual = residual;
         if best.as_ref().is_none_or(|b| accuracy < b.0) {
-            best = Some((accuracy, lambda.clone(), slack.clone()));
+            best = Some((accuracy, lambda.clone(), slack.clone(), previous.clone()));
         }
         for i in 0..m {
             w[i] = lambda[i] / slack[i];
@@ -428,6 +443,8 @@ pub(crate) fn solve(
             stopped = iterations;
             break;
         }
+        previous.0.copy_from_slice(&lambda);
+        previous.1.copy_from_slice(&slack);
         for j in 0..n {
             d[j] += alpha * dd[j];
         }
@@ -439,13 +456,15 @@ pub(crate) fn solve(
             return None;
         }
     }
-    let (accuracy, lambda, slack) = match best {
+    let (accuracy, lambda, slack, (previous_lambda, previous_slack)) = match best {
         Some(best) if best.0 < accuracy => best,
-        _ => (accuracy, lambda, slack),
+        _ => (accuracy, lambda, slack, previous),
     };
     Some(Iterate {
         lambda,
         slack,
+        previous_lambda,
+        previous_slack,
         iterations: stopped,
         converged: false,
         accuracy,

@@ -166,6 +166,10 @@ const SCREEN_FRACTION: f64 = 0.5;
 /// active-set answer leaves ~1e-12, and the finish is cheap against that. Multipliers below
 /// their slack and below this fraction of the tolerance are set to zero first.
 const CLEAN_FRACTION: f64 = 1e-2;
+/// A row whose multiplier exceeds its slack still starts an interior point's finish outside
+/// the support when Tapia's indicators say it is inactive and its slack exceeds this many times
+/// the interior point's tolerance (see [`tapia_says_inactive`]).
+const TAPIA_SLACK: f64 = 100.0;
 /// Fewest active-set iterations when finishing from an interior-point guess; `40 + rows / 2`
 /// (see [`cap_on_its_own`]) when larger, as from a cold start after an interior point that
 /// diverged. On a jam the guess holds rows of contact loops that are nearly but not quite
@@ -378,7 +382,8 @@ fn goes_straight_to_rescue(streak: u32) -> bool {
 ///
 /// Each interior point's iterate is tried as the answer ([`certified_iterate`]); when it fails
 /// the KKT check at `tol`, the active-set method finishes from the rows whose multiplier
-/// exceeds their slack (as Clarabel's answers are polished), the most violated row joining
+/// exceeds their slack (as Clarabel's answers are polished) and that Tapia's indicators do not
+/// find inactive ([`finish_start`]), the most violated row joining
 /// alone, up to [`POLISH_ITERATIONS`] or `40 + rows / 2` iterations.
 /// When an interior point does not even reach [`INTERIOR_POINT_GUESS`] (its iterates diverge
 /// on an empty set, or stall on a sliver of one), the one on every row is tried next; when
@@ -420,7 +425,7 @@ fn rescue_by_interior_point(
                 return Ok(outcome);
             }
         }
-        let start = finish_start(&it, &cold);
+        let start = finish_start(&it, &cold, INTERIOR_POINT_TOLERANCE * scale);
         match finish(
             block,
             start,
@@ -484,8 +489,9 @@ fn cap_on_its_own(m: usize) -> u32 {
 }
 
 /// The active-set method's start from an interior point's iterate `it` (as Clarabel's answers
-/// are polished): the rows whose multiplier exceeds their slack, with those multipliers; a row
-/// that joins later starts from its iterate's multiplier when positive, from `cold` otherwise,
+/// are polished): the rows whose multiplier exceeds their slack, with those multipliers, but
+/// for those that Tapia's indicators find inactive ([`tapia_says_inactive`], the iterate run to
+/// `tolerance`); a row that joins later starts from its iterate's multiplier when positive, from `cold` otherwise,
 /// and only the most violated row joins at an iteration (rows then also leave one at a time:
 /// see [`Start::join_at_most`]).
 ///
@@ -494,9 +500,9 @@ fn cap_on_its_own(m: usize) -> u32 {
 /// whose dependence on the support cost some hundred iterations of leaving one row each
 /// before the next such join: four of their blocks ran out of iterations and went to the
 /// fallback, where one row at a time finished them in 190–380 iterations.
-fn finish_start(it: &interior_point::Iterate, cold: &[f64]) -> Start {
+fn finish_start(it: &interior_point::Iterate, cold: &[f64], tolerance: f64) -> Start {
     let support: Vec<usize> = (0..it.lambda.len())
-        .filter(|&i| it.lambda[i] > it.slack[i])
+        .filter(|&i| it.lambda[i] > it.slack[i] && !tapia_says_inactive(it, i, tolerance))
         .collect();
     let lambda = support.iter().map(|&i| it.lambda[i]).collect();
     let join = it
@@ -511,6 +517,23 @@ fn finish_start(it: &interior_point::Iterate, cold: &[f64]) -> Start {
         join,
         join_at_most: Some(1),
     }
+}
+
+/// Whether Tapia's indicators (see [`interior_point::Iterate::previous_lambda`]) say that row
+/// `i` of the iterate `it`, run to `tolerance`, is inactive although its multiplier exceeds
+/// its slack: over the last iteration its multiplier shrank by a larger factor than its slack,
+/// and the slack is more than [`TAPIA_SLACK`] times the tolerance.
+///
+/// At the tolerance, `λᵢsᵢ ≈ μ ≈ 1e-12` relative, so a row with a gap of `10⁻⁹`–`10⁻⁷` at the
+/// answer still has `λᵢ ≈ μ/sᵢ > sᵢ`: on the door queues of the 10 000-person hall about a
+/// hundred such rows per block of 3000 started the finish, which then left them one
+/// iteration each. A tight row's slack, the other way round, shrinks with `μ` while its
+/// multiplier stays. Slacks at the tolerance are left to the test `λᵢ > sᵢ`: there rows of a
+/// contact loop trade multiplier among themselves from one iteration to the next.
+fn tapia_says_inactive(it: &interior_point::Iterate, i: usize, tolerance: f64) -> bool {
+    let lambda_ratio = it.lambda[i] / it.previous_lambda[i];
+    let slack_ratio = it.slack[i] / it.previous_slack[i];
+    lambda_ratio < slack_ratio && it.slack[i] > TAPIA_SLACK * tolerance
 }
 
 /// The rows of `block` that the first interior point of a rescue keeps (see
@@ -555,13 +578,18 @@ fn solve_rows(
     let r_kept: Vec<f64> = rows.iter().map(|&i| r[i]).collect();
     let it = interior_point::solve(&a, &r_kept, tolerance, INTERIOR_POINT_ITERATIONS)?;
     let (mut lambda, mut slack) = (vec![0.0; m], vec![f64::INFINITY; m]);
+    let (mut previous_lambda, mut previous_slack) = (vec![0.0; m], vec![f64::INFINITY; m]);
     for (t, &i) in rows.iter().enumerate() {
         lambda[i] = it.lambda[t];
         slack[i] = it.slack[t];
+        previous_lambda[i] = it.previous_lambda[t];
+        previous_slack[i] = it.previous_slack[t];
     }
     Some(interior_point::Iterate {
         lambda,
         slack,
+        previous_lambda,
+        previous_slack,
         ..it
     })
 }
@@ -1091,6 +1119,8 @@ mod tests {
 
     fn iterate(lambda: Vec<f64>, slack: Vec<f64>) -> interior_point::Iterate {
         interior_point::Iterate {
+            previous_lambda: lambda.clone(),
+            previous_slack: slack.clone(),
             lambda,
             slack,
             iterations: 9,
@@ -1159,12 +1189,58 @@ mod tests {
     #[test]
     fn a_finish_starts_from_multipliers_above_their_slack_and_joins_rows_at_their_iterate() {
         let it = iterate(vec![2.0, 0.5, 0.0, 1.0], vec![1.0, 1.0, 0.1, 1.0]);
-        let start = finish_start(&it, &[9.0; 4]);
+        let start = finish_start(&it, &[9.0; 4], 1e-12);
         // Row 3, with its multiplier equal to its slack, is not in the support.
         assert_eq!(start.support, vec![0]);
         assert_eq!(start.lambda, vec![2.0]);
         // Row 2's multiplier is zero: it joins at the cold one.
         assert_eq!(start.join, vec![2.0, 0.5, 9.0, 1.0]);
+    }
+
+    #[test]
+    fn a_row_with_a_small_gap_at_the_answer_does_not_start_the_finish() {
+        // x₀ ≥ 1, tight at the answer x₀ = 1 (λ = 1), and x₀ ≥ 1 − 1e-8, with a gap of 1e-8
+        // there; from y = 0 both are violated. Parallel rows: in one support they are
+        // inconsistent, and the finish would spend an iteration leaving the second.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, 1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, 1.0 - 1e-8]).unwrap();
+        let r = p.b().to_vec();
+        let tolerance = INTERIOR_POINT_TOLERANCE;
+        let it = interior_point::solve(p.a(), &r, tolerance, INTERIOR_POINT_ITERATIONS).unwrap();
+        assert!(it.converged, "{it:?}");
+        // At μ ≈ 1e-12 the gapped row's multiplier, about μ/1e-8, still exceeds its slack…
+        assert!(it.lambda[1] > it.slack[1], "{it:?}");
+        assert!((it.slack[1] - 1e-8).abs() < 1e-10, "{it:?}");
+        // …but over the last iteration it shrank faster than the slack: Tapia's indicators
+        // say inactive, and the finish starts from the tight row alone.
+        assert!(tapia_says_inactive(&it, 1, tolerance));
+        assert!(!tapia_says_inactive(&it, 0, tolerance));
+        let start = finish_start(&it, &[1.0, 1.0], tolerance);
+        assert_eq!(start.support, vec![0]);
+        let memory = (&mut Orderings::default(), &names(1)[..]);
+        let outcome = finish(&p, start, finish_cap(2), 0, memory).unwrap();
+        assert_eq!(outcome.iterations, 1);
+        assert!((outcome.x[0] - 1.0).abs() < 1e-15, "{outcome:?}");
+        assert_eq!(outcome.lambda[1], 0.0);
+    }
+
+    #[test]
+    fn tapia_leaves_slacks_at_the_tolerance_to_the_multiplier_test() {
+        // Row 0: multiplier shrinking, slack steady but within 100 × the tolerance (a row of a
+        // contact loop trading multiplier with its neighbours): not called inactive. Row 1:
+        // the same ratios with a slack beyond that: inactive. Row 2: slack shrinking faster
+        // than the multiplier: active.
+        let mut it = iterate(vec![1e-2, 1e-4, 1.0], vec![1e-11, 1e-8, 1e-12]);
+        it.previous_lambda = vec![2e-2, 3e-4, 1.0];
+        it.previous_slack = vec![1e-11, 1e-8, 1e-11];
+        let tolerance = 1e-12;
+        assert!(!tapia_says_inactive(&it, 0, tolerance));
+        assert!(tapia_says_inactive(&it, 1, tolerance));
+        assert!(!tapia_says_inactive(&it, 2, tolerance));
+        // With no previous iterate (ratios 1), nothing is called inactive.
+        let it = iterate(vec![1e-4, 1.0], vec![1e-8, 1e-12]);
+        assert!(!tapia_says_inactive(&it, 0, tolerance));
+        assert!(!tapia_says_inactive(&it, 1, tolerance));
     }
 
     #[test]
