@@ -1237,6 +1237,11 @@ mod tests {
         assert!(!tapia_says_inactive(&it, 0, tolerance));
         assert!(tapia_says_inactive(&it, 1, tolerance));
         assert!(!tapia_says_inactive(&it, 2, tolerance));
+        // A slack of exactly 100 × the tolerance is still left to the multiplier test.
+        let mut it = iterate(vec![1e-4, 1e-4], vec![25.0, 25.5]);
+        it.previous_lambda = vec![1e-3, 1e-3];
+        assert!(!tapia_says_inactive(&it, 0, 0.25));
+        assert!(tapia_says_inactive(&it, 1, 0.25));
         // With no previous iterate (ratios 1), nothing is called inactive.
         let it = iterate(vec![1e-4, 1.0], vec![1e-8, 1e-12]);
         assert!(!tapia_says_inactive(&it, 0, tolerance));
