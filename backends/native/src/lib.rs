@@ -32,7 +32,8 @@
 //!    iterate is the answer if it passes the KKT check, with a hundredth of the tolerance and
 //!    against every row of the block, and every row keeping a multiplier is tight to that;
 //!    otherwise the active-set method finishes exactly from
-//!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished),
+//!    the rows whose multiplier exceeds their slack (as Clarabel's answers are polished), less
+//!    those that Tapia's indicators over the interior point's last iteration find inactive,
 //!    the most violated row joining alone and rows leaving one at a time (on a jam that
 //!    guess already holds more rows than unknowns, and rows joining together add dependent
 //!    ones, which then leave one per iteration), and if that runs out too (or the first interior point stalls short of a guess), the interior
