@@ -491,10 +491,10 @@ fn cap_on_its_own(m: usize) -> u32 {
 
 /// The active-set method's start from an interior point's iterate `it` (as Clarabel's answers
 /// are polished): the rows whose multiplier exceeds their slack, with those multipliers, but
-/// for those that Tapia's indicators find inactive ([`tapia_says_inactive`], the iterate run to
-/// `tolerance`); a row that joins later starts from its iterate's multiplier when positive, from `cold` otherwise,
-/// and only the most violated row joins at an iteration (rows then also leave one at a time:
-/// see [`Start::join_at_most`]).
+/// for those that Tapia's indicators find inactive ([`tapia_says_inactive`], the iterate run
+/// to `tolerance`); a row that joins later starts from its iterate's multiplier when positive,
+/// from `cold` otherwise, and only the most violated row joins at an iteration (rows then also
+/// leave one at a time: see [`Start::join_at_most`]).
 ///
 /// On a jam the guess already holds more rows than unknowns. When every violated row joined
 /// at once, the door queues of the 2000-person evacuation took in 100–200 rows at a time,
