@@ -404,10 +404,13 @@ fn rescue_by_interior_point(
     let (orderings, unknowns) = memory;
     let m = block.n_rows();
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
+    // The interior point's tolerance, which Tapia's indicators in the finish's start are
+    // measured against too.
+    let tolerance = INTERIOR_POINT_TOLERANCE * scale;
     let mut spent = 0u32;
     let mut last = Failure::Cap(POLISH_ITERATIONS);
     for rows in rescue_attempts(screened_rows(block, r), m) {
-        let iterate = solve_rows(block, r, &rows, INTERIOR_POINT_TOLERANCE * scale);
+        let iterate = solve_rows(block, r, &rows, tolerance);
         spent = spent.saturating_add(iterate.as_ref().map_or(0, |it| it.iterations));
         let Some(it) = iterate.filter(|it| is_a_guess(it.accuracy, scale)) else {
             // The screened rows' set holds the block's, so an interior point that diverges
@@ -426,7 +429,7 @@ fn rescue_by_interior_point(
                 return Ok(outcome);
             }
         }
-        let start = finish_start(&it, &cold, INTERIOR_POINT_TOLERANCE * scale);
+        let start = finish_start(&it, &cold, tolerance);
         match finish(
             block,
             start,
