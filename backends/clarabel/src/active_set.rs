@@ -215,6 +215,19 @@ struct ActiveSystem {
     unknowns: Unknowns,
     /// Rows removed from and added to the support of a sparse factor since it was made.
     bordered: Option<Bordered>,
+    /// Work vectors of solves and refinement, kept from one to the next: a solve is a few
+    /// microseconds, and allocating its vectors afresh each time was a sizeable part of it.
+    scratch: Scratch,
+}
+
+/// Work vectors of an [`ActiveSystem`] (their contents do not outlive a call).
+#[derive(Debug, Default)]
+struct Scratch {
+    /// The right-hand side gathered onto a sparse factor's nodes.
+    gathered: Vec<f64>,
+    /// Refinement's product `K₀ v` and step.
+    product: Vec<f64>,
+    step: Vec<f64>,
 }
 
 /// The unknowns a sparse factor and its bordering work on, numbered locally: first the `base`
@@ -290,6 +303,7 @@ enum Change {
 /// The layout of `z` (and of `C`'s columns) is `[d_U; μ_{P₀}; d_E]`: the unknowns `U` of the
 /// factor, the multipliers of `P₀`, then the unknowns `E` that only joined rows touch, on
 /// which `K_δ(P₀)` is extended by the identity.
+#[derive(Default)]
 struct Bordered {
     /// `P₀`, in the order of the factor.
     base: Vec<usize>,
@@ -301,6 +315,14 @@ struct Bordered {
     s: Vec<f64>,
     lu: Vec<f64>,
     pivots: Vec<usize>,
+    /// The positions of `P₀` whose rows are still in the support, in order (made with the
+    /// LU factors).
+    stayed: Vec<usize>,
+    /// Work vectors of a solve: the layout's `z`, the bordering unknowns `g − Cᵀz₀`, and
+    /// their permuted copy.
+    work_z: Vec<f64>,
+    work_g: Vec<f64>,
+    work_y: Vec<f64>,
 }
 
 /// Supports of at most this many rows are factored densely, by the Schur complement
@@ -629,6 +651,7 @@ impl ActiveSystem {
                         base: 0,
                     },
                     bordered: None,
+                    scratch: Scratch::default(),
                 });
             }
         }
@@ -694,6 +717,7 @@ impl ActiveSystem {
             factor: Factor::Sparse(Box::new(ldl)),
             unknowns,
             bordered: None,
+            scratch: Scratch::default(),
         })
     }
 
@@ -701,16 +725,18 @@ impl ActiveSystem {
     /// `(A_P A_Pᵀ + δI) w = A_P f − g` and `u = f − A_Pᵀw`.
     fn solve_in_place(&mut self, v: &mut [f64]) {
         match &mut self.factor {
-            Factor::Sparse(ldl) => match &self.bordered {
+            Factor::Sparse(ldl) => match &mut self.bordered {
                 None => {
                     // The factored unknowns gathered, solved and scattered back; the others
                     // are their own solution.
                     let (n, u) = (self.n, self.unknowns.base);
                     let global = &self.unknowns.global[..u];
-                    let mut z: Vec<f64> = global.iter().map(|&c| v[c]).collect();
+                    let z = &mut self.scratch.gathered;
+                    z.clear();
+                    z.extend(global.iter().map(|&c| v[c]));
                     z.extend_from_slice(&v[n..]);
-                    ldl.solve(&mut z);
-                    global.iter().zip(&z).for_each(|(&c, zc)| v[c] = *zc);
+                    ldl.solve(z);
+                    global.iter().zip(z.iter()).for_each(|(&c, zc)| v[c] = *zc);
                     v[n..].copy_from_slice(&z[u..]);
                 }
                 Some(bordered) => bordered.solve(ldl, self.n, &self.unknowns, &self.support, v),
@@ -782,11 +808,7 @@ impl ActiveSystem {
         let unknowns = &mut self.unknowns;
         let bordered = self.bordered.get_or_insert_with(|| Bordered {
             base: self.support.clone(),
-            changes: Vec::new(),
-            w: Vec::new(),
-            s: Vec::new(),
-            lu: Vec::new(),
-            pivots: Vec::new(),
+            ..Bordered::default()
         });
         // Rows leaving: a joined row's change is undone, a row of P₀ gets a `Left` change.
         let mut position = vec![usize::MAX; problem.n_rows()];
@@ -933,6 +955,13 @@ impl Bordered {
     /// LU factors of `S` with partial pivoting; `false` when a pivot vanishes.
     fn factor_s(&mut self) -> bool {
         let c = self.changes.len();
+        let mut left = vec![false; self.base.len()];
+        for change in &self.changes {
+            if let Change::Left { position } = change {
+                left[*position] = true;
+            }
+        }
+        self.stayed = (0..self.base.len()).filter(|&p| !left[p]).collect();
         self.lu = self.s.clone();
         self.pivots = (0..c).collect();
         let scale = self.s.iter().fold(0.0, |acc: f64, v| acc.max(v.abs()));
@@ -964,7 +993,7 @@ impl Bordered {
     /// `v ← K_δ⁻¹ v` for the current support `support` (rows of `P₀` that stayed, in their
     /// order, then the joined rows in the order they joined).
     fn solve(
-        &self,
+        &mut self,
         ldl: &mut QDLDLFactorisation<f64>,
         n: usize,
         unknowns: &Unknowns,
@@ -974,17 +1003,14 @@ impl Bordered {
         let base = self.base.len();
         let u = unknowns.base;
         let c = self.changes.len();
-        // Where each unknown of the current layout lives: a position of P₀, or a change.
-        let mut left = vec![false; base];
-        for change in &self.changes {
-            if let Change::Left { position } = change {
-                left[*position] = true;
-            }
-        }
-        let stayed: Vec<usize> = (0..base).filter(|&p| !left[p]).collect();
+        // Where each unknown of the current layout lives: a position of P₀ (`stayed`), or a
+        // change.
+        let stayed = std::mem::take(&mut self.stayed);
         debug_assert_eq!(stayed.len() + (c - (base - stayed.len())), support.len());
         // z₀ = K_δ(P₀)⁻¹ [f_U; g_{P₀}; f_E], with zero for the rows that left.
-        let mut z = vec![0.0; unknowns.global.len() + base];
+        let mut z = std::mem::take(&mut self.work_z);
+        z.clear();
+        z.resize(unknowns.global.len() + base, 0.0);
         for (l, &c) in unknowns.global.iter().enumerate() {
             z[self.position(l, unknowns)] = v[c];
         }
@@ -994,7 +1020,9 @@ impl Bordered {
         ldl.solve(&mut z[..u + base]);
         // g − Cᵀ z₀, then w = S⁻¹ (…) by the LU factors.
         let mut joined_slot = stayed.len();
-        let mut w = vec![0.0; c];
+        let mut w = std::mem::take(&mut self.work_g);
+        w.clear();
+        w.resize(c, 0.0);
         for (j, change) in self.changes.iter().enumerate() {
             let g = match change {
                 Change::Joined { .. } => {
@@ -1006,7 +1034,9 @@ impl Bordered {
             };
             w[j] = g - Self::column_dot(u, change, &z);
         }
-        let mut y: Vec<f64> = self.pivots.iter().map(|&p| w[p]).collect();
+        let mut y = std::mem::take(&mut self.work_y);
+        y.clear();
+        y.extend(self.pivots.iter().map(|&p| w[p]));
         for i in 0..c {
             for k in 0..i {
                 y[i] -= self.lu[i * c + k] * y[k];
@@ -1035,6 +1065,7 @@ impl Bordered {
                 slot += 1;
             }
         }
+        (self.stayed, self.work_z, self.work_g, self.work_y) = (stayed, z, w, y);
     }
 }
 
@@ -1086,20 +1117,35 @@ impl ActiveSystem {
     /// [`REFINE_TOL`] (relative), the first block of `v` stops moving by more than that, or
     /// [`REFINE_STEPS`] steps. `None` when the numbers stop being finite.
     fn refine(&mut self, rhs: &[f64], v: &mut [f64]) -> Option<Refined> {
+        let mut kv = std::mem::take(&mut self.scratch.product);
+        let mut step = std::mem::take(&mut self.scratch.step);
+        kv.resize(rhs.len(), 0.0);
+        step.resize(rhs.len(), 0.0);
+        let refined = self.refine_with(rhs, v, &mut kv[..rhs.len()], &mut step[..rhs.len()]);
+        (self.scratch.product, self.scratch.step) = (kv, step);
+        refined
+    }
+
+    /// [`Self::refine`] with the work vectors `kv` and `step` (as long as `rhs`).
+    fn refine_with(
+        &mut self,
+        rhs: &[f64],
+        v: &mut [f64],
+        kv: &mut [f64],
+        step: &mut [f64],
+    ) -> Option<Refined> {
         let n = self.n;
         let scale = rhs.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
         if !scale.is_finite() {
             return None;
         }
         let tol = REFINE_TOL * scale;
-        let mut kv = vec![0.0; rhs.len()];
-        let mut step = vec![0.0; rhs.len()];
         let mut steps = 0;
         let mut last_moved = f64::INFINITY;
         loop {
-            self.apply(v, &mut kv);
+            self.apply(v, kv);
             let (mut first, mut second): (f64, f64) = (0.0, 0.0);
-            for (i, ((st, r), kvi)) in step.iter_mut().zip(rhs).zip(&kv).enumerate() {
+            for (i, ((st, r), kvi)) in step.iter_mut().zip(rhs).zip(kv.iter()).enumerate() {
                 *st = r - kvi;
                 if i < n {
                     first = first.max(st.abs());
@@ -1118,9 +1164,9 @@ impl ActiveSystem {
                     residual: step[n..].to_vec(),
                 });
             }
-            self.solve_in_place(&mut step);
+            self.solve_in_place(step);
             let moved = step[..n].iter().fold(0.0, |acc: f64, s| acc.max(s.abs()));
-            v.iter_mut().zip(&step).for_each(|(vi, si)| *vi += si);
+            v.iter_mut().zip(step.iter()).for_each(|(vi, si)| *vi += si);
             steps += 1;
             if moved <= tol || (steps >= 2 && moved > REFINE_CONTRACTION * last_moved) {
                 // The first block has converged, or converges too slowly to be worth it: the
@@ -1665,12 +1711,9 @@ mod tests {
     /// A `Bordered` with `S` given (row-major `c × c`) and `c` placeholder changes.
     fn with_schur(s: Vec<f64>, c: usize) -> Bordered {
         Bordered {
-            base: Vec::new(),
             changes: (0..c).map(|position| Change::Left { position }).collect(),
-            w: Vec::new(),
             s,
-            lu: Vec::new(),
-            pivots: Vec::new(),
+            ..Bordered::default()
         }
     }
 
