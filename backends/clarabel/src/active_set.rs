@@ -1711,6 +1711,7 @@ mod tests {
     /// A `Bordered` with `S` given (row-major `c × c`) and `c` placeholder changes.
     fn with_schur(s: Vec<f64>, c: usize) -> Bordered {
         Bordered {
+            base: (0..c).collect(),
             changes: (0..c).map(|position| Change::Left { position }).collect(),
             s,
             ..Bordered::default()
