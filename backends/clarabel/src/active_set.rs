@@ -1708,6 +1708,58 @@ mod tests {
         assert!(gap < 1e-11, "gap {gap:e}");
     }
 
+    #[test]
+    fn the_dense_factor_is_the_cholesky_factor_of_the_rows_gram_matrix_plus_delta() {
+        let p = random_problem();
+        let support: Vec<usize> = (0..20).collect();
+        let rows = MergedRows::of(&p, &support);
+        let l = schur_cholesky(&rows).expect("independent rows");
+        let k = support.len();
+        // (L Lᵀ)ᵢⱼ against aᵢ·aⱼ + δ on the diagonal, from the rows as A holds them.
+        let dense: Vec<Vec<f64>> = support
+            .iter()
+            .map(|&i| {
+                let mut row = vec![0.0; p.dim()];
+                p.a().row(i).for_each(|(c, v)| row[c] += v);
+                row
+            })
+            .collect();
+        for i in 0..k {
+            for j in 0..k {
+                let llt: f64 = (0..k).map(|q| l[i * k + q] * l[j * k + q]).sum();
+                let gram: f64 = dense[i].iter().zip(&dense[j]).map(|(a, b)| a * b).sum();
+                let expected = gram + if i == j { DELTA } else { 0.0 };
+                assert!(
+                    (llt - expected).abs() <= 1e-13 * (1.0 + gram.abs()),
+                    "({i}, {j}): {llt:e} against {expected:e}"
+                );
+            }
+        }
+        // Upper triangle untouched.
+        assert!((0..k).all(|i| (i + 1..k).all(|j| l[i * k + j] == 0.0)));
+    }
+
+    #[test]
+    fn a_row_repeated_in_a_small_support_is_factored_sparse_not_dense() {
+        // Rows of norm about 1.4e3, the last a copy of the first: its pivot in A Aᵀ + δI is
+        // about δ against a diagonal of 2e6, far below DENSE_PIVOT times it.
+        let s = 1e3;
+        let a = SparseRows::from_rows(
+            4,
+            &[
+                vec![(0, -s), (1, s)],
+                vec![(1, -s), (2, s)],
+                vec![(2, -s), (3, s)],
+                vec![(0, -s), (1, s)],
+            ],
+        );
+        let p = ProjectionProblem::new(vec![0.0; 4], a, vec![1.0; 4]).unwrap();
+        assert!(schur_cholesky(&MergedRows::of(&p, &[0, 1, 2])).is_some());
+        assert!(schur_cholesky(&MergedRows::of(&p, &[0, 1, 2, 3])).is_none());
+        let system = ActiveSystem::new(&p, &[0, 1, 2, 3], None).unwrap();
+        assert!(matches!(system.factor, Factor::Sparse(_)));
+    }
+
     /// A `Bordered` with `S` given (row-major `c × c`) and `c` placeholder changes.
     fn with_schur(s: Vec<f64>, c: usize) -> Bordered {
         Bordered {
