@@ -8,13 +8,13 @@
 //! mapped afresh: `perf stat -e page-faults sweep bench --n 5000 --start jammed --steps 20
 //! --backends native` counted 17 108 page faults, and the kernel's zeroing of the new pages
 //! was a tenth of the run. [`keep_freed_memory`] raises both thresholds, so freed memory stays
-//! with the process for its next allocations: 3891 page faults. The resident set no longer
+//! with the process for its next allocations: 3887 page faults. The resident set no longer
 //! shrinks after a peak, and the peak itself (what `sweep run` reports) is the same.
 
 /// Makes glibc's allocator keep freed memory (blocks of up to 32 MiB are not mapped on their
 /// own, and the heap is not trimmed below 1 GiB of free space at its top). Call it first
 /// thing in `main`, before any thread starts. Elsewhere than on glibc it does nothing.
-/// Whether the allocator took both settings (`false` off glibc).
+/// Returns whether the allocator took both settings (`false` off glibc).
 pub fn keep_freed_memory() -> bool {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     return glibc::keep_freed_memory();
