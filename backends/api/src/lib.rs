@@ -200,6 +200,25 @@ impl ProjectionProblem {
         self.b.len()
     }
 
+    /// `b − A x`, row by row: by how much `x` falls short of each row (positive where it
+    /// violates it).
+    ///
+    /// ```
+    /// use sweeping_api::{ProjectionProblem, SparseRows};
+    /// // x₀ ≥ 1 and x₀ + x₁ ≥ 0 at y = (0.25, 0.5).
+    /// let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(0, 1.0), (1, 1.0)]]);
+    /// let p = ProjectionProblem::new(vec![0.25, 0.5], a, vec![1.0, 0.0]).unwrap();
+    /// assert_eq!(p.shortfall(p.y()), vec![0.75, -0.75]);
+    /// ```
+    pub fn shortfall(&self, x: &[f64]) -> Vec<f64> {
+        let mut r = vec![0.0; self.n_rows()];
+        self.a.mul_vec(x, &mut r);
+        r.iter_mut()
+            .zip(&self.b)
+            .for_each(|(ri, bi)| *ri = bi - *ri);
+        r
+    }
+
     /// `max(0, max_i (b − A x)_i)`: the largest violation of the rows at `x`.
     pub fn max_violation(&self, x: &[f64]) -> f64 {
         let mut ax = vec![0.0; self.n_rows()];

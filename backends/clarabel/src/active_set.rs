@@ -1276,11 +1276,7 @@ fn second_pass(
     memory: Option<&mut Remembered<'_>>,
 ) -> Outcome {
     let m = problem.n_rows();
-    let mut r = vec![0.0; m];
-    problem.a().mul_vec(problem.y(), &mut r);
-    r.iter_mut()
-        .zip(problem.b())
-        .for_each(|(ri, bi)| *ri = bi - *ri);
+    let r = problem.shortfall(problem.y());
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
     let d: Vec<f64> = first
         .x
@@ -1343,12 +1339,7 @@ fn run(
     mut held: Option<ActiveSystem>,
 ) -> Result<(Outcome, Option<ActiveSystem>), Failure> {
     let (m, n) = (problem.n_rows(), problem.dim());
-    // r = b − A y.
-    let mut r = vec![0.0; m];
-    problem.a().mul_vec(problem.y(), &mut r);
-    r.iter_mut()
-        .zip(problem.b())
-        .for_each(|(ri, bi)| *ri = bi - *ri);
+    let r = problem.shortfall(problem.y());
     if r.iter().any(|v| !v.is_finite()) {
         return Err(Failure::Numerical("b − A y overflows"));
     }

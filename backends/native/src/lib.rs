@@ -283,11 +283,7 @@ impl BlockContext<'_> {
     ) -> BlockResult {
         let tol = self.tol;
         let m = block.n_rows();
-        let mut r = vec![0.0; m];
-        block.a().mul_vec(block.y(), &mut r);
-        r.iter_mut()
-            .zip(block.b())
-            .for_each(|(ri, bi)| *ri = bi - *ri);
+        let r = block.shortfall(block.y());
         if r.iter().all(|&ri| ri <= 0.0) {
             return Ok(Projection::identity(block, NAME));
         }
