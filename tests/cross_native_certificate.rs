@@ -34,7 +34,8 @@ const DENSE_ROWS: usize = 600;
 /// checked is: both answers pass the KKT certificate at the native tolerance, and they differ
 /// by less than `undecided_gap`. How far the block's answer moves when `b` moves in its last
 /// bits ([`moved_by_last_bits`]) is printed: beyond [`TOLERANCE`], the data themselves do not
-/// decide the step; below it, the disagreement is the backends'.
+/// decide the step. Below it nothing follows: random draws give a lower bound on that
+/// sensitivity, not the worst direction.
 fn native_is_right_where_cross_native_stops(name: &str, undecided_gap: f64) {
     let (mut native, mut clarabel) = (native_projector(), ClarabelProjector::default());
     let Some(d) = replay::first_disagreement(name, &mut native, &mut clarabel, TOLERANCE) else {
@@ -100,8 +101,8 @@ fn native_is_right_where_cross_native_stops(name: &str, undecided_gap: f64) {
             eprintln!("the data do not decide this step at {TOLERANCE:e}");
         } else {
             eprintln!(
-                "the data decide this step better than the answers agree ({:.3e}): the \
-                 disagreement is the backends'",
+                "random draws moved it by less than the answers differ ({:.3e}): a lower \
+                 bound, which decides nothing",
                 d.gap
             );
         }
