@@ -42,10 +42,11 @@
 //!
 //! Those tests allow `1e-12` (relative), which jams need to finish at all; an answer that
 //! uses that room (a row violated, or the support's equations left unsolved, by more than
-//! `1e-13`) is finished by a second pass at `1e-13` from its own support, under the same
-//! cap of iterations, and stands as it is when that pass does not converge. On a jam with more tight rows than unknowns the
-//! feasible set is a sliver around the projection, and two points that pass the `1e-12` tests
-//! can lie thousands of times further apart than that (measured in `docs/backends.md`).
+//! `1e-13`) is finished by a second pass at `1e-13` from its own support, under the same cap
+//! of iterations, and stands as it is when that pass does not converge. On a jam with more
+//! tight rows than unknowns the feasible set is a sliver around the projection, and two
+//! points that pass the `1e-12` tests can lie thousands of times further apart than that
+//! (measured in `docs/backends.md`).
 //!
 //! The same method polishes Clarabel's interior-point answers (started from the interior-point
 //! guess, see the crate documentation) and is the whole of the native backend
