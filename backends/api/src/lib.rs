@@ -221,12 +221,7 @@ impl ProjectionProblem {
 
     /// `max(0, max_i (b − A x)_i)`: the largest violation of the rows at `x`.
     pub fn max_violation(&self, x: &[f64]) -> f64 {
-        let mut ax = vec![0.0; self.n_rows()];
-        self.a.mul_vec(x, &mut ax);
-        ax.iter()
-            .zip(&self.b)
-            .map(|(axi, bi)| bi - axi)
-            .fold(0.0, max_or_nan)
+        self.shortfall(x).into_iter().fold(0.0, max_or_nan)
     }
 
     /// How far `(x, λ)` is from the KKT conditions of this projection.

@@ -1250,14 +1250,24 @@ fn solve_with(
     cap: u32,
     mut memory: Option<Remembered<'_>>,
 ) -> Result<Outcome, Failure> {
-    let (first, held) = run(problem, start, cap, ACTIVE_TOL, memory.as_mut(), None)?;
-    Ok(second_pass(problem, first, held, cap, memory.as_mut()))
+    let first = run(problem, start, cap, ACTIVE_TOL, memory.as_mut(), None)?;
+    Ok(second_pass(problem, first, cap, memory.as_mut()))
 }
 
-/// The answer `first` of the method at [`ACTIVE_TOL`], finished at [`SECOND_PASS_TOL`] when
-/// it is off by more than that: from its own support, the most violated row joining alone,
-/// for at most `cap` iterations (the first pass's own cap), through `held`, the factorization
-/// of its last iteration, bordered. `first` stands when the pass does not converge.
+/// What [`run`] converged to.
+struct Finished {
+    outcome: Outcome,
+    /// The factorization of the last iteration.
+    held: Option<ActiveSystem>,
+    /// Whether the answer leaves a row violated, or a row of its support not tight, by more
+    /// than [`SECOND_PASS_TOL`] (relative, as [`ACTIVE_TOL`]).
+    needs_second_pass: bool,
+}
+
+/// The answer of the method at [`ACTIVE_TOL`], finished at [`SECOND_PASS_TOL`] when it is off
+/// by more than that: from its own support, the most violated row joining alone, for at most
+/// `cap` iterations (the first pass's own cap), through the factorization of its last
+/// iteration, bordered. The first answer stands when the pass does not converge.
 ///
 /// On a jam with more tight rows than unknowns the feasible set is a sliver around the
 /// projection, and a point that violates a row, or solves its support's equations, only to
@@ -1271,36 +1281,19 @@ fn solve_with(
 /// from the two answers' supports, the passes took 79 and 193 iterations.
 fn second_pass(
     problem: &ProjectionProblem,
-    first: Outcome,
-    held: Option<ActiveSystem>,
+    first: Finished,
     cap: u32,
     memory: Option<&mut Remembered<'_>>,
 ) -> Outcome {
-    let m = problem.n_rows();
-    let r = problem.shortfall(problem.y());
-    let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
-    let d: Vec<f64> = first
-        .x
-        .iter()
-        .zip(problem.y())
-        .map(|(x, y)| x - y)
-        .collect();
-    let mut ad = vec![0.0; m];
-    problem.a().mul_vec(&d, &mut ad);
-    // Violated outside the support, or not tight on it.
-    let off = (0..m)
-        .map(|i| {
-            let gap = r[i] - ad[i];
-            if first.lambda[i] > 0.0 {
-                gap.abs()
-            } else {
-                gap
-            }
-        })
-        .fold(0.0, f64::max);
-    if off <= SECOND_PASS_TOL * scale {
+    let Finished {
+        outcome: first,
+        held,
+        needs_second_pass,
+    } = first;
+    if !needs_second_pass {
         return first;
     }
+    let m = problem.n_rows();
     // In the factored support's order, so that the pass borders that factorization.
     let order = held
         .as_ref()
@@ -1320,7 +1313,9 @@ fn second_pass(
         join_at_most: Some(1),
     };
     match run(problem, start, cap, SECOND_PASS_TOL, memory, held) {
-        Ok((second, _)) => Outcome {
+        Ok(Finished {
+            outcome: second, ..
+        }) => Outcome {
             iterations: first.iterations.saturating_add(second.iterations),
             ..second
         },
@@ -1330,7 +1325,8 @@ fn second_pass(
 
 /// The method from `start`, for at most `cap` iterations, at tolerance `active_tol`
 /// (relative, as [`ACTIVE_TOL`]), its first iteration bordering `held` when it can. The
-/// answer comes with the factorization of its last iteration.
+/// answer comes with the factorization of its last iteration and whether it needs a second
+/// pass.
 fn run(
     problem: &ProjectionProblem,
     start: Start,
@@ -1338,7 +1334,7 @@ fn run(
     active_tol: f64,
     mut memory: Option<&mut Remembered<'_>>,
     mut held: Option<ActiveSystem>,
-) -> Result<(Outcome, Option<ActiveSystem>), Failure> {
+) -> Result<Finished, Failure> {
     let (m, n) = (problem.n_rows(), problem.dim());
     let r = problem.shortfall(problem.y());
     if r.iter().any(|v| !v.is_finite()) {
@@ -1462,14 +1458,27 @@ fn run(
                 .iter()
                 .zip(&mu)
                 .for_each(|(&i, &l)| full[i] = l.max(0.0));
-            return Ok((
-                Outcome {
+            // Violated outside the support, or not tight on it: from `r` and `A d` as this
+            // iteration left them, so the check costs no product with `A`.
+            let off = (0..m)
+                .map(|i| {
+                    let gap = r[i] - ad[i];
+                    if full[i] > 0.0 {
+                        gap.abs()
+                    } else {
+                        gap
+                    }
+                })
+                .fold(0.0, f64::max);
+            return Ok(Finished {
+                outcome: Outcome {
                     x,
                     lambda: full,
                     iterations,
                 },
                 held,
-            ));
+                needs_second_pass: off > SECOND_PASS_TOL * scale,
+            });
         }
         // From now on, drop one row at a time: dropping every negative row at once could
         // cycle with adding them back.
@@ -1606,6 +1615,27 @@ mod tests {
         (p, r)
     }
 
+    /// `outcome` as [`run`] would hand it on, measured from its point: with no factorization,
+    /// and needing a second pass when it leaves a row violated, or a row of its support not
+    /// tight, by more than [`SECOND_PASS_TOL`].
+    fn finished(p: &ProjectionProblem, outcome: Outcome) -> Finished {
+        let r = p.shortfall(&outcome.x);
+        let scale = p
+            .shortfall(p.y())
+            .iter()
+            .fold(1.0, |acc: f64, v| acc.max(v.abs()));
+        let off = r
+            .iter()
+            .zip(&outcome.lambda)
+            .map(|(gap, l)| if *l > 0.0 { gap.abs() } else { *gap })
+            .fold(0.0, f64::max);
+        Finished {
+            outcome,
+            held: None,
+            needs_second_pass: off > SECOND_PASS_TOL * scale,
+        }
+    }
+
     /// The start from the rows `support`, each at multiplier 1/2, any row joining at 1.
     fn start_from(support: Vec<usize>, m: usize) -> Start {
         Start {
@@ -1623,7 +1653,7 @@ mod tests {
         let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 5e-13]).unwrap();
         let first = run(&p, start_from(vec![0], 2), 10, ACTIVE_TOL, None, None)
             .unwrap()
-            .0;
+            .outcome;
         assert_eq!((first.x[1], first.lambda[1]), (0.0, 0.0));
         let outcome = solve(&p, start_from(vec![0], 2), 10).unwrap();
         assert!((outcome.x[0] - 1.0).abs() <= 1e-16 && (outcome.x[1] - 5e-13).abs() <= 1e-20);
@@ -1640,7 +1670,7 @@ mod tests {
         let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, 1.0 + 5e-13]).unwrap();
         let first = run(&p, start_from(vec![0, 1], 2), 10, ACTIVE_TOL, None, None)
             .unwrap()
-            .0;
+            .outcome;
         assert!(first.x[0] < 1.0 + 4e-13 && first.lambda.iter().all(|l| *l > 0.0));
         let outcome = solve(&p, start_from(vec![0, 1], 2), 10).unwrap();
         assert!((outcome.x[0] - (1.0 + 5e-13)).abs() <= 1e-16);
@@ -1670,7 +1700,7 @@ mod tests {
             lambda: vec![1.0 + 5e-13, 0.0],
             iterations: 3,
         };
-        let second = second_pass(&p, first, None, 10, None);
+        let second = second_pass(&p, finished(&p, first), 10, None);
         assert_eq!(second.x, vec![1.0, 0.0]);
         assert_eq!(second.lambda, vec![1.0, 0.0]);
         // One iteration from the support {x₀ ≥ 1} alone, added to the first pass's three.
@@ -1683,7 +1713,9 @@ mod tests {
         // row as satisfied (5e-11 < 1e-12 · 1000) and so does the second pass (< 1e-13 · 1000).
         let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
         let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1000.0, 5e-11]).unwrap();
-        let (first, _) = run(&p, start_from(vec![0], 2), 10, ACTIVE_TOL, None, None).unwrap();
+        let first = run(&p, start_from(vec![0], 2), 10, ACTIVE_TOL, None, None)
+            .unwrap()
+            .outcome;
         assert_eq!((first.x[1], first.iterations), (0.0, 1));
         let outcome = solve(&p, start_from(vec![0], 2), 10).unwrap();
         assert_eq!((outcome.x[1], outcome.iterations), (0.0, 1));
@@ -1693,7 +1725,7 @@ mod tests {
             lambda: vec![1000.0, 0.0],
             iterations: 2,
         };
-        let kept = second_pass(&p, short.clone(), None, 10, None);
+        let kept = second_pass(&p, finished(&p, short.clone()), 10, None);
         assert_eq!((kept.x, kept.iterations), (short.x, 2));
     }
 
@@ -1713,6 +1745,34 @@ mod tests {
         let capped = solve(&p, start_from(vec![0], 21), 10).unwrap();
         assert!(capped.x[1..].iter().all(|x| *x == 0.0));
         assert_eq!(capped.iterations, 1);
+    }
+
+    #[test]
+    fn a_support_the_first_pass_leaves_overshot_is_finished() {
+        // 1 ≤ x₀ ≤ 1 + 5e-13 with y₀ in between, both rows in the starting support: their
+        // equations disagree by less than ACTIVE_TOL, and the first pass keeps both with
+        // multipliers 1/2 though y satisfies both by 2.5e-13. The second pass finds them
+        // inconsistent at 1e-13 and ends at the projection, y itself, with no multiplier.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
+        let y = 1.0 + 2.5e-13;
+        let p = ProjectionProblem::new(vec![y], a, vec![1.0, -(1.0 + 5e-13)]).unwrap();
+        let first = run(&p, start_from(vec![0, 1], 2), 10, ACTIVE_TOL, None, None)
+            .unwrap()
+            .outcome;
+        assert!(first.lambda.iter().all(|l| *l > 0.1));
+        let outcome = solve(&p, start_from(vec![0, 1], 2), 10).unwrap();
+        assert_eq!(outcome.lambda, vec![0.0, 0.0]);
+        assert!((outcome.x[0] - y).abs() <= 1e-16);
+    }
+
+    #[test]
+    fn a_row_violated_by_exactly_the_second_tolerance_is_left_as_it_is() {
+        // x₀ ≥ 1, and x₁ ≥ 1e-13 = SECOND_PASS_TOL, violated by exactly that at y = 0:
+        // "more than" the tolerance is what starts a second pass.
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, SECOND_PASS_TOL]).unwrap();
+        let outcome = solve(&p, start_from(vec![0], 2), 10).unwrap();
+        assert_eq!((outcome.x[1], outcome.iterations), (0.0, 1));
     }
 
     #[test]
