@@ -14,7 +14,8 @@
 //! an `n × n` symmetric positive definite system (the identity comes from the objective, so
 //! it is never singular, whatever the rows: contact loops included). Its pattern is that of
 //! `I + AᵀA` at every iteration, so it is ordered and analysed once per block and only
-//! refactored numerically after that. Near the answer its weights `λ/s` span many orders of
+//! refactored numerically after that (by [`Refactor`], which also keeps the pattern of each
+//! row of the factor). Near the answer its weights `λ/s` span many orders of
 //! magnitude and its solves lose accuracy; once the residuals grow instead of shrinking, each
 //! solve is refined once against the matrix itself. A general interior-point solver factors the
 //! `(n + m)`-square KKT matrix instead, with `m` (the candidate rows) about twice `n` on a jam.
@@ -28,6 +29,8 @@
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
 use sweeping_api::SparseRows;
+
+use crate::refactor::Refactor;
 
 /// Fraction of the step to the boundary that an iteration takes.
 const TO_BOUNDARY: f64 = 0.99;
@@ -70,9 +73,8 @@ struct NormalMatrix {
     row_slots: Vec<usize>,
     /// Where the diagonal entries are.
     diagonal: Vec<usize>,
-    /// `0..nnz`: every entry, for QDLDL's value update.
-    every_entry: Vec<usize>,
-    factor: Option<QDLDLFactorisation<f64>>,
+    /// The factorization, and the arithmetic that refactors it with new weights.
+    factor: Option<(QDLDLFactorisation<f64>, Refactor)>,
 }
 
 impl NormalMatrix {
@@ -156,7 +158,6 @@ impl NormalMatrix {
             coefficients,
             row_slots,
             diagonal,
-            every_entry: (0..nnz).collect(),
             factor: None,
         }
     }
@@ -179,10 +180,7 @@ impl NormalMatrix {
             }
         }
         match self.factor.as_mut() {
-            Some(ldl) => {
-                ldl.update_values(&self.every_entry, values);
-                ldl.refactor().is_ok()
-            }
+            Some((ldl, refactor)) => refactor.refactor(values, ldl),
             None => {
                 let mut builder = QDLDLSettingsBuilder::default();
                 builder.Dsigns(vec![1; self.csc.n]);
@@ -191,7 +189,8 @@ impl NormalMatrix {
                 };
                 match QDLDLFactorisation::new(&self.csc, Some(settings)) {
                     Ok(ldl) => {
-                        self.factor = Some(ldl);
+                        let refactor = Refactor::new(&self.csc, &ldl);
+                        self.factor = Some((ldl, refactor));
                         true
                     }
                     Err(_) => false,
@@ -201,7 +200,7 @@ impl NormalMatrix {
     }
 
     fn solve(&mut self, v: &mut [f64]) {
-        if let Some(ldl) = self.factor.as_mut() {
+        if let Some((ldl, _)) = self.factor.as_mut() {
             ldl.solve(v);
         }
     }

@@ -83,6 +83,7 @@ use sweeping_api::{
 use sweeping_clarabel::active_set::{self, Failure, Orderings, Start};
 
 mod interior_point;
+mod refactor;
 
 /// The name this backend reports in statistics and errors.
 pub const NAME: &str = "native";
