@@ -419,7 +419,7 @@ const STALE_FILL: f64 = 1.25;
 /// On a queue at a door the method factors, at the start of every step, a support of a
 /// hundred rows or more, much like the one of the step before: the same contacts, a few
 /// made or broken. AMD, which orders each fresh factorization, cost more there than the
-/// rest of the factorization (the README's performance section has the measurements).
+/// rest of the factorization (`docs/performance.md` has the measurements).
 /// A factorization whose nodes are mostly remembered is ordered by their ranks in the
 /// orderings that placed them last (nodes new to the memory go last, in their own order),
 /// which keeps the fill of the AMD ordering it descends from as long as the support changes
