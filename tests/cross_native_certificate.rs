@@ -66,11 +66,11 @@ fn native_is_right_where_cross_native_stops(name: &str, undecided_gap: f64) {
         // tight rows than unknowns, or dependent ones, leave a sliver of a feasible set
         // around the projection, which the data then pins only loosely).
         let tight = |x: &[f64]| {
-            let mut ax = vec![0.0; block.problem.n_rows()];
-            block.problem.a().mul_vec(x, &mut ax);
-            ax.iter()
-                .zip(block.problem.b())
-                .filter(|(ax, b)| (*ax - *b).abs() <= 1e-9 * scale)
+            block
+                .problem
+                .shortfall(x)
+                .iter()
+                .filter(|r| r.abs() <= 1e-9 * scale)
                 .count()
         };
         eprintln!(

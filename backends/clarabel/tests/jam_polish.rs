@@ -31,9 +31,11 @@ fn jam() -> (ProjectionProblem, Vec<f64>, Vec<f64>, Vec<f64>) {
     let text = std::fs::read_to_string(path).expect("read the jam's guess");
     let data: Data = serde_json::from_str(&text).expect("parse the jam's guess");
     let p = data.problem;
-    let mut ax = vec![0.0; p.n_rows()];
-    p.a().mul_vec(&data.interior_point_x, &mut ax);
-    let s = ax.iter().zip(p.b()).map(|(ax, b)| ax - b).collect();
+    let s = p
+        .shortfall(&data.interior_point_x)
+        .iter()
+        .map(|r| -r)
+        .collect();
     (p, data.interior_point_x, data.interior_point_z, s)
 }
 
