@@ -206,6 +206,26 @@ impl NormalMatrix {
     }
 }
 
+/// `a` on the columns that hold an entry, renumbered in their order; `None` when every
+/// column does.
+fn touched_columns_only(a: &SparseRows) -> Option<SparseRows> {
+    let mut local = vec![usize::MAX; a.n_cols()];
+    a.col_idx().iter().for_each(|&c| local[c] = 0);
+    let mut touched = 0;
+    for l in local.iter_mut().filter(|l| **l == 0) {
+        *l = touched;
+        touched += 1;
+    }
+    if touched == a.n_cols() {
+        return None;
+    }
+    let mut compressed = SparseRows::new(touched);
+    for i in 0..a.n_rows() {
+        compressed.push_row(a.row(i).map(|(c, v)| (local[c], v)));
+    }
+    Some(compressed)
+}
+
 /// The largest `α` with `v + α Δv ≥ 0` (infinite when `Δv ≥ 0`).
 fn step_to_boundary(v: &[f64], dv: &[f64]) -> f64 {
     v.iter()
@@ -327,10 +347,16 @@ pub(crate) fn solve(
     tolerance: f64,
     max_iterations: u32,
 ) -> Option<Iterate> {
-    let (m, n) = (a.n_rows(), a.n_cols());
-    if m == 0 {
+    if a.n_rows() == 0 {
         return None;
     }
+    // Unknowns no row touches keep `d = 0` at every iteration (their rows of the normal
+    // equations are the identity's, with nothing on the right), so the method runs on the
+    // others: on a jam's screened rows 10–15 % of the block's unknowns are left out, and each
+    // of them cost the ordering, every refactorization and every solve a column.
+    let compressed = touched_columns_only(a);
+    let a = compressed.as_ref().unwrap_or(a);
+    let (m, n) = (a.n_rows(), a.n_cols());
     let mut matrix = NormalMatrix::new(a);
     if !matrix.factor(&vec![1.0; m]) {
         return None;
