@@ -15,8 +15,9 @@
 //!     [ A_P  0    ] [ −μ ] = [ r_P ],
 //! ```
 //!
-//! by an `LDLᵀ` factorization (QDLDL, with AMD ordering, or an ordering remembered from
-//! recent factorizations, see [`Orderings`]) of the quasi-definite matrix whose
+//! by an `LDLᵀ` factorization (QDLDL's with AMD ordering, or, with an ordering remembered from
+//! recent factorizations (see [`Orderings`]), QDLDL's arithmetic run by this crate, which
+//! counts the ordering's fill and analyses it in one pass) of the quasi-definite matrix whose
 //! lower-right block is `−δI`, on the unknowns the rows of `P` touch (`dⱼ = 0` for the others),
 //! followed by iterative refinement against the unregularized
 //! matrix, started from the current `(d, λ)`. Between steps the support changes by a few
@@ -56,6 +57,8 @@
 use clarabel::algebra::CscMatrix;
 use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
 use sweeping_api::{FastMap, ProjectionProblem, RowKey};
+
+use crate::ldl::{Ldl, NotFactored};
 
 /// How often the same working set may be factored before the method is declared cycling.
 const REPEATS: u32 = 3;
@@ -348,7 +351,7 @@ const DENSE_PIVOT: f64 = 1e-6;
 /// The factors of `K_δ = [I A_Pᵀ; A_P −δI]`.
 enum Factor {
     /// Sparse `LDLᵀ` of `K_δ` itself.
-    Sparse(Box<QDLDLFactorisation<f64>>),
+    Sparse(Box<Ldl>),
     /// Dense Cholesky factor `L` (row-major, lower triangle) of `S = A_P A_Pᵀ + δI`.
     Dense(Vec<f64>),
 }
@@ -569,64 +572,6 @@ impl Orderings {
     }
 }
 
-/// Whether the `LDLᵀ` factor of the symmetric matrix whose upper triangle is `upper`, ordered
-/// by `perm` (position → node, as QDLDL takes it), has at most `budget` entries below its
-/// diagonal. Counted as QDLDL's symbolic analysis counts them (the elimination tree, each
-/// row's entries found by walking up it from the entries of the matrix), but stopping as soon
-/// as the count passes the budget: the cost is at most the budget, not the fill.
-fn factor_entries_within(upper: &CscMatrix<f64>, perm: &[usize], budget: f64) -> bool {
-    const NONE: usize = usize::MAX;
-    let size = perm.len();
-    let mut position = vec![0usize; size];
-    for (p, &node) in perm.iter().enumerate() {
-        position[node] = p;
-    }
-    // The permuted upper triangle by columns: entry (i, j) of `upper` lands in column
-    // max(pᵢ, pⱼ) at row min(pᵢ, pⱼ).
-    let mut start = vec![0usize; size + 1];
-    let mut entries = Vec::with_capacity(upper.nnz());
-    for j in 0..size {
-        for &i in &upper.rowval[upper.colptr[j]..upper.colptr[j + 1]] {
-            let (a, b) = (position[i], position[j]);
-            if a != b {
-                entries.push((a.max(b), a.min(b)));
-                start[a.max(b) + 1] += 1;
-            }
-        }
-    }
-    for k in 0..size {
-        start[k + 1] += start[k];
-    }
-    let mut rows = vec![0usize; entries.len()];
-    let mut fill = start.clone();
-    for (column, row) in entries {
-        rows[fill[column]] = row;
-        fill[column] += 1;
-    }
-    let mut parent = vec![NONE; size];
-    let mut flag = vec![NONE; size];
-    let mut count = 0.0;
-    for k in 0..size {
-        flag[k] = k;
-        for &first in &rows[start[k]..start[k + 1]] {
-            // Row k of L has an entry in each column on the path from `first` up the tree.
-            let mut i = first;
-            while flag[i] != k {
-                if parent[i] == NONE {
-                    parent[i] = k;
-                }
-                count += 1.0;
-                if count > budget {
-                    return false;
-                }
-                flag[i] = k;
-                i = parent[i];
-            }
-        }
-    }
-    true
-}
-
 /// Where iterative refinement stopped.
 struct Refined {
     /// `‖residual‖∞` of the second block.
@@ -689,8 +634,6 @@ impl ActiveSystem {
         let kkt = kkt_matrix(&rows, &unknowns);
         let u = unknowns.base;
         let signs: Vec<i8> = (0..u + k).map(|i| if i < u { 1 } else { -1 }).collect();
-        let mut builder = QDLDLSettingsBuilder::default();
-        builder.Dsigns(signs);
         // Each node of `K_δ` named by what it stands for, so that orderings carry over.
         let nodes = memory.as_ref().and_then(|m| {
             let keys = problem.row_keys()?;
@@ -703,23 +646,29 @@ impl ActiveSystem {
         // A remembered ordering is used only when its factor is predicted to fill no more
         // than `STALE_FILL` times the last AMD ordering: thousands of rows new to the memory
         // go last, and eliminating the unknowns before them made a crowd at 1000 m/s fill
-        // 130 times more than AMD (6.8 million entries, 15 s for one factorization).
-        let reused = match (&memory, &nodes) {
-            (Some(m), Some(nodes)) => m.orderings.ordering(nodes).filter(|perm| {
+        // 130 times more than AMD (6.8 million entries, 15 s for one factorization). The
+        // count is the factorization's own symbolic analysis, which gives up at the budget.
+        let remembered = match (&memory, &nodes) {
+            (Some(m), Some(nodes)) => m.orderings.ordering(nodes).map(|perm| {
                 let budget = STALE_FILL * m.orderings.amd_fill * kkt.nnz() as f64;
-                factor_entries_within(&kkt, perm, budget)
+                Ldl::ordered(&kkt, perm, &signs, budget)
             }),
             _ => None,
         };
-        let reordered = reused.is_some();
-        if let Some(perm) = reused {
-            builder.perm(perm);
-        }
-        let settings = builder.build().ok()?;
-        let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
+        let (ldl, reordered) = match remembered {
+            Some(Ok(ldl)) => (ldl, true),
+            Some(Err(NotFactored::Failed)) => return None,
+            Some(Err(NotFactored::TooMuchFill)) | None => {
+                let mut builder = QDLDLSettingsBuilder::default();
+                builder.Dsigns(signs);
+                let settings = builder.build().ok()?;
+                let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
+                (Ldl::from_qdldl(ldl), false)
+            }
+        };
         if let (Some(m), Some(nodes)) = (memory, nodes) {
-            let fill = ldl.nnzL() as f64 / kkt.nnz() as f64;
-            m.orderings.record(&nodes, &ldl.perm, fill, reordered);
+            let fill = ldl.entries_below_diagonal() as f64 / kkt.nnz() as f64;
+            m.orderings.record(&nodes, ldl.perm(), fill, reordered);
         }
         Some(Self {
             n,
@@ -921,7 +870,7 @@ impl Bordered {
 
     /// Adds a change: its column of `W` (one solve with the old factor) and its row and
     /// column of `S`.
-    fn push(&mut self, ldl: &mut QDLDLFactorisation<f64>, unknowns: &Unknowns, change: Change) {
+    fn push(&mut self, ldl: &mut Ldl, unknowns: &Unknowns, change: Change) {
         let (u, factored) = (unknowns.base, unknowns.base + self.base.len());
         let mut w = vec![0.0; unknowns.global.len() + self.base.len()];
         match &change {
@@ -1005,7 +954,7 @@ impl Bordered {
     /// order, then the joined rows in the order they joined).
     fn solve(
         &mut self,
-        ldl: &mut QDLDLFactorisation<f64>,
+        ldl: &mut Ldl,
         n: usize,
         unknowns: &Unknowns,
         support: &[usize],
@@ -2147,56 +2096,6 @@ mod tests {
         assert!(system.bordered_to(&p, &next).is_none());
     }
 
-    /// QDLDL's count of the entries below the diagonal of the factor of `K_δ` for `support`
-    /// ordered by `perm`, and the matrix.
-    fn qdldl_fill(
-        p: &ProjectionProblem,
-        support: &[usize],
-        perm: &[usize],
-    ) -> (usize, CscMatrix<f64>) {
-        let rows = MergedRows::of(p, support);
-        let unknowns = Unknowns::touched_by(p.dim(), &rows);
-        let kkt = kkt_matrix(&rows, &unknowns);
-        let size = unknowns.base + rows.len();
-        let signs = (0..size)
-            .map(|i| if i < unknowns.base { 1 } else { -1 })
-            .collect();
-        let mut builder = QDLDLSettingsBuilder::default();
-        builder.Dsigns(signs);
-        builder.perm(perm.to_vec());
-        let ldl = QDLDLFactorisation::new(&kkt, Some(builder.build().unwrap())).unwrap();
-        (ldl.nnzL(), kkt)
-    }
-
-    #[test]
-    fn the_fill_of_an_ordering_is_predicted_as_qdldl_counts_it() {
-        use rand::seq::SliceRandom;
-        use rand::SeedableRng;
-        let p = random_problem();
-        let support: Vec<usize> = (0..30).collect();
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        let size = ActiveSystem::sparse(&p, &support).unwrap().unknowns.base + support.len();
-        // The natural order (unknowns first: much fill), its reverse (rows first) and
-        // random ones.
-        let mut orders: Vec<Vec<usize>> = vec![(0..size).collect(), (0..size).rev().collect()];
-        for _ in 0..5 {
-            let mut perm: Vec<usize> = (0..size).collect();
-            perm.shuffle(&mut rng);
-            orders.push(perm);
-        }
-        let mut fills = Vec::new();
-        for perm in &orders {
-            let (fill, kkt) = qdldl_fill(&p, &support, perm);
-            assert!(factor_entries_within(&kkt, perm, fill as f64), "{fill}");
-            assert!(
-                !factor_entries_within(&kkt, perm, fill as f64 - 1.0),
-                "{fill}"
-            );
-            fills.push(fill);
-        }
-        assert!(fills[0] > fills[1], "{fills:?}");
-    }
-
     #[test]
     fn at_most_k_violated_rows_join_the_most_violated_first_in_index_order() {
         let violated = [1, 3, 4, 7];
@@ -2271,7 +2170,7 @@ mod tests {
             panic!("a sparse factor");
         };
         let u = system.unknowns.base;
-        ldl.perm
+        ldl.perm()
             .iter()
             .map(|&l| {
                 if l < u {
@@ -2306,7 +2205,8 @@ mod tests {
         let Factor::Sparse(ldl) = &first.factor else {
             panic!("a sparse factor");
         };
-        let fill = ldl.nnzL() as f64 / ldl.nnzA() as f64;
+        let kkt = kkt_matrix(&first.rows, &first.unknowns);
+        let fill = ldl.entries_below_diagonal() as f64 / kkt.nnz() as f64;
         assert!(fill > 0.0 && fill.fract() != 0.0, "{fill}");
         assert_eq!(memory.orderings.amd_fill, fill);
         let before = factored_nodes(&first, &keys, &names);

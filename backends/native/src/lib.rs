@@ -57,7 +57,8 @@
 //! The active-set method is `sweeping_clarabel::active_set`, the code that also polishes
 //! Clarabel's interior-point answers: this backend runs it on its own, from the previous
 //! step's active rows, block by block; Clarabel runs it from its interior-point guess. Its
-//! factorization is QDLDL as Clarabel ships it (`clarabel::qdldl`, AMD ordering), with small
+//! factorization is QDLDL as Clarabel ships it (`clarabel::qdldl`, AMD ordering; with an
+//! ordering remembered, QDLDL's arithmetic in `sweeping_clarabel`, to the bit), with small
 //! well-conditioned supports factored densely; faer's sparse Cholesky was not measured
 //! against it. The cross-check `cross-native` still compares two different paths to the
 //! answer (a warm active set against an interior point), not one computation with itself.
