@@ -15,9 +15,9 @@
 //!     [ A_P  0    ] [ −μ ] = [ r_P ],
 //! ```
 //!
-//! by an `LDLᵀ` factorization (QDLDL's with AMD ordering, or, with an ordering remembered from
-//! recent factorizations (see [`Orderings`]), QDLDL's arithmetic run by this crate, which
-//! counts the ordering's fill and analyses it in one pass) of the quasi-definite matrix whose
+//! by an `LDLᵀ` factorization (QDLDL's arithmetic, run by this crate's `ldl` module so that
+//! the matrix is permuted and analysed once, ordered by AMD or by an ordering remembered from
+//! recent factorizations, see [`Orderings`]) of the quasi-definite matrix whose
 //! lower-right block is `−δI`, on the unknowns the rows of `P` touch (`dⱼ = 0` for the others),
 //! followed by iterative refinement against the unregularized
 //! matrix, started from the current `(d, λ)`. Between steps the support changes by a few
@@ -55,7 +55,6 @@
 //! at `y`): one implementation, two starts.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
 use sweeping_api::{FastMap, ProjectionProblem, RowKey};
 
 use crate::ldl::{Ldl, NotFactored};
@@ -658,13 +657,7 @@ impl ActiveSystem {
         let (ldl, reordered) = match remembered {
             Some(Ok(ldl)) => (ldl, true),
             Some(Err(NotFactored::Failed)) => return None,
-            Some(Err(NotFactored::TooMuchFill)) | None => {
-                let mut builder = QDLDLSettingsBuilder::default();
-                builder.Dsigns(signs);
-                let settings = builder.build().ok()?;
-                let ldl = QDLDLFactorisation::new(&kkt, Some(settings)).ok()?;
-                (Ldl::from_qdldl(ldl), false)
-            }
+            Some(Err(NotFactored::TooMuchFill)) | None => (Ldl::amd(&kkt, &signs).ok()?, false),
         };
         if let (Some(m), Some(nodes)) = (memory, nodes) {
             let fill = ldl.entries_below_diagonal() as f64 / kkt.nnz() as f64;

@@ -1,20 +1,19 @@
-//! The sparse `LDLᵀ` factor the active-set method solves with: QDLDL's, and QDLDL's
-//! arithmetic for an ordering already known.
+//! The sparse `LDLᵀ` factor the active-set method solves with: QDLDL's arithmetic, run by
+//! this crate so that a factorization permutes and analyses its matrix once.
 //!
-//! With an ordering of its own (AMD), a factorization is QDLDL's, taken over as it is
-//! ([`Ldl::from_qdldl`]). With an ordering remembered from earlier factorizations (most of
-//! them on a queue at a door), the method must first know the ordering's fill, to refuse one
-//! that fills too much, and that count is the elimination tree QDLDL's symbolic analysis
-//! builds again right after, on a permuted copy of the matrix it makes again too.
+//! A fresh factorization is ordered by AMD (as QDLDL orders it, [`Ldl::amd`]) or by an
+//! ordering remembered from earlier factorizations (most of them on a queue at a door,
+//! [`Ldl::ordered`]). A remembered ordering must first have its fill counted, to refuse one
+//! that fills too much, and that count is the elimination tree that QDLDL's symbolic analysis
+//! builds again right after, on a permuted copy of the matrix that it makes again too.
 //! [`Ldl::ordered`] permutes once, counts the fill while it builds the tree (giving up as soon
-//! as the count passes the budget) and then runs QDLDL's numeric factorization on what it
-//! built: the same permuted matrix, entry for entry in the same order, the same tree, the
-//! same up-looking elimination with the same regularization of pivots of the wrong sign.
-//! The factor is QDLDL's to the bit (a property test asserts it), so nothing downstream sees
-//! the difference but the time.
+//! as the count passes the budget), and runs QDLDL's numeric factorization on what it built:
+//! the same permuted matrix, entry for entry in the same order, the same tree, the same
+//! up-looking elimination with the same regularization of pivots of the wrong sign. The
+//! factor and its solves are QDLDL's to the bit (property tests against QDLDL assert it), so
+//! nothing downstream sees the difference but the time.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::qdldl::QDLDLFactorisation;
 
 /// QDLDL's default `regularize_eps`: a pivot `D[k]` with `D[k]·sign[k]` below it is replaced
 /// by `sign[k]·`[`REGULARIZE_DELTA`].
@@ -48,16 +47,17 @@ pub(crate) enum NotFactored {
 }
 
 impl Ldl {
-    /// QDLDL's factorization, taken over.
-    pub(crate) fn from_qdldl(ldl: QDLDLFactorisation<f64>) -> Self {
-        let n = ldl.perm.len();
-        let QDLDLFactorisation { perm, L, Dinv, .. } = ldl;
-        Self {
-            perm,
-            l: L,
-            d_inv: Dinv,
-            work: vec![0.0; n],
-        }
+    /// [`Self::ordered`] by the AMD ordering QDLDL finds for `upper` (its default controls),
+    /// with no budget: what `QDLDLFactorisation::new` gives without an ordering, to the bit.
+    pub(crate) fn amd(upper: &CscMatrix<f64>, signs: &[i8]) -> Result<Self, NotFactored> {
+        let (perm, _, _) = amd::order(
+            upper.n,
+            &upper.colptr,
+            &upper.rowval,
+            &amd::Control::default(),
+        )
+        .map_err(|_| NotFactored::Failed)?;
+        Self::ordered(upper, perm, signs, f64::INFINITY)
     }
 
     /// The factorization of the symmetric matrix whose upper triangle (diagonal included) is
@@ -297,7 +297,7 @@ fn factor(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clarabel::qdldl::QDLDLSettingsBuilder;
+    use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
     use proptest::prelude::*;
 
     /// The upper triangle of `[I Aᵀ; A −δI]` for `rows` of `A` on `n` unknowns, and the
@@ -387,13 +387,29 @@ mod tests {
                 a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
                 b.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
             );
-            // Taken over, QDLDL's factor solves as it did.
-            let mut taken = Ldl::from_qdldl(qdldl(&upper, &perm, &signs));
-            let mut c = rhs_of(&a);
-            let mut d = c.clone();
-            taken.solve(&mut c);
-            ours.solve(&mut d);
-            prop_assert_eq!(c, d);
+        }
+
+        /// Ordered by AMD, the factor is QDLDL's own (no ordering given) to the bit.
+        #[test]
+        fn an_amd_factorization_is_qdldls_to_the_bit((n, rows, _perm, rhs) in system()) {
+            let (upper, signs) = kkt(n, &rows, 1e-9);
+            let mut builder = QDLDLSettingsBuilder::default();
+            builder.Dsigns(signs.clone());
+            let mut theirs = QDLDLFactorisation::new(&upper, Some(builder.build().unwrap())).unwrap();
+            let mut ours = Ldl::amd(&upper, &signs).unwrap();
+            prop_assert_eq!(&ours.perm, &theirs.perm);
+            prop_assert_eq!(&ours.l.rowval, &theirs.L.rowval);
+            prop_assert_eq!(
+                ours.l.nzval.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                theirs.L.nzval.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
+            let (mut a, mut b) = (rhs.clone(), rhs);
+            ours.solve(&mut a);
+            theirs.solve(&mut b);
+            prop_assert_eq!(
+                a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                b.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
         }
 
         /// The fill is refused exactly when it passes the budget.
@@ -407,10 +423,6 @@ mod tests {
                 Some(NotFactored::TooMuchFill)
             );
         }
-    }
-
-    fn rhs_of(v: &[f64]) -> Vec<f64> {
-        v.iter().map(|x| x.sin() + 0.5).collect()
     }
 
     #[test]
@@ -470,6 +482,15 @@ mod tests {
         assert_eq!(ok.d_inv, vec![1e7]);
         assert_eq!(
             Ldl::ordered(&upper, vec![0], &[0], f64::INFINITY).err(),
+            Some(NotFactored::Failed)
+        );
+        // Without a sign, QDLDL zeroes even a good pivot (`D·0 < eps`) and fails; so does this.
+        let one = CscMatrix::new(1, 1, vec![0, 1], vec![0], vec![1.0]);
+        let mut builder = QDLDLSettingsBuilder::default();
+        builder.Dsigns(vec![0]);
+        assert!(QDLDLFactorisation::new(&one, Some(builder.build().unwrap())).is_err());
+        assert_eq!(
+            Ldl::ordered(&one, vec![0], &[0], f64::INFINITY).err(),
             Some(NotFactored::Failed)
         );
     }

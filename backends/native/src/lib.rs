@@ -11,7 +11,7 @@
 //!    thread of its own ([`NativeSettings::parallel_rows`]), with the same answers as on one.
 //! 2. **Dual active set.** Each block runs the Lawson–Hanson method on the dual
 //!    `min ½‖Aᵀλ‖² − λᵀ(b − Ay)`, `λ ≥ 0` (see [the method](sweeping_clarabel::active_set)); every step solves
-//!    the quasi-definite KKT system of the working set (factored with QDLDL, ordered as the
+//!    the quasi-definite KKT system of the working set (factored as QDLDL factors, ordered as the
 //!    last factorizations of the same rows and people were, see [`Orderings`], or the
 //!    previous factor bordered with the few rows that joined or left) and refines against the
 //!    unregularized one, which copes with linearly dependent rows (contact loops). It starts
@@ -57,9 +57,9 @@
 //! The active-set method is `sweeping_clarabel::active_set`, the code that also polishes
 //! Clarabel's interior-point answers: this backend runs it on its own, from the previous
 //! step's active rows, block by block; Clarabel runs it from its interior-point guess. Its
-//! factorization is QDLDL as Clarabel ships it (`clarabel::qdldl`, AMD ordering; with an
-//! ordering remembered, QDLDL's arithmetic in `sweeping_clarabel`, to the bit), with small
-//! well-conditioned supports factored densely; faer's sparse Cholesky was not measured
+//! factorization is QDLDL's arithmetic as Clarabel ships it (run by `sweeping_clarabel`, to
+//! the bit, AMD-ordered or ordered from memory), with small well-conditioned supports
+//! factored densely; faer's sparse Cholesky was not measured
 //! against it. The cross-check `cross-native` still compares two different paths to the
 //! answer (a warm active set against an interior point), not one computation with itself.
 //!
