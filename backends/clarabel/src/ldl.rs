@@ -360,6 +360,28 @@ mod tests {
             })
     }
 
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// `ours` is `theirs` to the bit: ordering, factor, `D⁻¹`, and the solve of `rhs`.
+    fn same_bits(
+        mut ours: Ldl,
+        theirs: &mut QDLDLFactorisation<f64>,
+        rhs: Vec<f64>,
+    ) -> Result<(), TestCaseError> {
+        prop_assert_eq!(&ours.perm, &theirs.perm);
+        prop_assert_eq!(&ours.l.colptr, &theirs.L.colptr);
+        prop_assert_eq!(&ours.l.rowval, &theirs.L.rowval);
+        prop_assert_eq!(bits(&ours.l.nzval), bits(&theirs.L.nzval));
+        prop_assert_eq!(bits(&ours.d_inv), bits(&theirs.Dinv));
+        let (mut a, mut b) = (rhs.clone(), rhs);
+        ours.solve(&mut a);
+        theirs.solve(&mut b);
+        prop_assert_eq!(bits(&a), bits(&b));
+        Ok(())
+    }
+
     proptest! {
         /// For any ordering, the factor is QDLDL's to the bit, and so is every solve.
         #[test]
@@ -369,24 +391,8 @@ mod tests {
         ) {
             let (upper, signs) = kkt(n, &rows, 10f64.powi(delta_exponent));
             let mut theirs = qdldl(&upper, &perm, &signs);
-            let mut ours = Ldl::ordered(&upper, perm.clone(), &signs, f64::INFINITY).unwrap();
-            prop_assert_eq!(&ours.l.colptr, &theirs.L.colptr);
-            prop_assert_eq!(&ours.l.rowval, &theirs.L.rowval);
-            prop_assert_eq!(
-                ours.l.nzval.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                theirs.L.nzval.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-            );
-            prop_assert_eq!(
-                ours.d_inv.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                theirs.Dinv.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-            );
-            let (mut a, mut b) = (rhs.clone(), rhs);
-            ours.solve(&mut a);
-            theirs.solve(&mut b);
-            prop_assert_eq!(
-                a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                b.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-            );
+            let ours = Ldl::ordered(&upper, perm.clone(), &signs, f64::INFINITY).unwrap();
+            same_bits(ours, &mut theirs, rhs)?;
         }
 
         /// Ordered by AMD, the factor is QDLDL's own (no ordering given) to the bit.
@@ -396,20 +402,8 @@ mod tests {
             let mut builder = QDLDLSettingsBuilder::default();
             builder.Dsigns(signs.clone());
             let mut theirs = QDLDLFactorisation::new(&upper, Some(builder.build().unwrap())).unwrap();
-            let mut ours = Ldl::amd(&upper, &signs).unwrap();
-            prop_assert_eq!(&ours.perm, &theirs.perm);
-            prop_assert_eq!(&ours.l.rowval, &theirs.L.rowval);
-            prop_assert_eq!(
-                ours.l.nzval.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                theirs.L.nzval.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-            );
-            let (mut a, mut b) = (rhs.clone(), rhs);
-            ours.solve(&mut a);
-            theirs.solve(&mut b);
-            prop_assert_eq!(
-                a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                b.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-            );
+            let ours = Ldl::amd(&upper, &signs).unwrap();
+            same_bits(ours, &mut theirs, rhs)?;
         }
 
         /// The fill is refused exactly when it passes the budget.
