@@ -1,5 +1,6 @@
-//! The sparse `LDLᵀ` factor the active-set method solves with: QDLDL's arithmetic, run by
-//! this crate so that a factorization permutes and analyses its matrix once.
+//! The sparse `LDLᵀ` factorization the active-set method (and the native backend's interior
+//! point) solves with: QDLDL's arithmetic, run by this crate so that a factorization permutes
+//! and analyses its matrix once.
 //!
 //! A fresh factorization is ordered by AMD (as QDLDL orders it, [`Ldl::amd`]) or by an
 //! ordering remembered from earlier factorizations (most of them on a queue at a door,
@@ -12,6 +13,11 @@
 //! up-looking elimination with the same regularization of pivots of the wrong sign. The
 //! factor and its solves are QDLDL's to the bit (property tests against QDLDL assert it), so
 //! nothing downstream sees the difference but the time.
+//!
+//! [`Refactor`] refactors a factor numerically when only the matrix's values change (the
+//! native backend's interior point, at every iteration). It eliminates each row of `L` with
+//! the same code as the fresh factorization, on row patterns recorded once, so both are
+//! QDLDL's arithmetic written once.
 
 use clarabel::algebra::CscMatrix;
 
@@ -25,10 +31,24 @@ const NONE: usize = usize::MAX;
 
 /// An `LDLᵀ` factorization `P K Pᵀ = L D Lᵀ` of a symmetric matrix `K`, `L` unit lower
 /// triangular (its diagonal implied), solved as QDLDL solves.
+///
+/// ```
+/// use clarabel::algebra::CscMatrix;
+/// use sweeping_clarabel::ldl::Ldl;
+///
+/// // [[4, 1], [1, 3]] by its upper triangle, both pivots positive.
+/// let upper = CscMatrix::new(2, 2, vec![0, 1, 3], vec![0, 0, 1], vec![4.0, 1.0, 3.0]);
+/// let mut ldl = Ldl::amd(&upper, &[1, 1]).unwrap();
+/// let mut b = vec![5.0, 4.0]; // the matrix times [1, 1]
+/// ldl.solve(&mut b);
+/// assert!((b[0] - 1.0).abs() < 1e-12 && (b[1] - 1.0).abs() < 1e-12);
+/// ```
 #[derive(Debug)]
-pub(crate) struct Ldl {
+pub struct Ldl {
     /// The ordering: `perm[p]` is the node eliminated at position `p`.
     perm: Vec<usize>,
+    /// The expected sign of each pivot, in elimination order.
+    signs: Vec<i8>,
     /// `L` below its diagonal, by columns.
     l: CscMatrix<f64>,
     /// `D⁻¹`.
@@ -39,7 +59,7 @@ pub(crate) struct Ldl {
 
 /// Why [`Ldl::ordered`] made no factor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum NotFactored {
+pub enum NotFactored {
     /// The factor would have more entries below its diagonal than the budget.
     TooMuchFill,
     /// A pivot vanished (QDLDL's `ZeroPivot`), or `perm` is not a permutation of the nodes.
@@ -49,7 +69,7 @@ pub(crate) enum NotFactored {
 impl Ldl {
     /// [`Self::ordered`] by the AMD ordering QDLDL finds for `upper` (its default controls),
     /// with no budget: what `QDLDLFactorisation::new` gives without an ordering, to the bit.
-    pub(crate) fn amd(upper: &CscMatrix<f64>, signs: &[i8]) -> Result<Self, NotFactored> {
+    pub fn amd(upper: &CscMatrix<f64>, signs: &[i8]) -> Result<Self, NotFactored> {
         let (perm, _, _) = amd::order(
             upper.n,
             &upper.colptr,
@@ -65,7 +85,7 @@ impl Ldl {
     /// expected to have the sign `signs[i]`: what `QDLDLFactorisation::new` gives with that
     /// ordering and those `Dsigns`, to the bit, unless the factor would have more than
     /// `max_entries` entries below its diagonal (counted before any arithmetic).
-    pub(crate) fn ordered(
+    pub fn ordered(
         upper: &CscMatrix<f64>,
         perm: Vec<usize>,
         signs: &[i8],
@@ -95,6 +115,7 @@ impl Ldl {
         let d_inv = factor(&permuted, &parent, &signs, &mut l).ok_or(NotFactored::Failed)?;
         Ok(Self {
             perm,
+            signs,
             l,
             d_inv,
             work: vec![0.0; n],
@@ -102,18 +123,18 @@ impl Ldl {
     }
 
     /// The ordering (position → node).
-    pub(crate) fn perm(&self) -> &[usize] {
+    pub fn perm(&self) -> &[usize] {
         &self.perm
     }
 
     /// Entries of `L` below its diagonal.
-    pub(crate) fn entries_below_diagonal(&self) -> usize {
+    pub fn entries_below_diagonal(&self) -> usize {
         self.l.rowval.len()
     }
 
     /// `b ← K⁻¹ b`, with QDLDL's arithmetic: permute, `L` forward, `D⁻¹` and `Lᵀ` backward in
     /// one pass, permute back.
-    pub(crate) fn solve(&mut self, b: &mut [f64]) {
+    pub fn solve(&mut self, b: &mut [f64]) {
         let x = &mut self.work;
         x.iter_mut()
             .zip(&self.perm)
@@ -228,15 +249,8 @@ fn factor(
     let mut pattern = vec![0usize; n];
     let mut path = vec![0usize; n];
     let mut next_in_column = l.colptr[..n].to_vec();
-    let pivot = |k: usize, value: f64| -> Option<f64> {
-        let sign = f64::from(signs[k]);
-        let value = if value * sign < REGULARIZE_EPS {
-            REGULARIZE_DELTA * sign
-        } else {
-            value
-        };
-        (value != 0.0).then_some(value)
-    };
+    let mut row_of_l = Vec::with_capacity(n);
+    let pivot = |k: usize, value: f64| regularized_pivot(value, signs[k]);
     if n == 0 {
         return Some(d_inv);
     }
@@ -273,25 +287,230 @@ fn factor(
                 entries += 1;
             }
         }
+        row_of_l.clear();
         for &c in pattern[..entries].iter().rev() {
-            let yc = y[c];
             let place = next_in_column[c];
-            let range = l.colptr[c]..place;
-            for (&row, &value) in l.rowval[range.clone()].iter().zip(&l.nzval[range]) {
-                y[row] -= value * yc;
-            }
-            let entry = yc * d_inv[c];
-            l.nzval[place] = entry;
-            d[k] -= yc * entry;
             l.rowval[place] = k;
             next_in_column[c] += 1;
-            y[c] = 0.0;
             used[c] = false;
+            row_of_l.push((c, place));
         }
+        d[k] = eliminate_row(&row_of_l, d[k], &mut y, l, &d_inv);
         d[k] = pivot(k, d[k])?;
         d_inv[k] = d[k].recip();
     }
     Some(d_inv)
+}
+
+/// QDLDL's rule for a pivot `value` expected to have the sign `sign`: one of the wrong sign,
+/// or smaller than [`REGULARIZE_EPS`], is replaced by `sign·`[`REGULARIZE_DELTA`]; `None`
+/// when the pivot is then zero (no sign), which QDLDL reports as a failure.
+fn regularized_pivot(value: f64, sign: i8) -> Option<f64> {
+    let sign = f64::from(sign);
+    let value = if value * sign < REGULARIZE_EPS {
+        REGULARIZE_DELTA * sign
+    } else {
+        value
+    };
+    (value != 0.0).then_some(value)
+}
+
+/// Row `k` of `L`, QDLDL's up-looking step: `y` holds column `k` of the permuted matrix above
+/// its diagonal (scattered), `row` the entries of the row as `(column c, place in l)`, in the
+/// order QDLDL eliminates with them (each column after every column that updates it). Writes
+/// `L[k, c]` at each place, leaves `y` zero on the row's columns, and returns `pivot` (the
+/// diagonal entry) minus the row's contributions, subtracted in that order: the rounding is
+/// QDLDL's only in that order.
+fn eliminate_row(
+    row: &[(usize, usize)],
+    mut pivot: f64,
+    y: &mut [f64],
+    l: &mut CscMatrix<f64>,
+    d_inv: &[f64],
+) -> f64 {
+    for &(c, place) in row {
+        let yc = y[c];
+        y[c] = 0.0;
+        // Column c's entries above row k are already final.
+        let range = l.colptr[c]..place;
+        for (&i, &value) in l.rowval[range.clone()].iter().zip(&l.nzval[range]) {
+            y[i] -= value * yc;
+        }
+        let entry = yc * d_inv[c];
+        l.nzval[place] = entry;
+        pivot -= yc * entry;
+    }
+    pivot
+}
+
+/// Numeric refactorization of an [`Ldl`] whose matrix keeps its pattern and changes its
+/// values, with the pattern of each row of `L` worked out once.
+///
+/// The interior point refactors `I + AᵀWA` at every iteration with the same pattern and new
+/// values. A fresh factorization works out, for every row `k` of `L`, which columns it
+/// reaches (a walk up the elimination tree from each entry of column `k` of the matrix,
+/// with markers) before it does any arithmetic; on the normal matrices of jams (10 000
+/// unknowns, 2–4 entries of `L` per column) that walk, not the arithmetic, was most of the
+/// time. [`Refactor`] records those row patterns, and where each entry of `L` lives, from the
+/// first factorization, and then runs only the arithmetic: the same row elimination as the
+/// fresh factorization, in the same order and with the same pivot rule, so the factor is
+/// QDLDL's refactorization to the bit (near an interior point's answer the normal matrix's
+/// weights span twenty orders of magnitude, and another, equally valid, order changed which
+/// iterations broke down).
+///
+/// ```
+/// use clarabel::algebra::CscMatrix;
+/// use sweeping_clarabel::ldl::{Ldl, Refactor};
+///
+/// let upper = CscMatrix::new(2, 2, vec![0, 1, 3], vec![0, 0, 1], vec![4.0, 1.0, 3.0]);
+/// let mut ldl = Ldl::amd(&upper, &[1, 1]).unwrap();
+/// let mut refactor = Refactor::new(&upper, &ldl);
+/// // New values on the same pattern: [[2, 1], [1, 2]].
+/// assert!(refactor.refactor(&[2.0, 1.0, 2.0], &mut ldl));
+/// let mut b = vec![3.0, 3.0];
+/// ldl.solve(&mut b);
+/// assert!((b[0] - 1.0).abs() < 1e-12 && (b[1] - 1.0).abs() < 1e-12);
+/// ```
+#[derive(Debug)]
+pub struct Refactor {
+    /// For each entry of the caller's upper triangle, its place in [`Self::values`].
+    place: Vec<usize>,
+    /// The permuted upper triangle `P A Pᵀ` by columns: where each column starts…
+    column_start: Vec<usize>,
+    /// …the row of each entry…
+    row: Vec<usize>,
+    /// …and its value.
+    values: Vec<f64>,
+    /// Where the pattern of each row of `L` starts in [`Self::row_pattern`].
+    row_start: Vec<usize>,
+    /// Row by row, in the order the factorization eliminates with them: `(c, p)` for each
+    /// entry `L[k, c]`, `p` its place in `L`'s columns.
+    row_pattern: Vec<(usize, usize)>,
+    /// The row of `L` being computed, scattered (all zeros between rows).
+    work: Vec<f64>,
+}
+
+impl Refactor {
+    /// The patterns of `ldl`, a factorization of `upper` (upper triangle by columns), whose
+    /// ordering and factor pattern every later refactorization keeps.
+    pub fn new(upper: &CscMatrix<f64>, ldl: &Ldl) -> Self {
+        let n = upper.n;
+        let mut position = vec![0; n];
+        for (p, &node) in ldl.perm.iter().enumerate() {
+            position[node] = p;
+        }
+        // Entry (i, j) of `upper` is entry (min, max) of the permuted upper triangle, each
+        // column's entries in the order they are met (as `permute_symmetric` keeps them).
+        let nnz = upper.rowval.len();
+        let mut permuted = Vec::with_capacity(nnz);
+        let mut column_start = vec![0usize; n + 1];
+        for j in 0..n {
+            for &i in &upper.rowval[upper.colptr[j]..upper.colptr[j + 1]] {
+                let (pi, pj) = (position[i], position[j]);
+                let (r, c) = (pi.min(pj), pi.max(pj));
+                permuted.push((r, c));
+                column_start[c + 1] += 1;
+            }
+        }
+        for j in 1..=n {
+            column_start[j] += column_start[j - 1];
+        }
+        let mut next = column_start.clone();
+        let mut row = vec![0; nnz];
+        let mut place = vec![0; nnz];
+        for (e, &(r, c)) in permuted.iter().enumerate() {
+            place[e] = next[c];
+            row[next[c]] = r;
+            next[c] += 1;
+        }
+        // The rows of `L`, each in the order the up-looking factorization eliminates with its
+        // columns: for each entry of column k of the matrix, the path up the elimination tree
+        // (a column's parent is the first row below its diagonal) to a node already on the
+        // list, or to k; the paths are listed back to front and eliminated last entry first.
+        let l = &ldl.l;
+        let parent: Vec<usize> = (0..n)
+            .map(|c| {
+                let first = l.colptr[c];
+                if first < l.colptr[c + 1] {
+                    l.rowval[first]
+                } else {
+                    NONE
+                }
+            })
+            .collect();
+        let mut next_in_column = l.colptr[..n].to_vec();
+        let mut on_list = vec![false; n];
+        let mut path = Vec::new();
+        let mut list = Vec::new();
+        let mut row_start = Vec::with_capacity(n + 1);
+        row_start.push(0);
+        let mut row_pattern = Vec::with_capacity(l.rowval.len());
+        for k in 0..n {
+            list.clear();
+            for &i in &row[column_start[k]..column_start[k + 1]] {
+                if i == k || on_list[i] {
+                    continue;
+                }
+                path.clear();
+                let mut node = i;
+                while node != NONE && node < k && !on_list[node] {
+                    on_list[node] = true;
+                    path.push(node);
+                    node = parent[node];
+                }
+                list.extend(path.iter().rev());
+            }
+            for &c in list.iter().rev() {
+                row_pattern.push((c, next_in_column[c]));
+                next_in_column[c] += 1;
+                on_list[c] = false;
+            }
+            row_start.push(row_pattern.len());
+        }
+        Self {
+            place,
+            column_start,
+            row,
+            values: vec![0.0; nnz],
+            row_start,
+            row_pattern,
+            work: vec![0.0; n],
+        }
+    }
+
+    /// Refactors `ldl` for `values`, the entries of the upper triangle it was made from, in
+    /// that triangle's order. `false` when a pivot is not finite, or zero (the factor is then
+    /// not usable).
+    pub fn refactor(&mut self, values: &[f64], ldl: &mut Ldl) -> bool {
+        for (&v, &place) in values.iter().zip(&self.place) {
+            self.values[place] = v;
+        }
+        let y = &mut self.work;
+        for k in 0..y.len() {
+            // Row k of L solves L[..k, ..k] D y = A[..k, k]: scatter the column above the
+            // diagonal, then eliminate with the columns it reaches.
+            let mut pivot = 0.0;
+            for e in self.column_start[k]..self.column_start[k + 1] {
+                let i = self.row[e];
+                if i == k {
+                    pivot = self.values[e];
+                } else {
+                    y[i] = self.values[e];
+                }
+            }
+            let row = &self.row_pattern[self.row_start[k]..self.row_start[k + 1]];
+            let pivot = eliminate_row(row, pivot, y, &mut ldl.l, &ldl.d_inv);
+            // Stricter than QDLDL, which would regularize −∞ and carry NaN on.
+            if !pivot.is_finite() {
+                return false;
+            }
+            match regularized_pivot(pivot, ldl.signs[k]) {
+                Some(pivot) => ldl.d_inv[k] = pivot.recip(),
+                None => return false,
+            }
+        }
+        true
+    }
 }
 
 #[cfg(test)]
@@ -487,5 +706,135 @@ mod tests {
             Ldl::ordered(&one, vec![0], &[0], f64::INFINITY).err(),
             Some(NotFactored::Failed)
         );
+    }
+
+    /// `I + Aᵀ W A` for a sparse `A` (rows of up to four entries, as a contact's) and
+    /// weights `w`, dense.
+    fn normal(n: usize, rows: &[Vec<(usize, f64)>], w: &[f64]) -> Vec<Vec<f64>> {
+        let mut m = vec![vec![0.0; n]; n];
+        (0..n).for_each(|i| m[i][i] = 1.0);
+        for (row, wi) in rows.iter().zip(w) {
+            for &(p, a) in row {
+                for &(q, b) in row {
+                    m[p][q] += wi * a * b;
+                }
+            }
+        }
+        m
+    }
+
+    /// The upper triangle of a dense symmetric matrix, by columns, without its zeros.
+    fn upper_of(dense: &[Vec<f64>]) -> CscMatrix<f64> {
+        let n = dense.len();
+        let (mut colptr, mut rowval, mut nzval) = (vec![0], vec![], vec![]);
+        for j in 0..n {
+            for (i, row) in dense.iter().enumerate().take(j + 1) {
+                if row[j] != 0.0 || i == j {
+                    rowval.push(i);
+                    nzval.push(row[j]);
+                }
+            }
+            colptr.push(rowval.len());
+        }
+        CscMatrix::new(n, n, colptr, rowval, nzval)
+    }
+
+    /// QDLDL's factorization of a positive definite `upper`, ordered by its AMD.
+    fn qdldl_positive(upper: &CscMatrix<f64>) -> QDLDLFactorisation<f64> {
+        let mut builder = QDLDLSettingsBuilder::default();
+        builder.Dsigns(vec![1; upper.n]);
+        QDLDLFactorisation::new(upper, Some(builder.build().unwrap())).unwrap()
+    }
+
+    /// QDLDL's own refactorization of `theirs` for every value of `values`.
+    fn qdldl_refactor(theirs: &mut QDLDLFactorisation<f64>, values: &[f64]) {
+        let every: Vec<usize> = (0..values.len()).collect();
+        theirs.update_values(&every, values);
+        theirs.refactor().unwrap();
+    }
+
+    fn normal_rows() -> impl Strategy<Value = (usize, Vec<Vec<(usize, f64)>>)> {
+        (4usize..24).prop_flat_map(|n| {
+            let row = proptest::collection::btree_map(0..n, -1.0f64..1.0, 1..=4)
+                .prop_map(|m| m.into_iter().collect::<Vec<_>>());
+            (Just(n), proptest::collection::vec(row, 1..30))
+        })
+    }
+
+    proptest! {
+        /// Refactored for new weights spanning twelve orders of magnitude (as an interior
+        /// point's near the answer), the factor is QDLDL's own refactorization of the same
+        /// values, to the bit, and it solves the new matrix.
+        #[test]
+        fn refactoring_gives_qdldls_factor_for_the_new_values(
+            (n, rows) in normal_rows(),
+            exponents in proptest::collection::vec(-6.0f64..6.0, 30),
+        ) {
+            let first = upper_of(&normal(n, &rows, &vec![1.0; rows.len()]));
+            let w: Vec<f64> = exponents.iter().take(rows.len()).map(|e| 10f64.powf(*e)).collect();
+            let dense = normal(n, &rows, &w);
+            let second = upper_of(&dense);
+            prop_assert_eq!(&first.rowval, &second.rowval);
+
+            let mut ours = Ldl::amd(&first, &vec![1; n]).unwrap();
+            let mut refactor = Refactor::new(&first, &ours);
+            prop_assert!(refactor.refactor(&second.nzval, &mut ours));
+            let mut theirs = qdldl_positive(&first);
+            qdldl_refactor(&mut theirs, &second.nzval);
+            let rhs: Vec<f64> = dense.iter().map(|r| r.iter().sum()).collect();
+            let mut x = rhs.clone();
+            ours.solve(&mut x);
+            same_bits(ours, &mut theirs, rhs)?;
+            // And the factor solves the matrix: M x = b for b = M·1.
+            for v in &x {
+                prop_assert!((v - 1.0).abs() <= 1e-6, "x = {v}, not 1");
+            }
+        }
+    }
+
+    #[test]
+    fn a_vanishing_pivot_is_regularized_when_refactoring_as_qdldl_does() {
+        // [[1, 1], [1, 1]]: the second pivot is 1 − 1 = 0.
+        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
+        let mut ldl = Ldl::amd(&first, &[1, 1]).unwrap();
+        let mut refactor = Refactor::new(&first, &ldl);
+        assert!(refactor.refactor(&[1.0, 1.0, 1.0], &mut ldl));
+        assert_eq!(ldl.d_inv, vec![1.0, 1.0 / REGULARIZE_DELTA]);
+        // QDLDL's refactor of the same values gives the same.
+        let mut theirs = qdldl_positive(&first);
+        qdldl_refactor(&mut theirs, &[1.0, 1.0, 1.0]);
+        assert_eq!(theirs.Dinv, ldl.d_inv);
+        // A pivot of exactly the threshold is kept, as QDLDL keeps it.
+        assert!(refactor.refactor(&[1.0, 0.0, REGULARIZE_EPS], &mut ldl));
+        qdldl_refactor(&mut theirs, &[1.0, 0.0, REGULARIZE_EPS]);
+        assert_eq!(theirs.Dinv, ldl.d_inv);
+        assert!(ldl.d_inv.contains(&REGULARIZE_EPS.recip()));
+    }
+
+    #[test]
+    fn a_pivot_that_is_not_finite_fails_the_refactorization() {
+        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
+        let mut ldl = Ldl::amd(&first, &[1, 1]).unwrap();
+        let mut refactor = Refactor::new(&first, &ldl);
+        assert!(!refactor.refactor(&[1.0, f64::INFINITY, 1.0], &mut ldl));
+        assert!(!refactor.refactor(&[f64::NAN, 0.0, 1.0], &mut ldl));
+        // −∞ would be a pivot of the wrong sign, which QDLDL regularizes; it fails here.
+        assert!(!refactor.refactor(&[1.0, 0.0, f64::NEG_INFINITY], &mut ldl));
+        // A failed row leaves the work row clean: the next refactorization is QDLDL's.
+        assert!(refactor.refactor(&[4.0, 2.0, 5.0], &mut ldl));
+        let mut theirs = qdldl_positive(&first);
+        qdldl_refactor(&mut theirs, &[4.0, 2.0, 5.0]);
+        assert_eq!(ldl.d_inv, theirs.Dinv);
+        assert_eq!(ldl.l.nzval, theirs.L.nzval);
+    }
+
+    #[test]
+    fn a_pivot_without_a_sign_fails_the_refactorization() {
+        // Signs of 0, as in `a_zero_pivot_fails`: every pivot is zeroed, as QDLDL's is.
+        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
+        let mut ldl = Ldl::amd(&first, &[1, 1]).unwrap();
+        let mut refactor = Refactor::new(&first, &ldl);
+        ldl.signs = vec![0, 0];
+        assert!(!refactor.refactor(&[2.0, 1.0, 2.0], &mut ldl));
     }
 }

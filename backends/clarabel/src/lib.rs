@@ -61,7 +61,7 @@
 #![forbid(unsafe_code)]
 
 pub mod active_set;
-mod ldl;
+pub mod ldl;
 mod polish;
 
 use clarabel::algebra::CscMatrix;

@@ -13,9 +13,9 @@
 //!
 //! an `n × n` symmetric positive definite system (the identity comes from the objective, so
 //! it is never singular, whatever the rows: contact loops included). Its pattern is that of
-//! `I + AᵀA` at every iteration, so it is ordered and analysed once per block and only
-//! refactored numerically after that (by [`Refactor`], which also keeps the pattern of each
-//! row of the factor). Near the answer its weights `λ/s` span many orders of
+//! `I + AᵀA` at every iteration, so it is ordered (by AMD) and analysed once per block and only
+//! refactored numerically after that (by `sweeping_clarabel`'s [`Refactor`], which also keeps
+//! the pattern of each row of the factor: the same `LDLᵀ` code as the active-set method's). Near the answer its weights `λ/s` span many orders of
 //! magnitude and its solves lose accuracy; once the residuals grow instead of shrinking, each
 //! solve is refined once against the matrix itself. A general interior-point solver factors the
 //! `(n + m)`-square KKT matrix instead, with `m` (the candidate rows) about twice `n` on a jam.
@@ -27,10 +27,8 @@
 //! answers.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::qdldl::{QDLDLFactorisation, QDLDLSettingsBuilder};
 use sweeping_api::SparseRows;
-
-use crate::refactor::Refactor;
+use sweeping_clarabel::ldl::{Ldl, Refactor};
 
 /// Fraction of the step to the boundary that an iteration takes.
 const TO_BOUNDARY: f64 = 0.99;
@@ -74,7 +72,7 @@ struct NormalMatrix {
     /// Where the diagonal entries are.
     diagonal: Vec<usize>,
     /// The factorization, and the arithmetic that refactors it with new weights.
-    factor: Option<(QDLDLFactorisation<f64>, Refactor)>,
+    factor: Option<(Ldl, Refactor)>,
 }
 
 impl NormalMatrix {
@@ -181,21 +179,14 @@ impl NormalMatrix {
         }
         match self.factor.as_mut() {
             Some((ldl, refactor)) => refactor.refactor(values, ldl),
-            None => {
-                let mut builder = QDLDLSettingsBuilder::default();
-                builder.Dsigns(vec![1; self.csc.n]);
-                let Ok(settings) = builder.build() else {
-                    return false;
-                };
-                match QDLDLFactorisation::new(&self.csc, Some(settings)) {
-                    Ok(ldl) => {
-                        let refactor = Refactor::new(&self.csc, &ldl);
-                        self.factor = Some((ldl, refactor));
-                        true
-                    }
-                    Err(_) => false,
+            None => match Ldl::amd(&self.csc, &vec![1; self.csc.n]) {
+                Ok(ldl) => {
+                    let refactor = Refactor::new(&self.csc, &ldl);
+                    self.factor = Some((ldl, refactor));
+                    true
                 }
-            }
+                Err(_) => false,
+            },
         }
     }
 

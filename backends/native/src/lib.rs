@@ -58,7 +58,8 @@
 //! Clarabel's interior-point answers: this backend runs it on its own, from the previous
 //! step's active rows, block by block; Clarabel runs it from its interior-point guess. Its
 //! factorization is QDLDL's arithmetic as Clarabel ships it (run by `sweeping_clarabel`, to
-//! the bit, AMD-ordered or ordered from memory), with small well-conditioned supports
+//! the bit, AMD-ordered or ordered from memory; the interior-point rescue factors and
+//! refactors with the same code), with small well-conditioned supports
 //! factored densely; faer's sparse Cholesky was not measured
 //! against it. The cross-check `cross-native` still compares two different paths to the
 //! answer (a warm active set against an interior point), not one computation with itself.
@@ -84,7 +85,6 @@ use sweeping_api::{
 use sweeping_clarabel::active_set::{self, Failure, Orderings, Start};
 
 mod interior_point;
-mod refactor;
 
 /// The name this backend reports in statistics and errors.
 pub const NAME: &str = "native";
