@@ -70,14 +70,7 @@ impl Ldl {
     /// [`Self::ordered`] by the AMD ordering QDLDL finds for `upper` (its default controls),
     /// with no budget: what `QDLDLFactorisation::new` gives without an ordering, to the bit.
     pub fn amd(upper: &CscMatrix<f64>, signs: &[i8]) -> Result<Self, NotFactored> {
-        let (perm, _, _) = amd::order(
-            upper.n,
-            &upper.colptr,
-            &upper.rowval,
-            &amd::Control::default(),
-        )
-        .map_err(|_| NotFactored::Failed)?;
-        Self::ordered(upper, perm, signs, f64::INFINITY)
+        Self::ordered(upper, amd_ordering(upper)?, signs, f64::INFINITY)
     }
 
     /// The factorization of the symmetric matrix whose upper triangle (diagonal included) is
@@ -91,6 +84,30 @@ impl Ldl {
         signs: &[i8],
         max_entries: f64,
     ) -> Result<Self, NotFactored> {
+        Self::factorize(upper, perm, signs, max_entries, None)
+    }
+
+    /// [`Self::amd`], with what a [`Refactor`] of the factor needs recorded on the way (the
+    /// permuted matrix, where each entry of `upper` went, and the pattern of each row of `L`):
+    /// for a matrix whose values change and whose pattern does not.
+    pub fn amd_refactorable(
+        upper: &CscMatrix<f64>,
+        signs: &[i8],
+    ) -> Result<(Self, Refactor), NotFactored> {
+        let perm = amd_ordering(upper)?;
+        let mut refactor = Refactor::default();
+        let ldl = Self::factorize(upper, perm, signs, f64::INFINITY, Some(&mut refactor))?;
+        Ok((ldl, refactor))
+    }
+
+    /// [`Self::ordered`], filling `refactor` (when given) as it goes.
+    fn factorize(
+        upper: &CscMatrix<f64>,
+        perm: Vec<usize>,
+        signs: &[i8],
+        max_entries: f64,
+        refactor: Option<&mut Refactor>,
+    ) -> Result<Self, NotFactored> {
         let n = upper.n;
         if perm.len() != n || signs.len() != n {
             return Err(NotFactored::Failed);
@@ -102,7 +119,7 @@ impl Ldl {
             }
             position[node] = p;
         }
-        let permuted = permute_symmetric(upper, &position);
+        let (permuted, place) = permute_symmetric(upper, &position);
         let (parent, column_counts) = elimination_tree(&permuted, max_entries)?;
         let mut column_start = Vec::with_capacity(n + 1);
         column_start.push(0);
@@ -112,7 +129,20 @@ impl Ldl {
         let entries = column_start[n];
         let mut l = CscMatrix::new(n, n, column_start, vec![0; entries], vec![0.0; entries]);
         let signs: Vec<i8> = perm.iter().map(|&node| signs[node]).collect();
-        let d_inv = factor(&permuted, &parent, &signs, &mut l).ok_or(NotFactored::Failed)?;
+        let mut rows = refactor.as_ref().map(|_| RowPatterns::default());
+        let d_inv =
+            factor(&permuted, &parent, &signs, &mut l, rows.as_mut()).ok_or(NotFactored::Failed)?;
+        if let (Some(refactor), Some(rows)) = (refactor, rows) {
+            *refactor = Refactor {
+                values: vec![0.0; permuted.nzval.len()],
+                place,
+                column_start: permuted.colptr,
+                row: permuted.rowval,
+                row_start: rows.start,
+                row_pattern: rows.entries,
+                work: vec![0.0; n],
+            };
+        }
         Ok(Self {
             perm,
             signs,
@@ -160,11 +190,24 @@ impl Ldl {
     }
 }
 
+/// The AMD ordering QDLDL finds for `upper` (its default controls; position → node).
+fn amd_ordering(upper: &CscMatrix<f64>) -> Result<Vec<usize>, NotFactored> {
+    let (perm, _, _) = amd::order(
+        upper.n,
+        &upper.colptr,
+        &upper.rowval,
+        &amd::Control::default(),
+    )
+    .map_err(|_| NotFactored::Failed)?;
+    Ok(perm)
+}
+
 /// `P K Pᵀ`'s upper triangle from `K`'s (`upper`), `position[node]` the position of a node:
 /// entry `(i, j)`, `i ≤ j`, goes to column `max(pᵢ, pⱼ)`, row `min(pᵢ, pⱼ)`, each column's
 /// entries in the order they are met column by column of `upper` (QDLDL's order, which fixes
-/// the order the factorization eliminates in, and so its rounding).
-fn permute_symmetric(upper: &CscMatrix<f64>, position: &[usize]) -> CscMatrix<f64> {
+/// the order the factorization eliminates in, and so its rounding). With it, where each entry
+/// of `upper` went ([`NONE`] for one below the diagonal, which is left out).
+fn permute_symmetric(upper: &CscMatrix<f64>, position: &[usize]) -> (CscMatrix<f64>, Vec<usize>) {
     let n = upper.n;
     let mut start = vec![0usize; n + 1];
     for j in 0..n {
@@ -180,19 +223,32 @@ fn permute_symmetric(upper: &CscMatrix<f64>, position: &[usize]) -> CscMatrix<f6
     let entries = start[n];
     let mut next = start[..n].to_vec();
     let (mut rows, mut values) = (vec![0usize; entries], vec![0.0; entries]);
+    let mut place = Vec::with_capacity(upper.rowval.len());
     for j in 0..n {
         for e in upper.colptr[j]..upper.colptr[j + 1] {
             let i = upper.rowval[e];
-            if i <= j {
-                let (pi, pj) = (position[i], position[j]);
-                let column = pi.max(pj);
-                rows[next[column]] = pi.min(pj);
-                values[next[column]] = upper.nzval[e];
-                next[column] += 1;
+            if i > j {
+                place.push(NONE);
+                continue;
             }
+            let (pi, pj) = (position[i], position[j]);
+            let column = pi.max(pj);
+            rows[next[column]] = pi.min(pj);
+            values[next[column]] = upper.nzval[e];
+            place.push(next[column]);
+            next[column] += 1;
         }
     }
-    CscMatrix::new(n, n, start, rows, values)
+    (CscMatrix::new(n, n, start, rows, values), place)
+}
+
+/// The pattern of each row of `L`, as the factorization eliminates with it.
+#[derive(Debug, Default)]
+struct RowPatterns {
+    /// Where each row starts in [`Self::entries`] (one more than the rows).
+    start: Vec<usize>,
+    /// Row by row: `(c, p)` for each entry `L[k, c]`, `p` its place in `L`'s columns.
+    entries: Vec<(usize, usize)>,
 }
 
 /// The elimination tree of the upper triangle `upper` (each node's parent, [`NONE`] for a
@@ -239,6 +295,7 @@ fn factor(
     parent: &[usize],
     signs: &[i8],
     l: &mut CscMatrix<f64>,
+    mut record: Option<&mut RowPatterns>,
 ) -> Option<Vec<f64>> {
     let n = upper.n;
     let (ap, ai, ax) = (&upper.colptr, &upper.rowval, &upper.nzval);
@@ -251,7 +308,14 @@ fn factor(
     let mut next_in_column = l.colptr[..n].to_vec();
     let mut row_of_l = Vec::with_capacity(n);
     let pivot = |k: usize, value: f64| regularized_pivot(value, signs[k]);
+    if let Some(rows) = record.as_deref_mut() {
+        // Row 0 has no entries.
+        rows.start.extend([0, 0]);
+    }
     if n == 0 {
+        if let Some(rows) = record {
+            rows.start.truncate(1);
+        }
         return Some(d_inv);
     }
     // QDLDL takes the first entry of the first column as its diagonal.
@@ -296,6 +360,10 @@ fn factor(
             row_of_l.push((c, place));
         }
         d[k] = eliminate_row(&row_of_l, d[k], &mut y, l, &d_inv);
+        if let Some(rows) = record.as_deref_mut() {
+            rows.entries.extend_from_slice(&row_of_l);
+            rows.start.push(rows.entries.len());
+        }
         d[k] = pivot(k, d[k])?;
         d_inv[k] = d[k].recip();
     }
@@ -344,16 +412,18 @@ fn eliminate_row(
 }
 
 /// Numeric refactorization of an [`Ldl`] whose matrix keeps its pattern and changes its
-/// values, with the pattern of each row of `L` worked out once.
+/// values, with the pattern of each row of `L` worked out once (by the first factorization,
+/// [`Ldl::amd_refactorable`]).
 ///
 /// The interior point refactors `I + AᵀWA` at every iteration with the same pattern and new
 /// values. A fresh factorization works out, for every row `k` of `L`, which columns it
 /// reaches (a walk up the elimination tree from each entry of column `k` of the matrix,
 /// with markers) before it does any arithmetic; on the normal matrices of jams (10 000
 /// unknowns, 2–4 entries of `L` per column) that walk, not the arithmetic, was most of the
-/// time. [`Refactor`] records those row patterns, and where each entry of `L` lives, from the
-/// first factorization, and then runs only the arithmetic: the same row elimination as the
-/// fresh factorization, in the same order and with the same pivot rule, so the factor is
+/// time. [`Refactor`] keeps those row patterns, and where each entry of `L` lives, as the
+/// first factorization found them, and then runs only the arithmetic: the same row
+/// elimination as the fresh factorization, in the same order and with the same pivot rule,
+/// so the factor is
 /// QDLDL's refactorization to the bit (near an interior point's answer the normal matrix's
 /// weights span twenty orders of magnitude, and another, equally valid, order changed which
 /// iterations broke down).
@@ -363,17 +433,17 @@ fn eliminate_row(
 /// use sweeping_clarabel::ldl::{Ldl, Refactor};
 ///
 /// let upper = CscMatrix::new(2, 2, vec![0, 1, 3], vec![0, 0, 1], vec![4.0, 1.0, 3.0]);
-/// let mut ldl = Ldl::amd(&upper, &[1, 1]).unwrap();
-/// let mut refactor = Refactor::new(&upper, &ldl);
+/// let (mut ldl, mut refactor) = Ldl::amd_refactorable(&upper, &[1, 1]).unwrap();
 /// // New values on the same pattern: [[2, 1], [1, 2]].
 /// assert!(refactor.refactor(&[2.0, 1.0, 2.0], &mut ldl));
 /// let mut b = vec![3.0, 3.0];
 /// ldl.solve(&mut b);
 /// assert!((b[0] - 1.0).abs() < 1e-12 && (b[1] - 1.0).abs() < 1e-12);
 /// ```
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct Refactor {
-    /// For each entry of the caller's upper triangle, its place in [`Self::values`].
+    /// For each entry of the caller's upper triangle, its place in [`Self::values`] ([`NONE`]
+    /// for an entry below the diagonal, left out as the factorization leaves it out).
     place: Vec<usize>,
     /// The permuted upper triangle `P A Pᵀ` by columns: where each column starts…
     column_start: Vec<usize>,
@@ -391,99 +461,14 @@ pub struct Refactor {
 }
 
 impl Refactor {
-    /// The patterns of `ldl`, a factorization of `upper` (upper triangle by columns), whose
-    /// ordering and factor pattern every later refactorization keeps.
-    pub fn new(upper: &CscMatrix<f64>, ldl: &Ldl) -> Self {
-        let n = upper.n;
-        let mut position = vec![0; n];
-        for (p, &node) in ldl.perm.iter().enumerate() {
-            position[node] = p;
-        }
-        // Entry (i, j) of `upper` is entry (min, max) of the permuted upper triangle, each
-        // column's entries in the order they are met (as `permute_symmetric` keeps them).
-        let nnz = upper.rowval.len();
-        let mut permuted = Vec::with_capacity(nnz);
-        let mut column_start = vec![0usize; n + 1];
-        for j in 0..n {
-            for &i in &upper.rowval[upper.colptr[j]..upper.colptr[j + 1]] {
-                let (pi, pj) = (position[i], position[j]);
-                let (r, c) = (pi.min(pj), pi.max(pj));
-                permuted.push((r, c));
-                column_start[c + 1] += 1;
-            }
-        }
-        for j in 1..=n {
-            column_start[j] += column_start[j - 1];
-        }
-        let mut next = column_start.clone();
-        let mut row = vec![0; nnz];
-        let mut place = vec![0; nnz];
-        for (e, &(r, c)) in permuted.iter().enumerate() {
-            place[e] = next[c];
-            row[next[c]] = r;
-            next[c] += 1;
-        }
-        // The rows of `L`, each in the order the up-looking factorization eliminates with its
-        // columns: for each entry of column k of the matrix, the path up the elimination tree
-        // (a column's parent is the first row below its diagonal) to a node already on the
-        // list, or to k; the paths are listed back to front and eliminated last entry first.
-        let l = &ldl.l;
-        let parent: Vec<usize> = (0..n)
-            .map(|c| {
-                let first = l.colptr[c];
-                if first < l.colptr[c + 1] {
-                    l.rowval[first]
-                } else {
-                    NONE
-                }
-            })
-            .collect();
-        let mut next_in_column = l.colptr[..n].to_vec();
-        let mut on_list = vec![false; n];
-        let mut path = Vec::new();
-        let mut list = Vec::new();
-        let mut row_start = Vec::with_capacity(n + 1);
-        row_start.push(0);
-        let mut row_pattern = Vec::with_capacity(l.rowval.len());
-        for k in 0..n {
-            list.clear();
-            for &i in &row[column_start[k]..column_start[k + 1]] {
-                if i == k || on_list[i] {
-                    continue;
-                }
-                path.clear();
-                let mut node = i;
-                while node != NONE && node < k && !on_list[node] {
-                    on_list[node] = true;
-                    path.push(node);
-                    node = parent[node];
-                }
-                list.extend(path.iter().rev());
-            }
-            for &c in list.iter().rev() {
-                row_pattern.push((c, next_in_column[c]));
-                next_in_column[c] += 1;
-                on_list[c] = false;
-            }
-            row_start.push(row_pattern.len());
-        }
-        Self {
-            place,
-            column_start,
-            row,
-            values: vec![0.0; nnz],
-            row_start,
-            row_pattern,
-            work: vec![0.0; n],
-        }
-    }
-
     /// Refactors `ldl` for `values`, the entries of the upper triangle it was made from, in
     /// that triangle's order. `false` when a pivot is not finite, or zero (the factor is then
     /// not usable).
     pub fn refactor(&mut self, values: &[f64], ldl: &mut Ldl) -> bool {
         for (&v, &place) in values.iter().zip(&self.place) {
-            self.values[place] = v;
+            if place != NONE {
+                self.values[place] = v;
+            }
         }
         let y = &mut self.work;
         for k in 0..y.len() {
@@ -776,8 +761,13 @@ mod tests {
             let second = upper_of(&dense);
             prop_assert_eq!(&first.rowval, &second.rowval);
 
-            let mut ours = Ldl::amd(&first, &vec![1; n]).unwrap();
-            let mut refactor = Refactor::new(&first, &ours);
+            let (mut ours, mut refactor) = Ldl::amd_refactorable(&first, &vec![1; n]).unwrap();
+            // Recording what the refactorization needs changes nothing in the factor.
+            let plain = Ldl::amd(&first, &vec![1; n]).unwrap();
+            prop_assert_eq!(&ours.perm, &plain.perm);
+            prop_assert_eq!(&ours.l.rowval, &plain.l.rowval);
+            prop_assert_eq!(bits(&ours.l.nzval), bits(&plain.l.nzval));
+            prop_assert_eq!(bits(&ours.d_inv), bits(&plain.d_inv));
             prop_assert!(refactor.refactor(&second.nzval, &mut ours));
             let mut theirs = qdldl_positive(&first);
             qdldl_refactor(&mut theirs, &second.nzval);
@@ -796,8 +786,7 @@ mod tests {
     fn a_vanishing_pivot_is_regularized_when_refactoring_as_qdldl_does() {
         // [[1, 1], [1, 1]]: the second pivot is 1 − 1 = 0.
         let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
-        let mut ldl = Ldl::amd(&first, &[1, 1]).unwrap();
-        let mut refactor = Refactor::new(&first, &ldl);
+        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
         assert!(refactor.refactor(&[1.0, 1.0, 1.0], &mut ldl));
         assert_eq!(ldl.d_inv, vec![1.0, 1.0 / REGULARIZE_DELTA]);
         // QDLDL's refactor of the same values gives the same.
@@ -812,10 +801,30 @@ mod tests {
     }
 
     #[test]
+    fn entries_below_the_diagonal_are_left_out_of_the_refactorization_too() {
+        // [[4, 1], [1, 3]] given with both triangles: the factorization reads the upper one.
+        let full = CscMatrix::new(
+            2,
+            2,
+            vec![0, 2, 4],
+            vec![0, 1, 0, 1],
+            vec![4.0, 1.0, 1.0, 3.0],
+        );
+        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&full, &[1, 1]).unwrap();
+        let mut b = vec![5.0, 4.0];
+        ldl.solve(&mut b);
+        assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15);
+        // New values [[2, 1], [1, 2]], the one below the diagonal a decoy.
+        assert!(refactor.refactor(&[2.0, 99.0, 1.0, 2.0], &mut ldl));
+        let mut b = vec![3.0, 3.0];
+        ldl.solve(&mut b);
+        assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
     fn a_pivot_that_is_not_finite_fails_the_refactorization() {
         let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
-        let mut ldl = Ldl::amd(&first, &[1, 1]).unwrap();
-        let mut refactor = Refactor::new(&first, &ldl);
+        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
         assert!(!refactor.refactor(&[1.0, f64::INFINITY, 1.0], &mut ldl));
         assert!(!refactor.refactor(&[f64::NAN, 0.0, 1.0], &mut ldl));
         // −∞ would be a pivot of the wrong sign, which QDLDL regularizes; it fails here.
@@ -832,8 +841,7 @@ mod tests {
     fn a_pivot_without_a_sign_fails_the_refactorization() {
         // Signs of 0, as in `a_zero_pivot_fails`: every pivot is zeroed, as QDLDL's is.
         let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
-        let mut ldl = Ldl::amd(&first, &[1, 1]).unwrap();
-        let mut refactor = Refactor::new(&first, &ldl);
+        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
         ldl.signs = vec![0, 0];
         assert!(!refactor.refactor(&[2.0, 1.0, 2.0], &mut ldl));
     }

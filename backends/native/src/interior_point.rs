@@ -13,11 +13,12 @@
 //!
 //! an `n × n` symmetric positive definite system (the identity comes from the objective, so
 //! it is never singular, whatever the rows: contact loops included). Its pattern is that of
-//! `I + AᵀA` at every iteration, so it is ordered (by AMD) and analysed once per block and only
-//! refactored numerically after that (by `sweeping_clarabel`'s [`Refactor`], which also keeps
-//! the pattern of each row of the factor: the same `LDLᵀ` code as the active-set method's). Near the answer its weights `λ/s` span many orders of
-//! magnitude and its solves lose accuracy; once the residuals grow instead of shrinking, each
-//! solve is refined once against the matrix itself. A general interior-point solver factors the
+//! `I + AᵀA` at every iteration, so it is ordered (by AMD) and analysed once per block and
+//! only refactored numerically after that (by `sweeping_clarabel`'s [`Refactor`], which also
+//! keeps the pattern of each row of the factor: the same `LDLᵀ` code as the active-set
+//! method's). Near the answer its weights `λ/s` span many orders of magnitude and its solves
+//! lose accuracy; once the residuals grow instead of shrinking, each solve is refined once
+//! against the matrix itself. A general interior-point solver factors the
 //! `(n + m)`-square KKT matrix instead, with `m` (the candidate rows) about twice `n` on a jam.
 //!
 //! Interior points cannot be warm-started usefully, and they approach weakly active rows only
@@ -179,10 +180,9 @@ impl NormalMatrix {
         }
         match self.factor.as_mut() {
             Some((ldl, refactor)) => refactor.refactor(values, ldl),
-            None => match Ldl::amd(&self.csc, &vec![1; self.csc.n]) {
-                Ok(ldl) => {
-                    let refactor = Refactor::new(&self.csc, &ldl);
-                    self.factor = Some((ldl, refactor));
+            None => match Ldl::amd_refactorable(&self.csc, &vec![1; self.csc.n]) {
+                Ok(factor) => {
+                    self.factor = Some(factor);
                     true
                 }
                 Err(_) => false,
