@@ -119,7 +119,10 @@ impl Ldl {
             }
             position[node] = p;
         }
-        let (permuted, place) = permute_symmetric(upper, &position);
+        let mut place = refactor
+            .as_ref()
+            .map(|_| Vec::with_capacity(upper.rowval.len()));
+        let permuted = permute_symmetric(upper, &position, place.as_mut());
         let (parent, column_counts) = elimination_tree(&permuted, max_entries)?;
         let mut column_start = Vec::with_capacity(n + 1);
         column_start.push(0);
@@ -132,7 +135,7 @@ impl Ldl {
         let mut rows = refactor.as_ref().map(|_| RowPatterns::default());
         let d_inv =
             factor(&permuted, &parent, &signs, &mut l, rows.as_mut()).ok_or(NotFactored::Failed)?;
-        if let (Some(refactor), Some(rows)) = (refactor, rows) {
+        if let (Some(refactor), Some(rows), Some(place)) = (refactor, rows, place) {
             *refactor = Refactor {
                 values: vec![0.0; permuted.nzval.len()],
                 place,
@@ -205,9 +208,14 @@ fn amd_ordering(upper: &CscMatrix<f64>) -> Result<Vec<usize>, NotFactored> {
 /// `P K Pᵀ`'s upper triangle from `K`'s (`upper`), `position[node]` the position of a node:
 /// entry `(i, j)`, `i ≤ j`, goes to column `max(pᵢ, pⱼ)`, row `min(pᵢ, pⱼ)`, each column's
 /// entries in the order they are met column by column of `upper` (QDLDL's order, which fixes
-/// the order the factorization eliminates in, and so its rounding). With it, where each entry
-/// of `upper` went ([`NONE`] for one below the diagonal, which is left out).
-fn permute_symmetric(upper: &CscMatrix<f64>, position: &[usize]) -> (CscMatrix<f64>, Vec<usize>) {
+/// the order the factorization eliminates in, and so its rounding). Where each entry of
+/// `upper` went is pushed onto `place`, when given ([`NONE`] for one below the diagonal,
+/// which is left out).
+fn permute_symmetric(
+    upper: &CscMatrix<f64>,
+    position: &[usize],
+    mut place: Option<&mut Vec<usize>>,
+) -> CscMatrix<f64> {
     let n = upper.n;
     let mut start = vec![0usize; n + 1];
     for j in 0..n {
@@ -223,23 +231,25 @@ fn permute_symmetric(upper: &CscMatrix<f64>, position: &[usize]) -> (CscMatrix<f
     let entries = start[n];
     let mut next = start[..n].to_vec();
     let (mut rows, mut values) = (vec![0usize; entries], vec![0.0; entries]);
-    let mut place = Vec::with_capacity(upper.rowval.len());
     for j in 0..n {
         for e in upper.colptr[j]..upper.colptr[j + 1] {
             let i = upper.rowval[e];
-            if i > j {
-                place.push(NONE);
-                continue;
+            let destination = if i > j {
+                NONE
+            } else {
+                let (pi, pj) = (position[i], position[j]);
+                let column = pi.max(pj);
+                rows[next[column]] = pi.min(pj);
+                values[next[column]] = upper.nzval[e];
+                next[column] += 1;
+                next[column] - 1
+            };
+            if let Some(place) = place.as_deref_mut() {
+                place.push(destination);
             }
-            let (pi, pj) = (position[i], position[j]);
-            let column = pi.max(pj);
-            rows[next[column]] = pi.min(pj);
-            values[next[column]] = upper.nzval[e];
-            place.push(next[column]);
-            next[column] += 1;
         }
     }
-    (CscMatrix::new(n, n, start, rows, values), place)
+    CscMatrix::new(n, n, start, rows, values)
 }
 
 /// The pattern of each row of `L`, as the factorization eliminates with it.
