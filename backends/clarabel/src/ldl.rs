@@ -473,8 +473,15 @@ pub struct Refactor {
 impl Refactor {
     /// Refactors `ldl` for `values`, the entries of the upper triangle it was made from, in
     /// that triangle's order. `false` when a pivot is not finite, or zero (the factor is then
-    /// not usable).
+    /// not usable), and, leaving `ldl` as it was, when `values` or `ldl` is not the size this
+    /// refactorization was recorded for (a default `Refactor` fits no factor).
     pub fn refactor(&mut self, values: &[f64], ldl: &mut Ldl) -> bool {
+        if values.len() != self.place.len()
+            || ldl.d_inv.len() != self.work.len()
+            || ldl.l.rowval.len() != self.row_pattern.len()
+        {
+            return false;
+        }
         for (&v, &place) in values.iter().zip(&self.place) {
             if place != NONE {
                 self.values[place] = v;
@@ -829,6 +836,31 @@ mod tests {
         let mut b = vec![3.0, 3.0];
         ldl.solve(&mut b);
         assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_refactorization_of_another_size_is_refused() {
+        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
+        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
+        let before = ldl.d_inv.clone();
+        // Values of another matrix, too few or too many.
+        assert!(!refactor.refactor(&[1.0, 1.0], &mut ldl));
+        assert!(!refactor.refactor(&[1.0, 1.0, 1.0, 1.0], &mut ldl));
+        // A default refactorization fits no factor, and one of a 3 × 3 not this 2 × 2.
+        assert!(!Refactor::default().refactor(&[2.0, 1.0, 2.0], &mut ldl));
+        let three = upper_of(&[
+            vec![2.0, 1.0, 0.0],
+            vec![1.0, 2.0, 1.0],
+            vec![0.0, 1.0, 2.0],
+        ]);
+        let (_, mut other) = Ldl::amd_refactorable(&three, &[1, 1, 1]).unwrap();
+        assert!(!other.refactor(&three.nzval, &mut ldl));
+        // Nor one of a diagonal 2 × 2, whose factor has no entry below its diagonal.
+        let diagonal = upper_of(&[vec![2.0, 0.0], vec![0.0, 2.0]]);
+        let (_, mut other) = Ldl::amd_refactorable(&diagonal, &[1, 1]).unwrap();
+        assert!(!other.refactor(&[2.0, 2.0], &mut ldl));
+        assert_eq!(ldl.d_inv, before);
+        assert!(refactor.refactor(&first.nzval, &mut ldl));
     }
 
     #[test]
