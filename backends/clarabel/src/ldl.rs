@@ -620,9 +620,7 @@ mod tests {
         #[test]
         fn an_amd_factorization_is_qdldls_to_the_bit((n, rows, _perm, rhs) in system()) {
             let (upper, signs) = kkt(n, &rows, 1e-9);
-            let mut builder = QDLDLSettingsBuilder::default();
-            builder.Dsigns(signs.clone());
-            let mut theirs = QDLDLFactorisation::new(&upper, Some(builder.build().unwrap())).unwrap();
+            let mut theirs = qdldl_amd(&upper, &signs);
             let ours = Ldl::amd(&upper, &signs).unwrap();
             same_bits(ours, &mut theirs, rhs)?;
         }
@@ -741,11 +739,17 @@ mod tests {
         CscMatrix::new(n, n, colptr, rowval, nzval)
     }
 
-    /// QDLDL's factorization of a positive definite `upper`, ordered by its AMD.
-    fn qdldl_positive(upper: &CscMatrix<f64>) -> QDLDLFactorisation<f64> {
+    /// QDLDL's factorization of `upper` with pivots of the signs `signs`, ordered by its AMD
+    /// (no ordering given).
+    fn qdldl_amd(upper: &CscMatrix<f64>, signs: &[i8]) -> QDLDLFactorisation<f64> {
         let mut builder = QDLDLSettingsBuilder::default();
-        builder.Dsigns(vec![1; upper.n]);
+        builder.Dsigns(signs.to_vec());
         QDLDLFactorisation::new(upper, Some(builder.build().unwrap())).unwrap()
+    }
+
+    /// [`qdldl_amd`] of a positive definite `upper`.
+    fn qdldl_positive(upper: &CscMatrix<f64>) -> QDLDLFactorisation<f64> {
+        qdldl_amd(upper, &vec![1; upper.n])
     }
 
     /// QDLDL's own refactorization of `theirs` for every value of `values`.
