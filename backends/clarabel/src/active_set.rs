@@ -241,6 +241,10 @@ struct Scratch {
     /// Refinement's product `K₀ v` and step.
     product: Vec<f64>,
     step: Vec<f64>,
+    /// Bordering's marks by row of the problem: whether a row is in the next support, and
+    /// its position in the factored one (`usize::MAX` when not), clear between calls.
+    in_next: Vec<bool>,
+    position: Vec<usize>,
 }
 
 /// The unknowns a sparse factor and its bordering work on, numbered locally: first the `base`
@@ -734,7 +738,9 @@ impl ActiveSystem {
         let Factor::Sparse(ldl) = &mut self.factor else {
             return None;
         };
-        let mut in_next = vec![false; problem.n_rows()];
+        // Marks by row, all clear between calls.
+        let mut in_next = std::mem::take(&mut self.scratch.in_next);
+        in_next.resize(problem.n_rows(), false);
         next.iter().for_each(|&i| in_next[i] = true);
         let kept: Vec<usize> = self
             .support
@@ -764,7 +770,8 @@ impl ActiveSystem {
             ..Bordered::default()
         });
         // Rows leaving: a joined row's change is undone, a row of P₀ gets a `Left` change.
-        let mut position = vec![usize::MAX; problem.n_rows()];
+        let mut position = std::mem::take(&mut self.scratch.position);
+        position.resize(problem.n_rows(), usize::MAX);
         bordered
             .base
             .iter()
@@ -809,8 +816,12 @@ impl ActiveSystem {
         if bordered.changes.len() > BORDER_MAX || !bordered.factor_s() {
             return None;
         }
+        bordered.base.iter().for_each(|&i| position[i] = usize::MAX);
+        next.iter().for_each(|&i| in_next[i] = false);
+        (self.scratch.in_next, self.scratch.position) = (in_next, position);
         self.rows = rows;
-        self.support = next.to_vec();
+        self.support.clear();
+        self.support.extend_from_slice(next);
         Some(self)
     }
 }
@@ -914,9 +925,12 @@ impl Bordered {
                 left[*position] = true;
             }
         }
-        self.stayed = (0..self.base.len()).filter(|&p| !left[p]).collect();
-        self.lu = self.s.clone();
-        self.pivots = (0..c).collect();
+        self.stayed.clear();
+        self.stayed
+            .extend((0..self.base.len()).filter(|&p| !left[p]));
+        self.lu.clone_from(&self.s);
+        self.pivots.clear();
+        self.pivots.extend(0..c);
         let scale = self.s.iter().fold(0.0, |acc: f64, v| acc.max(v.abs()));
         for k in 0..c {
             let (p, best) = (k..c)
@@ -1308,6 +1322,9 @@ fn run(
     let mut visits = Visits::default();
     let mut in_support = vec![false; m];
     let mut ad = vec![0.0; m];
+    // Work vectors of every iteration, kept from one to the next: `[0; r_P]`, `[d; −λ]` (then
+    // the solution), `μ`, and the rows the point violates.
+    let (mut rhs, mut v, mut mu, mut violated) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     // The system of the previous iteration (`held`), carried to the next support by
     // bordering.
     for iterations in 1..=cap {
@@ -1338,16 +1355,19 @@ fn run(
                 .ok_or(Failure::Numerical("factorization"))?,
         };
         let k = support.len();
-        let rhs: Vec<f64> = std::iter::repeat_n(0.0, n)
-            .chain(support.iter().map(|&i| r[i]))
-            .collect();
-        let mut v: Vec<f64> = d.iter().copied().chain(lambda.iter().map(|l| -l)).collect();
+        rhs.clear();
+        rhs.resize(n, 0.0);
+        rhs.extend(support.iter().map(|&i| r[i]));
+        v.clear();
+        v.extend_from_slice(&d);
+        v.extend(lambda.iter().map(|l| -l));
         let refined = system
             .refine(&rhs, &mut v)
             .ok_or(Failure::Numerical("refinement"))?;
         held = Some(system);
         d.copy_from_slice(&v[..n]);
-        let mu: Vec<f64> = v[n..].iter().map(|v| -v).collect();
+        mu.clear();
+        mu.extend(v[n..].iter().map(|v| -v));
 
         if !refined.solved && refined.second > tol {
             // Inconsistent: follow the ray λ + t e until an entry reaches zero.
@@ -1380,15 +1400,15 @@ fn run(
             (support, lambda) = smaller;
             continue;
         }
-        lambda = mu.iter().map(|m| m.max(f64::MIN_POSITIVE)).collect();
+        lambda.clear();
+        lambda.extend(mu.iter().map(|m| m.max(f64::MIN_POSITIVE)));
 
         // Rows outside the support that the point violates join it.
         problem.a().mul_vec(&d, &mut ad);
         in_support.iter_mut().for_each(|s| *s = false);
         support.iter().for_each(|&i| in_support[i] = true);
-        let violated: Vec<usize> = (0..m)
-            .filter(|&i| !in_support[i] && r[i] - ad[i] > tol)
-            .collect();
+        violated.clear();
+        violated.extend((0..m).filter(|&i| !in_support[i] && r[i] - ad[i] > tol));
         if violated.is_empty() {
             let x: Vec<f64> = problem.y().iter().zip(&d).map(|(y, d)| y + d).collect();
             let mut full = vec![0.0; m];
@@ -1421,17 +1441,11 @@ fn run(
         // From now on, drop one row at a time: dropping every negative row at once could
         // cycle with adding them back.
         aggressive = false;
-        let mut joined: Vec<(usize, f64)> = support.iter().copied().zip(lambda).collect();
         // Joining rows go last: the factored system then only has rows appended.
         let violation = |i: usize| r[i] - ad[i];
-        joined.extend(joining_rows(
-            &violated,
-            violation,
-            &join,
-            proper,
-            join_at_most,
-        )?);
-        (support, lambda) = joined.into_iter().unzip();
+        let joining = joining_rows(&violated, violation, &join, proper, join_at_most)?;
+        support.extend(joining.iter().map(|&(i, _)| i));
+        lambda.extend(joining.iter().map(|&(_, l)| l));
         debug_assert!(support.len() > k);
     }
     Err(Failure::Cap(cap))
