@@ -107,6 +107,40 @@ fn reports_the_tolerance_it_meets() {
 }
 
 #[test]
+fn the_loose_preset_is_clarabels_own_tolerances_and_meets_them() {
+    let loose = ClarabelSettings::loose();
+    assert_eq!(
+        (loose.tol_gap_abs, loose.tol_gap_rel, loose.tol_feas),
+        (1e-8, 1e-8, 1e-8)
+    );
+    assert!(loose.accept_almost_solved);
+    // Nothing else differs from the defaults.
+    let default = ClarabelSettings::default();
+    assert_eq!(
+        ClarabelSettings {
+            tol_gap_abs: default.tol_gap_abs,
+            tol_gap_rel: default.tol_gap_rel,
+            tol_feas: default.tol_feas,
+            accept_almost_solved: default.accept_almost_solved,
+            ..loose.clone()
+        },
+        default
+    );
+    let mut clarabel = ClarabelProjector::new(loose);
+    let tol = clarabel.tolerance();
+    assert!((tol - 1e-6).abs() < 1e-18, "tolerance {tol}");
+    for seed in 0..60u64 {
+        let problem = random_instance(7000 + seed, 3 + seed as usize % 40, seed as usize % 70);
+        let sol = clarabel.project(&problem).unwrap();
+        let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
+        assert!(
+            kkt <= tol,
+            "instance {seed}: KKT residual {kkt:.3e} > {tol:.1e}"
+        );
+    }
+}
+
+#[test]
 fn infeasible_set_is_certified() {
     // x₀ + x₁ ≥ 1 with x₀ ≤ 0 and x₁ ≤ 0: empty.
     let a = SparseRows::from_rows(
