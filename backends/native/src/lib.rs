@@ -59,8 +59,10 @@
 //! step's active rows, block by block; Clarabel runs it from its interior-point guess. Its
 //! factorization is QDLDL's arithmetic as Clarabel ships it (run by `sweeping_clarabel`, to
 //! the bit, AMD-ordered or ordered from memory; the interior-point rescue factors and
-//! refactors with the same code), with small well-conditioned supports factored densely;
-//! faer's sparse Cholesky was not measured against it. The cross-check `cross-native` still compares two different paths to the
+//! refactors with the same code), with small well-conditioned supports factored densely.
+//! faer's sparse Cholesky was measured against it on the interior point's normal matrices
+//! only, and was no faster there (`docs/performance.md`); the active set's systems are
+//! indefinite. The cross-check `cross-native` still compares two different paths to the
 //! answer (a warm active set against an interior point), not one computation with itself.
 //!
 //! ```
