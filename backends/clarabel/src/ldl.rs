@@ -166,7 +166,8 @@ impl Ldl {
     }
 
     /// `b ← K⁻¹ b`, with QDLDL's arithmetic: permute, `L` forward, `D⁻¹` and `Lᵀ` backward in
-    /// one pass, permute back.
+    /// one pass, permute back. The forward pass skips the columns of zeros, so the answer is
+    /// QDLDL's to the bit but for the sign of a zero.
     pub fn solve(&mut self, b: &mut [f64]) {
         let x = &mut self.work;
         x.iter_mut()
@@ -175,6 +176,12 @@ impl Ldl {
         let (lp, li, lx) = (&self.l.colptr, &self.l.rowval, &self.l.nzval);
         for i in 0..x.len() {
             let xi = x[i];
+            // A zero updates nothing (but the sign of a zero below it): right-hand sides of
+            // bordering are a row's two to four entries, and about two in five columns of all
+            // forward passes on the paper's evacuation meet a zero.
+            if xi == 0.0 {
+                continue;
+            }
             for (&row, &value) in li[lp[i]..lp[i + 1]].iter().zip(&lx[lp[i]..lp[i + 1]]) {
                 x[row] -= value * xi;
             }
@@ -576,7 +583,10 @@ mod tests {
             .prop_flat_map(|(n, rows)| {
                 let size = n + rows.len();
                 let perm = Just((0..size).collect::<Vec<usize>>()).prop_shuffle();
-                let rhs = proptest::collection::vec(-3.0f64..3.0, size);
+                // Half the entries zero, as in a bordering's column, which the forward pass
+                // skips.
+                let entry = prop_oneof![Just(0.0), -3.0f64..3.0];
+                let rhs = proptest::collection::vec(entry, size);
                 (Just(n), Just(rows), perm, rhs)
             })
     }
@@ -585,7 +595,9 @@ mod tests {
         v.iter().map(|x| x.to_bits()).collect()
     }
 
-    /// `ours` is `theirs` to the bit: ordering, factor, `D⁻¹`, and the solve of `rhs`.
+    /// `ours` is `theirs` to the bit: ordering, factor, `D⁻¹`, and the solve of `rhs` (but
+    /// for the sign of a zero, which skipping a zero of the forward pass can keep where
+    /// QDLDL's `x − l·0` would flip a `−0`).
     fn same_bits(
         mut ours: Ldl,
         theirs: &mut QDLDLFactorisation<f64>,
@@ -599,7 +611,12 @@ mod tests {
         let (mut a, mut b) = (rhs.clone(), rhs);
         ours.solve(&mut a);
         theirs.solve(&mut b);
-        prop_assert_eq!(bits(&a), bits(&b));
+        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+            prop_assert!(
+                x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0),
+                "entry {i} of the solve: {x:e} against QDLDL's {y:e}"
+            );
+        }
         Ok(())
     }
 
