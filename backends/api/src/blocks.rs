@@ -160,7 +160,8 @@ impl Blocks {
                 for (j, &c) in cols.iter().enumerate() {
                     local[c] = j;
                 }
-                let mut sub = SparseRows::new(cols.len());
+                let entries = rows.iter().map(|&r| a.row_len(r)).sum();
+                let mut sub = SparseRows::with_capacity(cols.len(), rows.len(), entries);
                 for &r in &rows {
                     sub.push_row(
                         a.row(r)

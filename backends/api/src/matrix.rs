@@ -36,6 +36,24 @@ impl SparseRows {
         }
     }
 
+    /// An empty matrix with `n_cols` columns and room for `rows` rows of `entries` entries in
+    /// all, so that pushing them does not grow its vectors one doubling at a time.
+    pub fn with_capacity(n_cols: usize, rows: usize, entries: usize) -> Self {
+        let mut row_ptr = Vec::with_capacity(rows + 1);
+        row_ptr.push(0);
+        Self {
+            n_cols,
+            row_ptr,
+            col_idx: Vec::with_capacity(entries),
+            values: Vec::with_capacity(entries),
+        }
+    }
+
+    /// Entries stored in row `r`.
+    pub fn row_len(&self, r: usize) -> usize {
+        self.row_ptr[r + 1] - self.row_ptr[r]
+    }
+
     /// Builds a matrix from a list of rows, each a list of `(column, value)`.
     ///
     /// # Panics
@@ -201,5 +219,16 @@ mod tests {
         let mut atl = [0.0; 3];
         a.mul_transpose_vec(&[1.0, 5.0, 2.0], &mut atl);
         assert_eq!(atl, [2.0, -2.0, 7.0]);
+    }
+
+    #[test]
+    fn a_matrix_made_with_room_is_the_same_matrix() {
+        let rows = [vec![(2, 1.0), (0, 2.0)], vec![], vec![(1, -1.0), (2, 3.0)]];
+        let mut roomy = SparseRows::with_capacity(3, rows.len(), 4);
+        rows.iter().for_each(|r| roomy.push_row(r.iter().copied()));
+        assert_eq!(roomy, SparseRows::from_rows(3, &rows));
+        assert!(roomy.col_idx.capacity() >= 4 && roomy.row_ptr.capacity() >= 4);
+        let lengths: Vec<usize> = (0..3).map(|r| roomy.row_len(r)).collect();
+        assert_eq!(lengths, [2, 0, 2]);
     }
 }

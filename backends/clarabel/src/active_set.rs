@@ -145,9 +145,10 @@ struct MergedRows {
 impl MergedRows {
     /// The rows `active` of `problem`'s `A`, in that order.
     fn of(problem: &ProjectionProblem, active: &[usize]) -> Self {
+        let entries = active.iter().map(|&r| problem.a().row_len(r)).sum();
         let mut rows = Self {
             start: Vec::with_capacity(active.len() + 1),
-            entries: Vec::new(),
+            entries: Vec::with_capacity(entries),
         };
         rows.start.push(0);
         active.iter().for_each(|&r| rows.push(problem, r));
