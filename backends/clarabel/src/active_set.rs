@@ -564,7 +564,9 @@ impl Orderings {
         // the last few factorizations and span a few times the nodes: placed by rank in a
         // table of that span, they are in order without the comparison sort (which was most
         // of the time spent here, four fifths of it on the paper's evacuation).
-        let span = highest - lowest + 1;
+        // (No nodes at all leave `lowest` above `highest`: the difference saturates instead of
+        // wrapping, and the sort has nothing to sort.)
+        let span = highest.saturating_sub(lowest) + 1;
         let mut perm = Vec::with_capacity(nodes.len());
         if span <= SPAN_PER_NODE * nodes.len() as u64 {
             let mut by_rank = vec![usize::MAX; span as usize];
@@ -2470,6 +2472,8 @@ mod tests {
         // Ranks 49 to 51: placed.
         let near = [Node::Unknown(50), Node::Unknown(48), Node::Unknown(49)];
         assert_eq!(o.ordering(&near), Some(vec![0, 2, 1]));
+        // No nodes: an empty ordering, as the sort gave.
+        assert_eq!(o.ordering(&[]), Some(Vec::new()));
     }
 
     #[test]
