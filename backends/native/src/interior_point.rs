@@ -326,17 +326,30 @@ fn starting_point(
     (slack, lambda)
 }
 
-/// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` until the duality measure `μ` and both
-/// residuals are at most `tolerance` (absolute), or `max_iterations`, or until the normal
-/// matrix can no longer be factored or its directions are no longer finite (then, not
-/// converged, the most accurate iterate measured, or the one a step after it when that was
-/// the last measured). `None` without rows, when the first factorization fails, or when a step
-/// overflows.
+/// [`solve_unless`] run to its end (the tests' entry point).
+#[cfg(test)]
 pub(crate) fn solve(
     a: &SparseRows,
     r: &[f64],
     tolerance: f64,
     max_iterations: u32,
+) -> Option<Iterate> {
+    solve_unless(a, r, tolerance, max_iterations, &|| false)
+}
+
+/// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` until the duality measure `μ` and both
+/// residuals are at most `tolerance` (absolute), or `max_iterations`, or until the normal
+/// matrix can no longer be factored or its directions are no longer finite (then, not
+/// converged, the most accurate iterate measured, or the one a step after it when that was
+/// the last measured). `None` without rows, when the first factorization fails, when a step
+/// overflows, or at the start of an iteration where `abandoned()` holds (a speculative
+/// rescue whose answer is no longer wanted; until then, the iterates do not depend on it).
+pub(crate) fn solve_unless(
+    a: &SparseRows,
+    r: &[f64],
+    tolerance: f64,
+    max_iterations: u32,
+    abandoned: &dyn Fn() -> bool,
 ) -> Option<Iterate> {
     if a.n_rows() == 0 {
         return None;
@@ -381,6 +394,9 @@ pub(crate) fn solve(
     // Where the method stopped without converging: the cap, or a breakdown (below).
     let mut stopped = max_iterations;
     for iterations in 1..=max_iterations {
+        if abandoned() {
+            return None;
+        }
         // Residuals: r_d = d − Aᵀλ, r_p = A d − s − r, and μ = sᵀλ / m.
         a.mul_transpose_vec(&lambda, &mut at_lambda);
         r_d.iter_mut()

@@ -122,7 +122,21 @@ pub struct NativeSettings {
     /// The answers do not depend on the number of threads: each block's factorizations are
     /// ordered from the memory as it stood before the projection (see [`Orderings::fork`]).
     pub parallel_rows: usize,
+    /// While the active set tries a block of at least this many rows, the interior point
+    /// its rescue would run first runs on a thread of its own, and the rescue starts from its
+    /// iterate if the attempt fails (see [`Speculator`]). The answers are the same either way;
+    /// the time is shorter on a machine with a core to spare, and the CPU time longer (the
+    /// interior point also runs for the attempts that converge, until they do). `0` never
+    /// does. Default [`SPECULATE_ROWS`] when [`std::thread::available_parallelism`] (which
+    /// counts the cores a process may run on: `taskset -c 0` makes it 1) is at least 2, else
+    /// `0`.
+    pub speculate_rows: usize,
 }
+
+/// The default [`NativeSettings::speculate_rows`] on two cores or more: the blocks whose
+/// attempts end in rescues are door queues of a hundred people or more, and speculating on
+/// smaller blocks too burned more CPU time for no time saved (`docs/performance.md`).
+pub const SPECULATE_ROWS: usize = 150;
 
 /// The default [`NativeSettings::parallel_rows`]: blocks that take milliseconds (a queue of
 /// a hundred people or more), against tens of microseconds to start a thread and copy the
@@ -137,6 +151,11 @@ impl Default for NativeSettings {
             warm_start: true,
             interior_point: true,
             parallel_rows: PARALLEL_ROWS,
+            speculate_rows: if std::thread::available_parallelism().map_or(1, usize::from) >= 2 {
+                SPECULATE_ROWS
+            } else {
+                0
+            },
         }
     }
 }
@@ -194,6 +213,11 @@ pub struct NativeProjector {
     rescued: FastMap<RowKey, u32>,
     /// The orderings of the last sparse factorizations, reused by the next ones.
     orderings: Orderings,
+    /// The thread that speculates on rescues, started at the first block that could use it
+    /// ([`NativeSettings::speculate_rows`]); `None` before, or when it could not start.
+    speculator: Option<Speculator>,
+    /// Whether starting the speculator was decided (so that it is decided once).
+    speculator_decided: bool,
 }
 
 impl Default for NativeProjector {
@@ -238,6 +262,8 @@ impl NativeProjector {
             previous: FastMap::default(),
             rescued: FastMap::default(),
             orderings: Orderings::default(),
+            speculator: None,
+            speculator_decided: false,
         }
     }
 
@@ -283,6 +309,7 @@ impl BlockContext<'_> {
         block: &ProjectionProblem,
         unknowns: &[usize],
         straight: bool,
+        speculator: Option<&mut Speculator>,
     ) -> BlockResult {
         let tol = self.tol;
         let m = block.n_rows();
@@ -319,11 +346,22 @@ impl BlockContext<'_> {
             join,
             join_at_most: None,
         };
-        let (first, cap) = if rescue && straight {
-            (Err(Failure::Cap(0)), 0)
+        let (first, cap, speculated) = if rescue && straight {
+            (Err(Failure::Cap(0)), 0, None)
         } else {
+            let speculation = speculator
+                .filter(|_| rescue && m >= self.settings.speculate_rows)
+                .and_then(|s| Some((s.speculate(block, &r)?, s)));
             let outcome = active_set::solve_remembering(block, start, cap, orderings, unknowns);
-            (outcome, cap)
+            let speculated = match (&outcome, speculation) {
+                (Err(Failure::Cap(_) | Failure::Cycling(_)), Some((number, s))) => s.take(number),
+                (_, Some((number, s))) => {
+                    s.cancel(number);
+                    None
+                }
+                (_, None) => None,
+            };
+            (outcome, cap, speculated)
         };
         let (outcome, rescued) = match first {
             Ok(outcome) => (outcome, false),
@@ -331,7 +369,7 @@ impl BlockContext<'_> {
                 // The cold multipliers, for a rescue that must start over.
                 let cold = (0..m).map(|i| own_multiplier(block, i, r[i])).collect();
                 let memory = (&mut *orderings, unknowns);
-                let outcome = rescue_by_interior_point(block, &r, cold, tol, memory)
+                let outcome = rescue_by_interior_point(block, &r, cold, tol, memory, speculated)
                     .map_err(|(failure, spent)| (failure, cap.saturating_add(spent)))?;
                 (outcome, true)
             }
@@ -399,17 +437,24 @@ fn rescue_by_interior_point(
     cold: Vec<f64>,
     tol: f64,
     memory: (&mut Orderings, &[usize]),
+    speculated: Option<Option<interior_point::Iterate>>,
 ) -> Result<active_set::Outcome, (Failure, u32)> {
     let (orderings, unknowns) = memory;
     let m = block.n_rows();
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
     // The interior point's tolerance, which Tapia's indicators in the finish's start are
     // measured against too.
-    let tolerance = INTERIOR_POINT_TOLERANCE * scale;
+    let tolerance = interior_point_tolerance(r);
     let mut spent = 0u32;
     let mut last = Failure::Cap(POLISH_ITERATIONS);
+    let mut speculated = speculated;
     for rows in rescue_attempts(screened_rows(block, r), m) {
-        let iterate = solve_rows(block, r, &rows, tolerance);
+        // The first row set's interior point, when another thread ran it during the attempt
+        // (see [`Speculator`]): the same computation, so the same iterate.
+        let iterate = match speculated.take() {
+            Some(iterate) => iterate,
+            None => solve_rows(block, r, &rows, tolerance, &|| false),
+        };
         spent = spent.saturating_add(iterate.as_ref().map_or(0, |it| it.iterations));
         let Some(it) = iterate.filter(|it| is_a_guess(it.accuracy, scale)) else {
             // The screened rows' set holds the block's, so an interior point that diverges
@@ -445,6 +490,126 @@ fn rescue_by_interior_point(
         }
     }
     Err((last, spent))
+}
+
+/// The tolerance of a rescue's interior point on a block whose shortfall at `y` is `r`:
+/// [`INTERIOR_POINT_TOLERANCE`] relative to `max(1, ‖r‖∞)`.
+fn interior_point_tolerance(r: &[f64]) -> f64 {
+    INTERIOR_POINT_TOLERANCE * r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()))
+}
+
+/// The interior point a rescue runs first on a block whose shortfall at `y` is `r` (on the
+/// screened rows, see [`rescue_attempts`]), or `None` when it stopped because `stopped()`.
+fn first_rescue_iterate(
+    block: &ProjectionProblem,
+    r: &[f64],
+    stopped: &dyn Fn() -> bool,
+) -> Option<interior_point::Iterate> {
+    let rows = rescue_attempts(screened_rows(block, r), block.n_rows()).swap_remove(0);
+    solve_rows(block, r, &rows, interior_point_tolerance(r), stopped)
+}
+
+/// A rescue's first interior point run on a thread of its own while the active set tries
+/// the block, so that, when the attempt fails, the rescue starts from its iterate instead of
+/// computing it then. It is the same computation on the same data, so the same iterate:
+/// answers do not depend on whether it ran. An attempt that ends in a rescue runs its whole
+/// cap of iterations, which takes about as long as the interior point, so on a core that
+/// would otherwise idle the rescue's interior point costs next to nothing. An attempt that
+/// converges cancels its speculation, which stops at its next iteration without the attempt
+/// waiting for it.
+struct Speculator {
+    jobs: Option<std::sync::mpsc::Sender<Speculation>>,
+    results: std::sync::mpsc::Receiver<(u64, Option<interior_point::Iterate>)>,
+    /// Speculations up to this number are no longer wanted.
+    cancelled: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    /// The number of the last speculation started.
+    last: u64,
+    worker: Option<std::thread::JoinHandle<()>>,
+}
+
+/// A block and its shortfall at `y`, for [`Speculator`]'s thread.
+struct Speculation {
+    number: u64,
+    block: ProjectionProblem,
+    r: Vec<f64>,
+}
+
+impl Speculator {
+    /// The thread and its channels; `None` when the thread cannot be started.
+    fn start() -> Option<Self> {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        let (jobs, incoming) = std::sync::mpsc::channel::<Speculation>();
+        let (outgoing, results) = std::sync::mpsc::channel();
+        let cancelled = std::sync::Arc::new(AtomicU64::new(0));
+        let flag = std::sync::Arc::clone(&cancelled);
+        let worker = std::thread::Builder::new()
+            .name("sweeping-native-rescue".to_string())
+            .spawn(move || {
+                for job in incoming {
+                    let stopped = || flag.load(Ordering::Acquire) >= job.number;
+                    let iterate = if stopped() {
+                        None
+                    } else {
+                        first_rescue_iterate(&job.block, &job.r, &stopped)
+                    };
+                    if outgoing.send((job.number, iterate)).is_err() {
+                        break;
+                    }
+                }
+            })
+            .ok()?;
+        Some(Self {
+            jobs: Some(jobs),
+            results,
+            cancelled,
+            last: 0,
+            worker: Some(worker),
+        })
+    }
+
+    /// Starts the rescue's first interior point on `block`; its number, or `None` when the
+    /// thread is gone.
+    fn speculate(&mut self, block: &ProjectionProblem, r: &[f64]) -> Option<u64> {
+        // Answers of earlier speculations, all cancelled or taken by now.
+        while self.results.try_recv().is_ok() {}
+        self.last += 1;
+        let job = Speculation {
+            number: self.last,
+            block: block.clone(),
+            r: r.to_vec(),
+        };
+        self.jobs.as_ref()?.send(job).ok()?;
+        Some(self.last)
+    }
+
+    /// The speculation `number` is not wanted: its thread stops it at its next iteration.
+    fn cancel(&self, number: u64) {
+        self.cancelled
+            .store(number, std::sync::atomic::Ordering::Release);
+    }
+
+    /// The iterate of speculation `number`, waiting for it; `None` when the thread is gone
+    /// (the rescue then runs the interior point itself).
+    fn take(&mut self, number: u64) -> Option<Option<interior_point::Iterate>> {
+        loop {
+            match self.results.recv() {
+                Ok((got, iterate)) if got == number => return Some(iterate),
+                Ok(_) => {}
+                Err(_) => return None,
+            }
+        }
+    }
+}
+
+impl Drop for Speculator {
+    fn drop(&mut self) {
+        self.cancel(self.last);
+        // Closing the channel ends the thread's loop.
+        self.jobs = None;
+        if let Some(worker) = self.worker.take() {
+            let _ = worker.join();
+        }
+    }
 }
 
 /// The row sets a rescue's interior point runs on, in turn: the `screened` rows, then every
@@ -569,17 +734,21 @@ fn solve_rows(
     r: &[f64],
     rows: &[usize],
     tolerance: f64,
+    stopped: &dyn Fn() -> bool,
 ) -> Option<interior_point::Iterate> {
     let m = block.n_rows();
+    let solve = |a: &SparseRows, r: &[f64]| {
+        interior_point::solve_unless(a, r, tolerance, INTERIOR_POINT_ITERATIONS, stopped)
+    };
     if rows.len() == m {
-        return interior_point::solve(block.a(), r, tolerance, INTERIOR_POINT_ITERATIONS);
+        return solve(block.a(), r);
     }
     let mut a = SparseRows::new(block.dim());
     for &i in rows {
         a.push_row(block.a().row(i));
     }
     let r_kept: Vec<f64> = rows.iter().map(|&i| r[i]).collect();
-    let it = interior_point::solve(&a, &r_kept, tolerance, INTERIOR_POINT_ITERATIONS)?;
+    let it = solve(&a, &r_kept)?;
     let (mut lambda, mut slack) = (vec![0.0; m], vec![f64::INFINITY; m]);
     let (mut previous_lambda, mut previous_slack) = (vec![0.0; m], vec![f64::INFINITY; m]);
     for (t, &i) in rows.iter().enumerate() {
@@ -689,18 +858,21 @@ fn solve_blocks(
     orderings: &mut Orderings,
     blocks: &Blocks,
     streaks: &[u32],
+    speculator: Option<&mut Speculator>,
 ) -> Vec<BlockResult> {
     let all = blocks.blocks();
-    let solve = |orderings: &mut Orderings, index: usize| {
+    let solve = |orderings: &mut Orderings, index: usize, speculator: Option<&mut Speculator>| {
         let block = &all[index];
         let straight = goes_straight_to_rescue(streaks[index]);
-        context.solve_block(orderings, &block.problem, &block.cols, straight)
+        context.solve_block(orderings, &block.problem, &block.cols, straight, speculator)
     };
     let sizes: Vec<usize> = all.iter().map(|block| block.rows.len()).collect();
     let groups = parallel_groups(&sizes, context.settings.parallel_rows);
     if groups.len() < 2 {
+        // One block after another: a second core, if any, speculates on their rescues.
+        let mut speculator = speculator;
         return (0..all.len())
-            .map(|index| solve(orderings, index))
+            .map(|index| solve(orderings, index, speculator.as_deref_mut()))
             .collect();
     }
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
@@ -711,7 +883,10 @@ fn solve_blocks(
         mine.iter()
             .map(|&g| {
                 let mut fork = orderings.fork();
-                let results = groups[g].iter().map(|&b| solve(&mut fork, b)).collect();
+                let results = groups[g]
+                    .iter()
+                    .map(|&b| solve(&mut fork, b, None))
+                    .collect();
                 (g, results, fork)
             })
             .collect()
@@ -852,7 +1027,23 @@ impl Projector for NativeProjector {
             has_fallback: self.fallback.is_some(),
             tol,
         };
-        let results = solve_blocks(&context, &mut self.orderings, &blocks, &streaks);
+        let wants_speculator = self.settings.interior_point
+            && self.settings.speculate_rows > 0
+            && blocks
+                .blocks()
+                .iter()
+                .any(|block| block.rows.len() >= self.settings.speculate_rows);
+        if wants_speculator && !self.speculator_decided {
+            self.speculator_decided = true;
+            self.speculator = Speculator::start();
+        }
+        let results = solve_blocks(
+            &context,
+            &mut self.orderings,
+            &blocks,
+            &streaks,
+            self.speculator.as_mut(),
+        );
         let mut answers = Vec::with_capacity(blocks.blocks().len());
         let mut rescued_blocks = Vec::with_capacity(blocks.blocks().len());
         for (index, ((block, result), streak)) in blocks
@@ -956,7 +1147,85 @@ mod tests {
         tol: f64,
     ) -> Result<active_set::Outcome, (Failure, u32)> {
         let memory = (&mut Orderings::default(), &names(p.dim())[..]);
-        rescue_by_interior_point(p, r, cold, tol, memory)
+        rescue_by_interior_point(p, r, cold, tol, memory, None)
+    }
+
+    /// The bits of an iterate's vectors, and its counts.
+    fn iterate_bits(it: &interior_point::Iterate) -> (Vec<u64>, u32, bool, u64) {
+        let vectors = [
+            &it.lambda,
+            &it.slack,
+            &it.previous_lambda,
+            &it.previous_slack,
+        ];
+        let bits = vectors
+            .iter()
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .collect();
+        (bits, it.iterations, it.converged, it.accuracy.to_bits())
+    }
+
+    #[test]
+    fn a_speculated_iterate_is_the_rescues_own_and_a_cancelled_one_is_passed_over() {
+        let mut speculator = Speculator::start().expect("a thread starts");
+        let blocks: Vec<ProjectionProblem> = (0..3)
+            .map(|seed| sweeping_api::conformance::random_instance(seed, 20, 40))
+            .collect();
+        let shortfalls: Vec<Vec<f64>> = blocks.iter().map(|b| b.shortfall(b.y())).collect();
+        let own = |k: usize| {
+            first_rescue_iterate(&blocks[k], &shortfalls[k], &|| false).expect("an iterate")
+        };
+        let first = speculator.speculate(&blocks[0], &shortfalls[0]).unwrap();
+        let got = speculator.take(first).unwrap().expect("an iterate");
+        assert_eq!(iterate_bits(&got), iterate_bits(&own(0)));
+        // The second is cancelled before anything takes it; the third is still the third's.
+        let second = speculator.speculate(&blocks[1], &shortfalls[1]).unwrap();
+        speculator.cancel(second);
+        let third = speculator.speculate(&blocks[2], &shortfalls[2]).unwrap();
+        assert!(third > second && second > first);
+        let got = speculator.take(third).unwrap().expect("an iterate");
+        assert_eq!(iterate_bits(&got), iterate_bits(&own(2)));
+        // A cancelled speculation stops at its next iteration: none at all when cancelled
+        // before it starts.
+        let never = speculator.speculate(&blocks[1], &shortfalls[1]).unwrap();
+        speculator.cancel(never);
+        let abandoned = first_rescue_iterate(&blocks[1], &shortfalls[1], &|| true);
+        assert!(abandoned.is_none());
+        // Dropping it ends its thread (a hang here would time the test out).
+        drop(speculator);
+    }
+
+    #[test]
+    fn speculating_on_rescues_changes_no_answer() {
+        // One active-set iteration before the rescue, so that nearly every block is rescued,
+        // from warm starts as well as cold ones.
+        let settings = |speculate_rows| NativeSettings {
+            max_iterations: 1,
+            speculate_rows,
+            ..NativeSettings::default()
+        };
+        let (mut plain, mut speculating) = (
+            NativeProjector::new(settings(0)),
+            NativeProjector::new(settings(1)),
+        );
+        let mut rescues = 0;
+        for seed in 0..30u64 {
+            let p =
+                sweeping_api::conformance::random_instance(seed % 10, 12 + (seed as usize % 7), 30);
+            let (a, b) = (plain.project(&p).unwrap(), speculating.project(&p).unwrap());
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a.x), bits(&b.x), "seed {seed}");
+            assert_eq!(bits(&a.multipliers), bits(&b.multipliers), "seed {seed}");
+            assert_eq!(a.stats.iterations, b.stats.iterations, "seed {seed}");
+            assert_eq!(a.stats.rescues, b.stats.rescues, "seed {seed}");
+            rescues += b.stats.rescues;
+        }
+        assert!(speculating.speculator.is_some(), "the thread started");
+        assert!(plain.speculator.is_none());
+        assert!(
+            rescues >= 10,
+            "only {rescues} rescues: the test would test little"
+        );
     }
 
     /// A chain `x_{j+1} − x_j ≥ 1` of 41 unknowns at spacing 1 but for the first pair (0.5):
@@ -1080,7 +1349,7 @@ mod tests {
         let (p, r) = chain();
         // Without the empty row, which the interior point cannot take.
         let rows = [0, 2];
-        let it = solve_rows(&p, &r, &rows, 1e-12).unwrap();
+        let it = solve_rows(&p, &r, &rows, 1e-12, &|| false).unwrap();
         assert!(it.converged);
         assert_eq!((it.lambda.len(), it.slack.len()), (5, 5));
         for left_out in [1, 3, 4] {
@@ -1098,7 +1367,7 @@ mod tests {
         let tol = 1e-10 * 5.0;
         // On rows 0 and 2 the answer moves x₁ to 0.5, and row 1 (left out) then has slack
         // 0.3: the iterate is the projection, accepted, with row 2's μ/s multiplier cleared.
-        let it = solve_rows(&p, &r, &[0, 2, 4], 1e-12).unwrap();
+        let it = solve_rows(&p, &r, &[0, 2, 4], 1e-12, &|| false).unwrap();
         let outcome = certified_iterate(&p, &it, tol, 7).expect("accepted");
         assert_eq!(outcome.iterations, 7);
         assert_eq!(outcome.lambda[1..], [0.0, 0.0, 0.0, 0.0]);
@@ -1113,10 +1382,10 @@ mod tests {
         let mut rq = vec![0.0; 5];
         q.a().mul_vec(q.y(), &mut rq);
         rq.iter_mut().zip(q.b()).for_each(|(ri, bi)| *ri = bi - *ri);
-        let it = solve_rows(&q, &rq, &[0, 2, 4], 1e-12).unwrap();
+        let it = solve_rows(&q, &rq, &[0, 2, 4], 1e-12, &|| false).unwrap();
         assert!(certified_iterate(&q, &it, tol, 7).is_none());
         // So is an iterate that is not converged enough for the fraction of `tol`.
-        let loose = solve_rows(&p, &r, &[0, 2, 4], 1e-4).unwrap();
+        let loose = solve_rows(&p, &r, &[0, 2, 4], 1e-4, &|| false).unwrap();
         assert!(certified_iterate(&p, &loose, tol, 7).is_none());
     }
 
@@ -1277,8 +1546,9 @@ mod tests {
         let screened = screened_rows(&p, &r);
         assert_eq!(screened, vec![0, 1]);
         let tolerance = INTERIOR_POINT_TOLERANCE * 100.0;
-        let ipm =
-            |rows: &[usize]| solve_rows(&p, &r, rows, tolerance).map_or(0, |it| it.iterations);
+        let ipm = |rows: &[usize]| {
+            solve_rows(&p, &r, rows, tolerance, &|| false).map_or(0, |it| it.iterations)
+        };
         let (_, cap) = cold_start(&r, vec![0.0; 3]);
         // Both interior points ran (and diverged), then the active set found the certificate.
         let spent = ipm(&screened) + ipm(&[0, 1, 2]) + cap;
@@ -1314,7 +1584,7 @@ mod tests {
         q.a().mul_vec(q.y(), &mut r);
         r.iter_mut().zip(q.b()).for_each(|(ri, bi)| *ri = bi - *ri);
         let screened = screened_rows(&q, &r);
-        let alone = solve_rows(&q, &r, &screened, 1e-12 * 1000.0).unwrap();
+        let alone = solve_rows(&q, &r, &screened, 1e-12 * 1000.0, &|| false).unwrap();
         assert!(alone.converged);
         let tol = 1e-10 * 5000.0;
         let outcome = rescue_alone(&q, &r, vec![0.0; 5], tol).unwrap();
