@@ -40,7 +40,9 @@
 //!    point runs again on every row. A block rescued three
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
 //!    except at powers of two, which find out when the jam is over. Counted in
-//!    [`SolveStats::rescues`].
+//!    [`SolveStats::rescues`]. On two cores or more, the rescue's first interior point
+//!    runs on a thread of its own while the active set tries a large block, and is used if
+//!    the attempt fails ([`NativeSettings::speculate_rows`]; the same answers).
 //! 4. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
@@ -499,7 +501,8 @@ fn interior_point_tolerance(r: &[f64]) -> f64 {
 }
 
 /// The interior point a rescue runs first on a block whose shortfall at `y` is `r` (on the
-/// screened rows, see [`rescue_attempts`]), or `None` when it stopped because `stopped()`.
+/// screened rows, see [`rescue_attempts`]), as [`solve_rows`] gives it, or `None` when it
+/// stopped because `stopped()` held.
 fn first_rescue_iterate(
     block: &ProjectionProblem,
     r: &[f64],
