@@ -126,7 +126,9 @@ pub struct NativeSettings {
     pub parallel_rows: usize,
     /// While the active set tries a block of at least this many rows, the interior point
     /// its rescue would run first runs on a thread of its own, and the rescue starts from its
-    /// iterate if the attempt fails (see [`Speculator`]). The answers are the same either way;
+    /// iterate if the attempt fails (the same computation on the same data, so the same
+    /// iterate; an attempt that converges stops it at its next iteration). The answers are
+    /// the same either way;
     /// the time is shorter on a machine with a core to spare, and the CPU time longer (the
     /// interior point also runs for the attempts that converge, until they do). `0` never
     /// does. Default [`SPECULATE_ROWS`] when [`std::thread::available_parallelism`] (which
