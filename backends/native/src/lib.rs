@@ -1190,12 +1190,21 @@ mod tests {
         assert!(third > second && second > first);
         let got = speculator.take(third).unwrap().expect("an iterate");
         assert_eq!(iterate_bits(&got), iterate_bits(&own(2)));
-        // A cancelled speculation stops at its next iteration: none at all when cancelled
-        // before it starts.
-        let never = speculator.speculate(&blocks[1], &shortfalls[1]).unwrap();
-        speculator.cancel(never);
-        let abandoned = first_rescue_iterate(&blocks[1], &shortfalls[1], &|| true);
-        assert!(abandoned.is_none());
+        // A speculation cancelled before its thread starts it runs no iteration: its answer
+        // is none, where the same block's own answer is an iterate.
+        speculator.cancel(speculator.last + 1);
+        let cancelled = speculator.speculate(&blocks[1], &shortfalls[1]).unwrap();
+        assert!(speculator.take(cancelled).unwrap().is_none());
+        assert!(first_rescue_iterate(&blocks[1], &shortfalls[1], &|| true).is_none());
+        // A long speculation cancelled while the next one waits behind it: its answer (none,
+        // stopped at its next iteration) reaches the channel first, and is passed over.
+        let large = sweeping_api::conformance::random_instance(7, 300, 600);
+        let large_shortfall = large.shortfall(large.y());
+        let long = speculator.speculate(&large, &large_shortfall).unwrap();
+        let next = speculator.speculate(&blocks[0], &shortfalls[0]).unwrap();
+        speculator.cancel(long);
+        let got = speculator.take(next).unwrap().expect("an iterate");
+        assert_eq!(iterate_bits(&got), iterate_bits(&own(0)));
         // Dropping it ends its thread (a hang here would time the test out).
         drop(speculator);
     }
