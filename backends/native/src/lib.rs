@@ -445,10 +445,10 @@ fn rescue_by_interior_point(
 ) -> Result<active_set::Outcome, (Failure, u32)> {
     let (orderings, unknowns) = memory;
     let m = block.n_rows();
-    let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
+    let scale = shortfall_scale(r);
     // The interior point's tolerance, which Tapia's indicators in the finish's start are
     // measured against too.
-    let tolerance = interior_point_tolerance(r);
+    let tolerance = INTERIOR_POINT_TOLERANCE * scale;
     let mut spent = 0u32;
     let mut last = Failure::Cap(POLISH_ITERATIONS);
     let mut speculated = speculated;
@@ -496,10 +496,10 @@ fn rescue_by_interior_point(
     Err((last, spent))
 }
 
-/// The tolerance of a rescue's interior point on a block whose shortfall at `y` is `r`:
-/// [`INTERIOR_POINT_TOLERANCE`] relative to `max(1, ‖r‖∞)`.
-fn interior_point_tolerance(r: &[f64]) -> f64 {
-    INTERIOR_POINT_TOLERANCE * r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()))
+/// The scale a rescue measures its interior point against on a block whose shortfall at `y`
+/// is `r`: `max(1, ‖r‖∞)`.
+fn shortfall_scale(r: &[f64]) -> f64 {
+    r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()))
 }
 
 /// The interior point a rescue runs first on a block whose shortfall at `y` is `r` (on the
@@ -511,7 +511,8 @@ fn first_rescue_iterate(
     stopped: &dyn Fn() -> bool,
 ) -> Option<interior_point::Iterate> {
     let rows = rescue_attempts(screened_rows(block, r), block.n_rows()).swap_remove(0);
-    solve_rows(block, r, &rows, interior_point_tolerance(r), stopped)
+    let tolerance = INTERIOR_POINT_TOLERANCE * shortfall_scale(r);
+    solve_rows(block, r, &rows, tolerance, stopped)
 }
 
 /// A rescue's first interior point run on a thread of its own while the active set tries
@@ -1032,13 +1033,15 @@ impl Projector for NativeProjector {
             has_fallback: self.fallback.is_some(),
             tol,
         };
-        let wants_speculator = self.settings.interior_point
+        // Decided once, at the first projection with a block that could use it.
+        let wants_speculator = !self.speculator_decided
+            && self.settings.interior_point
             && self.settings.speculate_rows > 0
             && blocks
                 .blocks()
                 .iter()
                 .any(|block| block.rows.len() >= self.settings.speculate_rows);
-        if wants_speculator && !self.speculator_decided {
+        if wants_speculator {
             self.speculator_decided = true;
             self.speculator = Speculator::start();
         }
