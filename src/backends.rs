@@ -90,17 +90,30 @@ pub const NATIVE_CROSS_TOLERANCE: f64 = 1e-8;
 /// The native backend with its default settings, falling back to Clarabel when compiled in.
 #[cfg(feature = "native")]
 pub fn native_projector() -> NativeProjector {
+    native_projector_on_threads(0)
+}
+
+/// The native backend with its default settings but [`NativeSettings::threads`], falling back
+/// to Clarabel when compiled in.
+#[cfg(feature = "native")]
+fn native_projector_on_threads(threads: usize) -> NativeProjector {
+    let settings = NativeSettings {
+        threads,
+        ..NativeSettings::default()
+    };
     #[cfg(feature = "clarabel")]
     {
-        NativeProjector::with_fallback(
-            NativeSettings::default(),
-            Box::new(ClarabelProjector::default()),
-        )
+        NativeProjector::with_fallback(settings, Box::new(ClarabelProjector::default()))
     }
     #[cfg(not(feature = "clarabel"))]
     {
-        NativeProjector::new(NativeSettings::default())
+        NativeProjector::new(settings)
     }
+}
+
+/// The names [`BackendChoice`] parses, for error messages: `native, clarabel, …`.
+fn backend_names() -> String {
+    BackendChoice::ALL.map(|b| b.to_string()).join(", ")
 }
 
 /// Why [`make_projector`] could not build a backend.
@@ -114,7 +127,7 @@ pub enum BackendError {
         backend: BackendChoice,
     },
     /// No backend has this name.
-    #[error("unknown backend `{name}` (expected clarabel, osqp, cross or reference)")]
+    #[error("unknown backend `{name}` (expected one of {})", backend_names())]
     Unknown {
         /// The name given.
         name: String,
@@ -134,6 +147,23 @@ pub enum BackendError {
 /// # Errors
 /// [`BackendError::NotCompiled`] when the backend's cargo feature is off.
 pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, BackendError> {
+    make_projector_on_threads(choice, 0)
+}
+
+/// Builds the chosen backend with its default (tight) settings, its projections on at most
+/// `threads` threads, `0` meaning as many as the cores the process may run on. Only the
+/// native backend runs a projection on more than one ([`NativeSettings::threads`]: its
+/// blocks and its speculated rescues); the others, and the cross-checks' second backends,
+/// run on the caller's thread whatever `threads` says. The answers do not depend on it.
+///
+/// # Errors
+/// [`BackendError::NotCompiled`] when the backend's cargo feature is off.
+pub fn make_projector_on_threads(
+    choice: BackendChoice,
+    threads: usize,
+) -> Result<Box<dyn Projector>, BackendError> {
+    #[cfg(not(feature = "native"))]
+    let _ = threads;
     match choice {
         BackendChoice::Reference => Ok(Box::new(
             sweeping_api::conformance::ReferenceProjector::default(),
@@ -149,10 +179,10 @@ pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, Backe
             DEFAULT_CROSS_TOLERANCE,
         ))),
         #[cfg(feature = "native")]
-        BackendChoice::Native => Ok(Box::new(native_projector())),
+        BackendChoice::Native => Ok(Box::new(native_projector_on_threads(threads))),
         #[cfg(all(feature = "clarabel", feature = "native"))]
         BackendChoice::CrossNative => Ok(Box::new(CrossCheck::new(
-            native_projector(),
+            native_projector_on_threads(threads),
             ClarabelProjector::default(),
             NATIVE_CROSS_TOLERANCE,
         ))),
@@ -233,5 +263,14 @@ mod tests {
                 name: "gurobi".into()
             })
         );
+        // The message lists every name that parses (an earlier one left out `native` and
+        // `cross-native`).
+        let message = "gurobi".parse::<BackendChoice>().unwrap_err().to_string();
+        for b in BackendChoice::ALL {
+            assert!(
+                message.contains(&format!("{b},")) || message.ends_with(&format!("{b})")),
+                "{message}"
+            );
+        }
     }
 }

@@ -423,3 +423,32 @@ fn errors_from_a_file_name_the_file() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn threads_negative_are_refused_and_the_command_line_beats_the_scene() {
+    let person = "[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n";
+    let text = format!("{ROOM}{person}[run]\nthreads = -1\n");
+    assert_message(&error_of(&text), 7, &["integer `-1`", "expected usize"]);
+    let text = format!("{ROOM}{person}[run]\nthreads = 1\n");
+    let scene = Scene::from_toml_str(&text, "ok.toml").unwrap();
+    let built = scene.build(&Overrides::default()).unwrap();
+    assert_eq!(built.threads, 1);
+    assert!(
+        built.describe().contains("on 1 thread"),
+        "{}",
+        built.describe()
+    );
+    let built = scene
+        .build(&Overrides {
+            threads: Some(0),
+            ..Default::default()
+        })
+        .unwrap();
+    assert_eq!(built.threads, 0);
+    // Without either: as many as the cores.
+    let text = format!("{ROOM}{person}");
+    let built = Scene::from_toml_str(&text, "ok.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap();
+    assert_eq!(built.threads, 0);
+}

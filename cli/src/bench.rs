@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
-use sweeping::backends::{make_projector, BackendChoice};
+use sweeping::backends::{make_projector, make_projector_on_threads, BackendChoice};
 use sweeping::crowd::synthetic::{Start, SyntheticCrowd};
 use sweeping::stepper::{StageTimes, Stepper, StepperSettings};
 use sweeping::study::peak_memory_bytes;
@@ -31,6 +31,10 @@ pub struct BenchArgs {
     /// Seed of the placements.
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
+    /// Most threads a projection runs on (0: as many as the cores). Only the native backend
+    /// uses more than one.
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
     /// Also write the table as CSV.
     #[arg(long)]
     pub csv: Option<PathBuf>,
@@ -72,7 +76,8 @@ fn measure(crowd: SyntheticCrowd, backend: BackendChoice, args: &BenchArgs) -> R
     let problem = crowd
         .problem()
         .with_context(|| format!("building the {} crowd of {}", crowd.start, crowd.n))?;
-    let mut projector = make_projector(backend).map_err(anyhow::Error::msg)?;
+    let mut projector =
+        make_projector_on_threads(backend, args.threads).map_err(anyhow::Error::msg)?;
     let settings = StepperSettings {
         h,
         t_end: args.steps as f64 * h,

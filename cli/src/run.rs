@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use sweeping::backends::{make_projector, BackendChoice};
+use sweeping::backends::{make_projector_on_threads, BackendChoice};
 use sweeping::error::SweepError;
 use sweeping::output::{
     prepare_output_dir, steps_between, AnimationWriter, RunSummary, SnapshotWriter,
@@ -34,6 +34,11 @@ pub struct RunArgs {
     /// Seed of the random placements (default: the scene's).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Most threads a projection runs on: 1 keeps the run on one core (for runs side by side);
+    /// 0, as many as the cores (default: the scene's `[run] threads`, else 0). Only the native
+    /// backend uses more than one; the trajectory does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Trajectory formats, comma-separated: csv (trajectory.csv), sqlite (trajectory.sqlite,
     /// JuPedSim's format, read by PedPy). Default: the scene's `[output] formats`, else csv.
     #[arg(long = "format", value_delimiter = ',')]
@@ -77,6 +82,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         t_end: args.t_end,
         seed: args.seed,
         backend: args.backend,
+        threads: args.threads,
     };
     let out = args
         .out
@@ -123,7 +129,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         t_end,
     );
     let summary_path = out.join("summary.json");
-    let mut projector = match make_projector(built.backend) {
+    let mut projector = match make_projector_on_threads(built.backend, built.threads) {
         Ok(p) => p,
         Err(e) => {
             summary.mark_failed(&e.to_string());
@@ -165,9 +171,14 @@ pub fn main(args: RunArgs) -> Result<()> {
         population: built.population.clone(),
     };
     eprintln!(
-        "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name} → {}",
+        "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name}{} → {}",
         built.name,
         built.population.len(),
+        match built.threads {
+            0 => String::new(),
+            1 => " on 1 thread".to_string(),
+            n => format!(" on at most {n} threads"),
+        },
         out.display()
     );
     let mut observers: Vec<&mut dyn Observer> = Vec::new();

@@ -51,6 +51,7 @@ pub(super) struct RunSettings {
     pub h: f64,
     pub t_end: f64,
     pub backend: BackendChoice,
+    pub threads: usize,
     pub stop_when_empty: bool,
 }
 
@@ -97,10 +98,15 @@ pub(super) fn run_settings(
         .as_ref()
         .and_then(|r| r.stop_when_empty)
         .unwrap_or(false);
+    let threads = overrides
+        .threads
+        .or(run.as_ref().and_then(|r| r.threads))
+        .unwrap_or(0);
     Ok(RunSettings {
         h,
         t_end,
         backend,
+        threads,
         stop_when_empty,
     })
 }

@@ -160,6 +160,7 @@ impl CrowdBuilder {
                 t_end: None,
                 stop_when_empty: None,
                 backend: None,
+                threads: None,
             })
         });
         run.get_mut()
@@ -180,6 +181,12 @@ impl CrowdBuilder {
     /// The projection backend (default: the first one compiled in).
     pub fn backend(mut self, backend: BackendChoice) -> Self {
         self.run_mut().backend = Some(backend);
+        self
+    }
+
+    /// Most threads a projection runs on (default `0`: as many as the cores).
+    pub fn threads(mut self, threads: usize) -> Self {
+        self.run_mut().threads = Some(threads);
         self
     }
 

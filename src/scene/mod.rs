@@ -93,6 +93,8 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// Backend.
     pub backend: Option<BackendChoice>,
+    /// Most threads a projection runs on (`0`: as many as the cores).
+    pub threads: Option<usize>,
 }
 
 /// An obstacle as drawn: its shape at `t = 0` and its motion.
@@ -178,6 +180,9 @@ pub struct BuiltScene {
     pub settings: StepperSettings,
     /// The projection backend.
     pub backend: BackendChoice,
+    /// Most threads a projection runs on, `0` meaning as many as the cores (see
+    /// [`make_projector_on_threads`](crate::backends::make_projector_on_threads)).
+    pub threads: usize,
     /// Stop as soon as everybody has left.
     pub stop_when_empty: bool,
     /// Outputs.
@@ -388,6 +393,7 @@ impl Scene {
             groups: people.groups,
             settings,
             backend: run.backend,
+            threads: run.threads,
             stop_when_empty: run.stop_when_empty,
             output,
             geometry: SceneGeometry {
@@ -459,7 +465,7 @@ impl BuiltScene {
         );
         let _ = writeln!(
             s,
-            "  h = {}, T = {}{}, backend {}",
+            "  h = {}, T = {}{}, backend {}{}",
             self.settings.h,
             self.settings.t_end,
             if self.stop_when_empty {
@@ -467,7 +473,12 @@ impl BuiltScene {
             } else {
                 ""
             },
-            self.backend
+            self.backend,
+            match self.threads {
+                0 => String::new(),
+                1 => " on 1 thread".to_string(),
+                n => format!(" on at most {n} threads"),
+            }
         );
         s
     }

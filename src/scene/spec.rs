@@ -222,8 +222,13 @@ pub struct RunSpec {
     pub t_end: Option<f64>,
     /// Stop as soon as everybody has left. Default `false`.
     pub stop_when_empty: Option<bool>,
-    /// Projection backend. Default `clarabel`.
+    /// Projection backend. Default `native` when compiled in, else `clarabel`.
     pub backend: Option<BackendChoice>,
+    /// Most threads a projection runs on (the native backend's blocks and speculated
+    /// rescues; [`NativeSettings::threads`](crate::backends::NativeSettings::threads) when
+    /// the native backend is compiled in); `0`, as many as the cores the process may run on.
+    /// Default `0`.
+    pub threads: Option<usize>,
 }
 
 /// `[output]`.

@@ -40,7 +40,7 @@
 //!    point runs again on every row. A block rescued three
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
 //!    except at powers of two, which find out when the jam is over. Counted in
-//!    [`SolveStats::rescues`]. On two cores or more, the rescue's first interior point
+//!    [`SolveStats::rescues`]. With two threads or more ([`NativeSettings::threads`]), the rescue's first interior point
 //!    runs on a thread of its own while the active set tries a large block, and is used if
 //!    the attempt fails ([`NativeSettings::speculate_rows`]; the same answers).
 //! 4. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
@@ -117,7 +117,7 @@ pub struct NativeSettings {
     /// any fallback. Default `true`.
     pub interior_point: bool,
     /// Blocks of at least this many rows are solved on threads of their own (scoped threads,
-    /// as many as [`std::thread::available_parallelism`] allows) when a projection has two or
+    /// as many as [`threads`](NativeSettings::threads) allows) when a projection has two or
     /// more of them, as an evacuation through several doors has (a queue at each); the
     /// other blocks share one more. `0` never does. Default [`PARALLEL_ROWS`].
     ///
@@ -131,10 +131,16 @@ pub struct NativeSettings {
     /// the same either way;
     /// the time is shorter on a machine with a core to spare, and the CPU time longer (the
     /// interior point also runs for the attempts that converge, until they do). `0` never
-    /// does. Default [`SPECULATE_ROWS`] when [`std::thread::available_parallelism`] (which
-    /// counts the cores a process may run on: `taskset -c 0` makes it 1) is at least 2, else
-    /// `0`.
+    /// does. Needs two [`threads`](NativeSettings::threads) or more. Default
+    /// [`SPECULATE_ROWS`].
     pub speculate_rows: usize,
+    /// Most threads a projection runs on, the caller's included: blocks on threads of their
+    /// own ([`parallel_rows`](NativeSettings::parallel_rows)) and the speculation
+    /// ([`speculate_rows`](NativeSettings::speculate_rows)) share them. `1` keeps a
+    /// projection on its caller's thread (for runs side by side, one per core); `0` means
+    /// [`std::thread::available_parallelism`], which counts the cores the process may run on
+    /// (`taskset -c 0` makes it 1). The answers do not depend on it. Default `0`.
+    pub threads: usize,
 }
 
 /// The default [`NativeSettings::speculate_rows`] on two cores or more: the blocks whose
@@ -155,11 +161,19 @@ impl Default for NativeSettings {
             warm_start: true,
             interior_point: true,
             parallel_rows: PARALLEL_ROWS,
-            speculate_rows: if std::thread::available_parallelism().map_or(1, usize::from) >= 2 {
-                SPECULATE_ROWS
-            } else {
-                0
-            },
+            speculate_rows: SPECULATE_ROWS,
+            threads: 0,
+        }
+    }
+}
+
+impl NativeSettings {
+    /// The threads a projection may run on: [`threads`](NativeSettings::threads), or the
+    /// cores available when it is `0`.
+    fn thread_budget(&self) -> usize {
+        match self.threads {
+            0 => std::thread::available_parallelism().map_or(1, usize::from),
+            n => n,
         }
     }
 }
@@ -881,8 +895,7 @@ fn solve_blocks(
             .map(|index| solve(orderings, index, speculator.as_deref_mut()))
             .collect();
     }
-    let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let workers = workers_for(&groups, &sizes, threads);
+    let workers = workers_for(&groups, &sizes, context.settings.thread_budget());
     // One fork per group, all from the memory as it stood: the answers are those of any
     // number of threads.
     let solve_groups = |mine: &[usize]| -> Vec<(usize, Vec<BlockResult>, Orderings)> {
@@ -1037,6 +1050,7 @@ impl Projector for NativeProjector {
         let wants_speculator = !self.speculator_decided
             && self.settings.interior_point
             && self.settings.speculate_rows > 0
+            && self.settings.thread_budget() >= 2
             && blocks
                 .blocks()
                 .iter()
@@ -1216,22 +1230,30 @@ mod tests {
     fn speculating_on_rescues_changes_no_answer() {
         // One active-set iteration before the rescue, so that nearly every block is rescued,
         // from warm starts as well as cold ones.
+        // Two threads asked for, so that it speculates on a machine with one core too.
         let settings = |speculate_rows| NativeSettings {
             max_iterations: 1,
             speculate_rows,
+            threads: 2,
             ..NativeSettings::default()
         };
-        let (mut plain, mut speculating) = (
+        let (mut plain, mut speculating, mut one_thread) = (
             NativeProjector::new(settings(0)),
             NativeProjector::new(settings(1)),
+            NativeProjector::new(NativeSettings {
+                threads: 1,
+                ..settings(1)
+            }),
         );
         let mut rescues = 0;
         for seed in 0..30u64 {
             let p =
                 sweeping_api::conformance::random_instance(seed % 10, 12 + (seed as usize % 7), 30);
             let (a, b) = (plain.project(&p).unwrap(), speculating.project(&p).unwrap());
+            let c = one_thread.project(&p).unwrap();
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&a.x), bits(&b.x), "seed {seed}");
+            assert_eq!(bits(&a.x), bits(&c.x), "seed {seed}");
             assert_eq!(bits(&a.multipliers), bits(&b.multipliers), "seed {seed}");
             assert_eq!(a.stats.iterations, b.stats.iterations, "seed {seed}");
             assert_eq!(a.stats.rescues, b.stats.rescues, "seed {seed}");
@@ -1239,6 +1261,8 @@ mod tests {
         }
         assert!(speculating.speculator.is_some(), "the thread started");
         assert!(plain.speculator.is_none());
+        // One thread: nothing to speculate on.
+        assert!(one_thread.speculator.is_none());
         assert!(
             rescues >= 10,
             "only {rescues} rescues: the test would test little"
