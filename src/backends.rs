@@ -142,52 +142,113 @@ pub enum BackendError {
     },
 }
 
+/// How [`make_projector_with`] builds a backend; the default builds what [`make_projector`]
+/// does.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ProjectorOptions {
+    /// The backend's accuracy tolerances (OSQP: `eps_abs = eps_rel`; Clarabel: `tol_gap_abs =
+    /// tol_gap_rel = tol_feas`; native: its KKT tolerance; reference: its KKT tolerance), or
+    /// `None` for its default (tight) settings. The cross-checks take none. Default `None`.
+    pub tolerance: Option<f64>,
+    /// Most threads a projection runs on, `0` meaning as many as the cores the process may run
+    /// on. Only the native backend runs a projection on more than one
+    /// ([`NativeSettings::threads`](sweeping_native::NativeSettings::threads): its blocks and
+    /// its speculated rescues); the others, and `cross-native`'s Clarabel, run on the caller's
+    /// thread whatever it says. The answers do not depend on it. Default `0`.
+    pub threads: usize,
+}
+
 /// Builds the chosen backend with its default (tight) settings.
 ///
 /// # Errors
 /// [`BackendError::NotCompiled`] when the backend's cargo feature is off.
 pub fn make_projector(choice: BackendChoice) -> Result<Box<dyn Projector>, BackendError> {
-    make_projector_on_threads(choice, 0)
+    make_projector_with(choice, ProjectorOptions::default())
 }
 
-/// Builds the chosen backend with its default (tight) settings, its projections on at most
-/// `threads` threads, `0` meaning as many as the cores the process may run on. Only the
-/// native backend runs a projection on more than one ([`NativeSettings::threads`]: its
-/// blocks and its speculated rescues); the others, and the cross-checks' second backends,
-/// run on the caller's thread whatever `threads` says. The answers do not depend on it.
+/// Builds the chosen backend with its accuracy tolerances set to `tolerance`, or with its
+/// default (tight) settings when `tolerance` is `None` (see [`ProjectorOptions::tolerance`]).
 ///
 /// # Errors
-/// [`BackendError::NotCompiled`] when the backend's cargo feature is off.
-pub fn make_projector_on_threads(
+/// As [`make_projector_with`].
+pub fn make_projector_with_tolerance(
     choice: BackendChoice,
-    threads: usize,
+    tolerance: Option<f64>,
 ) -> Result<Box<dyn Projector>, BackendError> {
+    make_projector_with(
+        choice,
+        ProjectorOptions {
+            tolerance,
+            ..ProjectorOptions::default()
+        },
+    )
+}
+
+/// Builds the chosen backend with `options`.
+///
+/// # Errors
+/// [`BackendError::NotCompiled`] when the backend's cargo feature is off;
+/// [`BackendError::NoTolerance`] for a tolerance asked of a cross-check (which runs both
+/// backends at their defaults).
+pub fn make_projector_with(
+    choice: BackendChoice,
+    options: ProjectorOptions,
+) -> Result<Box<dyn Projector>, BackendError> {
+    let ProjectorOptions { tolerance, threads } = options;
     #[cfg(not(feature = "native"))]
     let _ = threads;
-    match choice {
-        BackendChoice::Reference => Ok(Box::new(
-            sweeping_api::conformance::ReferenceProjector::default(),
-        )),
+    match (choice, tolerance) {
+        (BackendChoice::Cross | BackendChoice::CrossNative, Some(_)) => {
+            Err(BackendError::NoTolerance { backend: choice })
+        }
+        (BackendChoice::Reference, tol) => {
+            let mut reference = sweeping_api::conformance::ReferenceProjector::default();
+            if let Some(tol) = tol {
+                reference.tolerance = tol;
+            }
+            Ok(Box::new(reference))
+        }
         #[cfg(feature = "clarabel")]
-        BackendChoice::Clarabel => Ok(Box::new(ClarabelProjector::default())),
+        (BackendChoice::Clarabel, None) => Ok(Box::new(ClarabelProjector::default())),
+        #[cfg(feature = "clarabel")]
+        (BackendChoice::Clarabel, Some(tol)) => {
+            Ok(Box::new(ClarabelProjector::new(ClarabelSettings {
+                tol_gap_abs: tol,
+                tol_gap_rel: tol,
+                tol_feas: tol,
+                ..Default::default()
+            })))
+        }
         #[cfg(feature = "osqp")]
-        BackendChoice::Osqp => Ok(Box::new(OsqpProjector::default())),
+        (BackendChoice::Osqp, None) => Ok(Box::new(OsqpProjector::default())),
+        #[cfg(feature = "osqp")]
+        (BackendChoice::Osqp, Some(tol)) => Ok(Box::new(OsqpProjector::new(OsqpSettings {
+            eps_abs: tol,
+            eps_rel: tol,
+            ..Default::default()
+        }))),
         #[cfg(all(feature = "clarabel", feature = "osqp"))]
-        BackendChoice::Cross => Ok(Box::new(CrossCheck::new(
+        (BackendChoice::Cross, None) => Ok(Box::new(CrossCheck::new(
             ClarabelProjector::default(),
             OsqpProjector::default(),
             DEFAULT_CROSS_TOLERANCE,
         ))),
         #[cfg(feature = "native")]
-        BackendChoice::Native => Ok(Box::new(native_projector_on_threads(threads))),
+        (BackendChoice::Native, tol) => {
+            let mut native = native_projector_on_threads(threads);
+            if let Some(tol) = tol {
+                native.settings.kkt_tolerance = tol;
+            }
+            Ok(Box::new(native))
+        }
         #[cfg(all(feature = "clarabel", feature = "native"))]
-        BackendChoice::CrossNative => Ok(Box::new(CrossCheck::new(
+        (BackendChoice::CrossNative, None) => Ok(Box::new(CrossCheck::new(
             native_projector_on_threads(threads),
             ClarabelProjector::default(),
             NATIVE_CROSS_TOLERANCE,
         ))),
         #[allow(unreachable_patterns)]
-        other => Err(BackendError::NotCompiled {
+        (other, _) => Err(BackendError::NotCompiled {
             backend: other,
             features: match other {
                 BackendChoice::Cross => "clarabel,osqp".to_string(),
@@ -198,59 +259,47 @@ pub fn make_projector_on_threads(
     }
 }
 
-/// Builds the chosen backend with its accuracy tolerances set to `tolerance` (OSQP:
-/// `eps_abs = eps_rel`; Clarabel: `tol_gap_abs = tol_gap_rel = tol_feas`; reference: its KKT
-/// tolerance), or with its default (tight) settings when `tolerance` is `None`.
-///
-/// # Errors
-/// [`BackendError::NotCompiled`] when the backend's cargo feature is off;
-/// [`BackendError::NoTolerance`] for a tolerance asked of the cross-check (which runs both
-/// backends at their defaults).
-pub fn make_projector_with_tolerance(
-    choice: BackendChoice,
-    tolerance: Option<f64>,
-) -> Result<Box<dyn Projector>, BackendError> {
-    let Some(tol) = tolerance else {
-        return make_projector(choice);
-    };
-    match choice {
-        BackendChoice::Reference => Ok(Box::new(sweeping_api::conformance::ReferenceProjector {
-            tolerance: tol,
-            ..Default::default()
-        })),
-        #[cfg(feature = "osqp")]
-        BackendChoice::Osqp => Ok(Box::new(OsqpProjector::new(OsqpSettings {
-            eps_abs: tol,
-            eps_rel: tol,
-            ..Default::default()
-        }))),
-        #[cfg(feature = "clarabel")]
-        BackendChoice::Clarabel => Ok(Box::new(ClarabelProjector::new(ClarabelSettings {
-            tol_gap_abs: tol,
-            tol_gap_rel: tol,
-            tol_feas: tol,
-            ..Default::default()
-        }))),
-        #[cfg(feature = "native")]
-        BackendChoice::Native => {
-            let mut native = native_projector();
-            native.settings.kkt_tolerance = tol;
-            Ok(Box::new(native))
-        }
-        BackendChoice::Cross | BackendChoice::CrossNative => {
-            Err(BackendError::NoTolerance { backend: choice })
-        }
-        #[allow(unreachable_patterns)]
-        other => make_projector(other),
-    }
-}
-
 #[allow(unused_imports)]
 use CrossCheck as _;
 
 #[cfg(test)]
 mod tests {
-    use super::{BackendChoice, BackendError};
+    use super::{
+        make_projector, make_projector_with, BackendChoice, BackendError, ProjectorOptions,
+    };
+
+    #[test]
+    fn a_tolerance_reaches_every_backend_but_the_cross_checks_which_refuse_it() {
+        let loose = ProjectorOptions {
+            tolerance: Some(1e-3),
+            threads: 1,
+        };
+        let mut built = 0;
+        for choice in BackendChoice::ALL {
+            match (make_projector(choice), make_projector_with(choice, loose)) {
+                (_, Err(BackendError::NoTolerance { backend })) => {
+                    assert_eq!(backend, choice);
+                    assert!(matches!(
+                        choice,
+                        BackendChoice::Cross | BackendChoice::CrossNative
+                    ));
+                }
+                (Ok(tight), Ok(loose)) => {
+                    assert!(
+                        loose.tolerance() > tight.tolerance(),
+                        "{choice}: {} against {}",
+                        loose.tolerance(),
+                        tight.tolerance()
+                    );
+                    built += 1;
+                }
+                (Err(BackendError::NotCompiled { .. }), Err(BackendError::NotCompiled { .. })) => {}
+                (tight, loose) => panic!("{choice}: {:?} against {:?}", tight.err(), loose.err()),
+            }
+        }
+        // The reference backend at least is always compiled in.
+        assert!(built >= 1);
+    }
 
     #[test]
     fn backend_names_round_trip_and_unknown_names_are_typed_errors() {

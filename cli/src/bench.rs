@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
-use sweeping::backends::{make_projector, make_projector_on_threads, BackendChoice};
+use sweeping::backends::{make_projector, make_projector_with, BackendChoice, ProjectorOptions};
 use sweeping::crowd::synthetic::{Start, SyntheticCrowd};
 use sweeping::stepper::{StageTimes, Stepper, StepperSettings};
 use sweeping::study::peak_memory_bytes;
@@ -76,8 +76,14 @@ fn measure(crowd: SyntheticCrowd, backend: BackendChoice, args: &BenchArgs) -> R
     let problem = crowd
         .problem()
         .with_context(|| format!("building the {} crowd of {}", crowd.start, crowd.n))?;
-    let mut projector =
-        make_projector_on_threads(backend, args.threads).map_err(anyhow::Error::msg)?;
+    let mut projector = make_projector_with(
+        backend,
+        ProjectorOptions {
+            threads: args.threads,
+            ..ProjectorOptions::default()
+        },
+    )
+    .map_err(anyhow::Error::msg)?;
     let settings = StepperSettings {
         h,
         t_end: args.steps as f64 * h,

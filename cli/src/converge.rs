@@ -4,7 +4,7 @@
 use crate::scene_loader::load_scene;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
-use sweeping::backends::{make_projector, BackendChoice};
+use sweeping::backends::{make_projector_with, BackendChoice, ProjectorOptions};
 use sweeping::prelude::*;
 use sweeping::study::exact::{self, ExactCase};
 use sweeping::study::{converge, BoxError, ConvergenceReport, ConvergenceSettings, PAPER_HS};
@@ -50,7 +50,12 @@ pub struct ConvergeArgs {
 fn projector_factory(
     backend: BackendChoice,
 ) -> impl Fn() -> Result<Box<dyn Projector>, BoxError> + Sync {
-    move || make_projector(backend).map_err(Into::into)
+    // On the run's own thread: its CPU time, measured there, is then all of its work.
+    let options = ProjectorOptions {
+        threads: 1,
+        ..ProjectorOptions::default()
+    };
+    move || make_projector_with(backend, options).map_err(Into::into)
 }
 
 fn write_outputs(report: &ConvergenceReport, out: &Path) -> anyhow::Result<()> {

@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use sweeping::backends::{make_projector_on_threads, BackendChoice};
+use sweeping::backends::{make_projector_with, BackendChoice, ProjectorOptions};
 use sweeping::error::SweepError;
 use sweeping::output::{
     prepare_output_dir, steps_between, AnimationWriter, RunSummary, SnapshotWriter,
@@ -129,7 +129,11 @@ pub fn main(args: RunArgs) -> Result<()> {
         t_end,
     );
     let summary_path = out.join("summary.json");
-    let mut projector = match make_projector_on_threads(built.backend, built.threads) {
+    let options = ProjectorOptions {
+        threads: built.threads,
+        ..ProjectorOptions::default()
+    };
+    let mut projector = match make_projector_with(built.backend, options) {
         Ok(p) => p,
         Err(e) => {
             summary.mark_failed(&e.to_string());

@@ -181,7 +181,7 @@ pub struct BuiltScene {
     /// The projection backend.
     pub backend: BackendChoice,
     /// Most threads a projection runs on, `0` meaning as many as the cores (see
-    /// [`make_projector_on_threads`](crate::backends::make_projector_on_threads)).
+    /// [`ProjectorOptions::threads`](crate::backends::ProjectorOptions::threads)).
     pub threads: usize,
     /// Stop as soon as everybody has left.
     pub stop_when_empty: bool,

@@ -42,7 +42,12 @@
 //! other setting beats on both counts.
 //!
 //! Runs are independent and run in parallel (rayon); each one's CPU time is measured on its
-//! own thread ([`thread_cpu_seconds`]).
+//! own thread ([`thread_cpu_seconds`]). The projectors the studies build keep their
+//! projections on that thread ([`ProjectorOptions::threads`] `= 1`), so that the time is the
+//! whole of the run's work; a projector from your own factory that starts threads of its own
+//! would have their work left out.
+//!
+//! [`ProjectorOptions::threads`]: crate::backends::ProjectorOptions::threads
 
 pub mod exact;
 pub mod plot;

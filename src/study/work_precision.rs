@@ -62,12 +62,24 @@ impl std::str::FromStr for SolverSetting {
 }
 
 /// Builds the projector of a [`SolverSetting`] (see
-/// [`make_projector_with_tolerance`](crate::backends::make_projector_with_tolerance)).
+/// [`make_projector_with`](crate::backends::make_projector_with)), its projections on the
+/// calling thread: a run's CPU time is measured on its thread ([`thread_cpu_seconds`]), so
+/// that time is then the whole of the run's work. (Runs go in parallel instead.)
+///
+/// [`thread_cpu_seconds`]: crate::study::thread_cpu_seconds
 ///
 /// # Errors
 /// When the backend is not compiled in, or a tolerance is asked of the cross-check.
 pub fn projector_for(setting: &SolverSetting) -> Result<Box<dyn Projector>, BackendError> {
-    crate::backends::make_projector_with_tolerance(setting.backend, setting.tolerance)
+    crate::backends::make_projector_with(setting.backend, projector_options(setting))
+}
+
+/// What [`projector_for`] builds a setting's backend with: its tolerance, on one thread.
+fn projector_options(setting: &SolverSetting) -> crate::backends::ProjectorOptions {
+    crate::backends::ProjectorOptions {
+        tolerance: setting.tolerance,
+        threads: 1,
+    }
 }
 
 /// Settings of a work–precision study.
@@ -403,5 +415,17 @@ mod tests {
         assert_eq!(r.tolerance, None);
         assert!("osqp@-1".parse::<SolverSetting>().is_err());
         assert!("nope".parse::<SolverSetting>().is_err());
+    }
+
+    #[test]
+    fn a_settings_projector_keeps_to_the_thread_its_cpu_time_is_measured_on() {
+        // A native backend left to its default would speculate its rescues on a second
+        // thread, whose CPU time the study does not see.
+        for text in ["native", "native@1e-9", "osqp@1e-3", "clarabel"] {
+            let setting: SolverSetting = text.parse().unwrap();
+            let options = projector_options(&setting);
+            assert_eq!(options.threads, 1, "{text}");
+            assert_eq!(options.tolerance, setting.tolerance, "{text}");
+        }
     }
 }
