@@ -130,6 +130,9 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
     if args.steps == 0 {
         anyhow::bail!("--steps must be at least 1");
     }
+    if args.n.contains(&0) {
+        anyhow::bail!("--n: every crowd size must be at least 1, got {:?}", args.n);
+    }
     if !(args.budget.is_finite() && args.budget > 0.0) {
         anyhow::bail!("--budget must be a positive number of seconds");
     }

@@ -1,5 +1,5 @@
-//! `sweep run`'s flags that choose how a run is computed, not what it computes: the threads
-//! a projection may use, and the backend's name.
+//! The flags of `sweep run` and `sweep bench` that choose how a run is computed, not what it
+//! computes (the threads a projection may use, the backend's name), and bench's bad sizes.
 
 #[path = "../../tests/common/mod.rs"]
 mod common;
@@ -65,4 +65,44 @@ fn a_negative_thread_count_and_an_unknown_backend_are_refused_by_name() {
     for name in ["native", "cross-native", "clarabel", "osqp", "reference"] {
         assert!(run.output.contains(name), "`{name}` not in {}", run.output);
     }
+}
+
+fn sweep_bench(args: &[&str]) -> (bool, String) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .arg("bench")
+        .args(args)
+        .output()
+        .expect("running sweep bench");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    (o.status.success(), text)
+}
+
+#[test]
+fn bench_runs_on_one_thread_and_refuses_an_empty_crowd_by_its_flag() {
+    let (ok, text) = sweep_bench(&[
+        "--n",
+        "150",
+        "--steps",
+        "2",
+        "--backends",
+        "native",
+        "--threads",
+        "1",
+    ]);
+    assert!(ok, "{text}");
+    assert!(text.contains("jammed      150 native"), "{text}");
+    // A crowd of 0 was refused as a degenerate room of a synthetic scene.
+    let (ok, text) = sweep_bench(&["--n", "150,0", "--steps", "2", "--backends", "native"]);
+    assert!(!ok);
+    assert!(
+        text.contains("--n: every crowd size must be at least 1"),
+        "{text}"
+    );
+    let (ok, text) = sweep_bench(&["--n", "150", "--steps", "0"]);
+    assert!(!ok);
+    assert!(text.contains("--steps must be at least 1"), "{text}");
 }
