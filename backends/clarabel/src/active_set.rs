@@ -1202,7 +1202,7 @@ fn farkas(problem: &ProjectionProblem, support: &[usize], e: &[f64], r: &[f64]) 
 /// Runs the method from `start` for at most `cap` iterations. See the module
 /// documentation.
 pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outcome, Failure> {
-    solve_with(problem, start, cap, None)
+    solve_with(problem, start, cap, None, &mut |_| {})
 }
 
 /// [`solve`], its sparse factorizations ordered from (and remembered in) `orderings` when
@@ -1216,22 +1216,47 @@ pub fn solve_remembering(
     orderings: &mut Orderings,
     unknowns: &[usize],
 ) -> Result<Outcome, Failure> {
+    solve_remembering_watched(problem, start, cap, orderings, unknowns, &mut |_| {})
+}
+
+/// [`solve_remembering`], calling `before_iteration(k)` before each iteration `k` (from 1) of
+/// the method's first pass: a caller can start work that only an attempt running that long
+/// will need (the native backend speculates on the rescue of an attempt that is still
+/// iterating). It cannot change the answer.
+pub fn solve_remembering_watched(
+    problem: &ProjectionProblem,
+    start: Start,
+    cap: u32,
+    orderings: &mut Orderings,
+    unknowns: &[usize],
+    before_iteration: &mut dyn FnMut(u32),
+) -> Result<Outcome, Failure> {
     let memory = (unknowns.len() == problem.dim()).then_some(Remembered {
         orderings,
         unknowns,
     });
-    solve_with(problem, start, cap, memory)
+    solve_with(problem, start, cap, memory, before_iteration)
 }
 
 /// The method at [`ACTIVE_TOL`], then, when its answer leaves a row violated or the support's
 /// equations unsolved by more than [`SECOND_PASS_TOL`], a second pass (see [`second_pass`]).
+/// `before_iteration` is called before each iteration of the first.
 fn solve_with(
     problem: &ProjectionProblem,
     start: Start,
     cap: u32,
     mut memory: Option<Remembered<'_>>,
+    before_iteration: &mut dyn FnMut(u32),
 ) -> Result<Outcome, Failure> {
-    let first = run(problem, start, cap, ACTIVE_TOL, memory.as_mut(), None)?;
+    let first = run_watched(
+        problem,
+        start,
+        cap,
+        ACTIVE_TOL,
+        memory.as_mut(),
+        None,
+        before_iteration,
+    )?;
     Ok(second_pass(problem, first, cap, memory.as_mut()))
 }
 
@@ -1313,8 +1338,21 @@ fn run(
     start: Start,
     cap: u32,
     active_tol: f64,
+    memory: Option<&mut Remembered<'_>>,
+    held: Option<ActiveSystem>,
+) -> Result<Finished, Failure> {
+    run_watched(problem, start, cap, active_tol, memory, held, &mut |_| {})
+}
+
+/// [`run`], calling `before_iteration(k)` before each iteration `k`.
+fn run_watched(
+    problem: &ProjectionProblem,
+    start: Start,
+    cap: u32,
+    active_tol: f64,
     mut memory: Option<&mut Remembered<'_>>,
     mut held: Option<ActiveSystem>,
+    before_iteration: &mut dyn FnMut(u32),
 ) -> Result<Finished, Failure> {
     let (m, n) = (problem.n_rows(), problem.dim());
     let r = problem.shortfall(problem.y());
@@ -1353,6 +1391,7 @@ fn run(
     // The system of the previous iteration (`held`), carried to the next support by
     // bordering.
     for iterations in 1..=cap {
+        before_iteration(iterations);
         if visits.count(&support) >= REPEATS {
             if proper {
                 return Err(Failure::Cycling(iterations));

@@ -41,8 +41,9 @@
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
 //!    except at powers of two, which find out when the jam is over. Counted in
 //!    [`SolveStats::rescues`]. With two threads or more ([`NativeSettings::threads`]), the rescue's first interior point
-//!    runs on a thread of its own while the active set tries a large block, and is used if
-//!    the attempt fails ([`NativeSettings::speculate_rows`]; the same answers).
+//!    runs on a thread of its own while the active set tries a large block (from its third
+//!    iteration, [`NativeSettings::speculate_after`]), and is used if the attempt fails
+//!    ([`NativeSettings::speculate_rows`]; the same answers).
 //! 4. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
@@ -134,6 +135,13 @@ pub struct NativeSettings {
     /// does. Needs two [`threads`](NativeSettings::threads) or more. Default
     /// [`SPECULATE_ROWS`].
     pub speculate_rows: usize,
+    /// The speculation of [`speculate_rows`](NativeSettings::speculate_rows) starts once the
+    /// attempt has run this many iterations without converging (`0`: with the attempt). An
+    /// attempt that ends in a rescue runs all of its
+    /// [`max_iterations`](NativeSettings::max_iterations), so a short delay leaves the interior point
+    /// most of the attempt to run in, while the attempts that converge within it, many of
+    /// them, start none. Default [`SPECULATE_AFTER`].
+    pub speculate_after: u32,
     /// Most threads a projection runs on, the caller's included: blocks on threads of their
     /// own ([`parallel_rows`](NativeSettings::parallel_rows)) and the speculation
     /// ([`speculate_rows`](NativeSettings::speculate_rows)) share them. `1` keeps a
@@ -147,6 +155,11 @@ pub struct NativeSettings {
 /// attempts end in rescues are door queues of a hundred people or more, and speculating on
 /// smaller blocks too burned more CPU time for no time saved (`docs/performance.md`).
 pub const SPECULATE_ROWS: usize = 150;
+
+/// The default [`NativeSettings::speculate_after`]: on the paper's evacuation, starting
+/// after two iterations instead of with the attempt took a tenth less CPU time for the same
+/// time; after four, a sixth less for a little more time (`docs/performance.md`).
+pub const SPECULATE_AFTER: u32 = 2;
 
 /// The default [`NativeSettings::parallel_rows`]: blocks that take milliseconds (a queue of
 /// a hundred people or more), against tens of microseconds to start a thread and copy the
@@ -162,6 +175,7 @@ impl Default for NativeSettings {
             interior_point: true,
             parallel_rows: PARALLEL_ROWS,
             speculate_rows: SPECULATE_ROWS,
+            speculate_after: SPECULATE_AFTER,
             threads: 0,
         }
     }
@@ -367,17 +381,35 @@ impl BlockContext<'_> {
         let (first, cap, speculated) = if rescue && straight {
             (Err(Failure::Cap(0)), 0, None)
         } else {
-            let speculation = speculator
-                .filter(|_| rescue && m >= self.settings.speculate_rows)
-                .and_then(|s| Some((s.speculate(block, &r)?, s)));
-            let outcome = active_set::solve_remembering(block, start, cap, orderings, unknowns);
-            let speculated = match (&outcome, speculation) {
-                (Err(Failure::Cap(_) | Failure::Cycling(_)), Some((number, s))) => s.take(number),
-                (_, Some((number, s))) => {
+            let mut speculator = speculator.filter(|_| rescue && m >= self.settings.speculate_rows);
+            let mut started = None;
+            let after = self.settings.speculate_after;
+            let outcome = {
+                let mut speculate = |iteration: u32| {
+                    if iteration == after + 1 {
+                        if let Some(s) = speculator.as_deref_mut() {
+                            started = s.speculate(block, &r);
+                        }
+                    }
+                };
+                active_set::solve_remembering_watched(
+                    block,
+                    start,
+                    cap,
+                    orderings,
+                    unknowns,
+                    &mut speculate,
+                )
+            };
+            let speculated = match (&outcome, started, speculator) {
+                (Err(Failure::Cap(_) | Failure::Cycling(_)), Some(number), Some(s)) => {
+                    s.take(number)
+                }
+                (_, Some(number), Some(s)) => {
                     s.cancel(number);
                     None
                 }
-                (_, None) => None,
+                _ => None,
             };
             (outcome, cap, speculated)
         };
@@ -536,7 +568,8 @@ fn first_rescue_iterate(
 /// cap of iterations, which takes about as long as the interior point, so on a core that
 /// would otherwise idle the rescue's interior point costs next to nothing. An attempt that
 /// converges cancels its speculation, which stops at its next iteration without the attempt
-/// waiting for it.
+/// waiting for it; the attempts that converge within [`NativeSettings::speculate_after`]
+/// iterations, many of them, start none.
 struct Speculator {
     jobs: Option<std::sync::mpsc::Sender<Speculation>>,
     results: std::sync::mpsc::Receiver<(u64, Option<interior_point::Iterate>)>,
@@ -1226,47 +1259,92 @@ mod tests {
         drop(speculator);
     }
 
-    #[test]
-    fn speculating_on_rescues_changes_no_answer() {
-        // One active-set iteration before the rescue, so that nearly every block is rescued,
-        // from warm starts as well as cold ones.
-        // Two threads asked for, so that it speculates on a machine with one core too.
-        let settings = |speculate_rows| NativeSettings {
-            max_iterations: 1,
-            speculate_rows,
-            threads: 2,
-            ..NativeSettings::default()
-        };
-        let (mut plain, mut speculating, mut one_thread) = (
-            NativeProjector::new(settings(0)),
-            NativeProjector::new(settings(1)),
-            NativeProjector::new(NativeSettings {
-                threads: 1,
-                ..settings(1)
-            }),
-        );
+    /// The speculations started by `projector`, and the rescues of its answers, over 30
+    /// random instances whose answers must match `plain`'s bit for bit.
+    fn speculations_matching(
+        plain: &mut NativeProjector,
+        projector: &mut NativeProjector,
+    ) -> (u64, u32) {
         let mut rescues = 0;
         for seed in 0..30u64 {
             let p =
                 sweeping_api::conformance::random_instance(seed % 10, 12 + (seed as usize % 7), 30);
-            let (a, b) = (plain.project(&p).unwrap(), speculating.project(&p).unwrap());
-            let c = one_thread.project(&p).unwrap();
+            let (a, b) = (plain.project(&p).unwrap(), projector.project(&p).unwrap());
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&a.x), bits(&b.x), "seed {seed}");
-            assert_eq!(bits(&a.x), bits(&c.x), "seed {seed}");
             assert_eq!(bits(&a.multipliers), bits(&b.multipliers), "seed {seed}");
             assert_eq!(a.stats.iterations, b.stats.iterations, "seed {seed}");
             assert_eq!(a.stats.rescues, b.stats.rescues, "seed {seed}");
             rescues += b.stats.rescues;
         }
-        assert!(speculating.speculator.is_some(), "the thread started");
+        (projector.speculator.as_ref().map_or(0, |s| s.last), rescues)
+    }
+
+    #[test]
+    fn speculating_on_rescues_changes_no_answer() {
+        // Two threads asked for, so that it speculates on a machine with one core too.
+        let settings = |max_iterations, speculate_rows, speculate_after| NativeSettings {
+            max_iterations,
+            speculate_rows,
+            speculate_after,
+            threads: 2,
+            ..NativeSettings::default()
+        };
+        let projector = |max_iterations, speculate_rows, speculate_after| {
+            NativeProjector::new(settings(max_iterations, speculate_rows, speculate_after))
+        };
+        // One active-set iteration before the rescue, so that nearly every block is rescued,
+        // from warm starts as well as cold ones; the speculation starts with the attempt.
+        let mut plain = projector(1, 0, 0);
+        let mut speculating = projector(1, 1, 0);
+        let (started, rescues) = speculations_matching(&mut plain, &mut speculating);
         assert!(plain.speculator.is_none());
-        // One thread: nothing to speculate on.
-        assert!(one_thread.speculator.is_none());
         assert!(
             rescues >= 10,
             "only {rescues} rescues: the test would test little"
         );
+        assert!(
+            started >= u64::from(rescues),
+            "{started} speculations, {rescues} rescues"
+        );
+        // One thread: nothing to speculate on.
+        let mut plain = projector(1, 0, 0);
+        let mut one_thread = NativeProjector::new(NativeSettings {
+            threads: 1,
+            ..settings(1, 1, 0)
+        });
+        speculations_matching(&mut plain, &mut one_thread);
+        assert!(one_thread.speculator.is_none());
+        // Four iterations before the rescue, the speculation started after the second: the
+        // same answers, and a speculation for every rescue. Started after the fourth, never.
+        let mut plain = projector(4, 0, 0);
+        let mut delayed = projector(4, 1, 2);
+        let (started, rescues) = speculations_matching(&mut plain, &mut delayed);
+        assert!(rescues >= 1, "no rescue: the test would test little");
+        assert!(
+            started >= u64::from(rescues),
+            "{started} speculations, {rescues} rescues"
+        );
+        let mut plain = projector(4, 0, 0);
+        let mut never = projector(4, 1, 4);
+        assert_eq!(speculations_matching(&mut plain, &mut never), (0, rescues));
+        // An attempt that converges at its first iteration: a speculation started with it
+        // (then cancelled), none when it would start after the second.
+        let single = ProjectionProblem::new(
+            vec![0.0, 0.0],
+            SparseRows::from_rows(2, &[vec![(0, 1.0)]]),
+            vec![1.0],
+        )
+        .unwrap();
+        for (after, expected) in [(0, 1), (2, 0)] {
+            let mut projector = projector(4, 1, after);
+            let answer = projector.project(&single).unwrap();
+            assert_eq!((answer.x[0], answer.stats.iterations), (1.0, 1));
+            assert_eq!(
+                projector.speculator.as_ref().map(|s| s.last),
+                Some(expected)
+            );
+        }
     }
 
     /// A chain `x_{j+1} − x_j ≥ 1` of 41 unknowns at spacing 1 but for the first pair (0.5):
