@@ -1705,6 +1705,44 @@ mod tests {
         }
     }
 
+    #[test]
+    fn the_watcher_sees_each_iteration_of_the_first_pass_in_order() {
+        // A chain x_{j+1} − x_j ≥ 1 at spacing 1 but for its first pair (0.5): rows join one
+        // per iteration.
+        let m = 8;
+        let rows: Vec<Vec<(usize, f64)>> = (0..m).map(|j| vec![(j, -1.0), (j + 1, 1.0)]).collect();
+        let y = (0..=m)
+            .map(|j| if j == 0 { 0.5 } else { j as f64 })
+            .collect();
+        let p =
+            ProjectionProblem::new(y, SparseRows::from_rows(m + 1, &rows), vec![1.0; m]).unwrap();
+        let unknowns: Vec<usize> = (0..=m).collect();
+        let watched = |cap| {
+            let mut seen = Vec::new();
+            let mut orderings = Orderings::default();
+            let start = start_from(vec![0], m);
+            let outcome =
+                solve_remembering_watched(&p, start, cap, &mut orderings, &unknowns, &mut |k| {
+                    seen.push(k)
+                });
+            (outcome, seen)
+        };
+        let (outcome, seen) = watched(100);
+        let outcome = outcome.unwrap();
+        assert!(seen.len() >= 3, "{seen:?}");
+        assert_eq!(seen, (1..=seen.len() as u32).collect::<Vec<_>>());
+        assert!(seen.len() as u32 <= outcome.iterations);
+        // The same answer as unwatched.
+        let mut orderings = Orderings::default();
+        let plain =
+            solve_remembering(&p, start_from(vec![0], m), 100, &mut orderings, &unknowns).unwrap();
+        assert_eq!(plain.x, outcome.x);
+        // Out of iterations: every one of them seen.
+        let (outcome, seen) = watched(2);
+        assert!(matches!(outcome, Err(Failure::Cap(2))), "{outcome:?}");
+        assert_eq!(seen, vec![1, 2]);
+    }
+
     /// The start from the rows `support`, each at multiplier 1/2, any row joining at 1.
     fn start_from(support: Vec<usize>, m: usize) -> Start {
         Start {
