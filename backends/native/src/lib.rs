@@ -40,10 +40,10 @@
 //!    point runs again on every row. A block rescued three
 //!    solves in a row skips the active-set attempt (see [`NativeSettings::max_iterations`]),
 //!    except at powers of two, which find out when the jam is over. Counted in
-//!    [`SolveStats::rescues`]. With two threads or more ([`NativeSettings::threads`]), the rescue's first interior point
-//!    runs on a thread of its own while the active set tries a large block (from its third
-//!    iteration, [`NativeSettings::speculate_after`]), and is used if the attempt fails
-//!    ([`NativeSettings::speculate_rows`]; the same answers).
+//!    [`SolveStats::rescues`]. With two threads or more ([`NativeSettings::threads`]), the
+//!    rescue's first interior point runs on a thread of its own while the active set tries
+//!    a large block (from its third iteration, [`NativeSettings::speculate_after`]), and is
+//!    used if the attempt fails ([`NativeSettings::speculate_rows`]; the same answers).
 //! 4. **Certificate.** The answer is checked by [`ProjectionProblem::kkt_residuals`]: every
 //!    residual must be at most [`NativeSettings::kkt_tolerance`] `× scale`, with
 //!    `scale = max(1, ‖y‖∞, ‖b‖∞)` (the residuals are absolute and the data of a crowd sit at
@@ -138,9 +138,9 @@ pub struct NativeSettings {
     /// The speculation of [`speculate_rows`](NativeSettings::speculate_rows) starts once the
     /// attempt has run this many iterations without converging (`0`: with the attempt). An
     /// attempt that ends in a rescue runs all of its
-    /// [`max_iterations`](NativeSettings::max_iterations), so a short delay leaves the interior point
-    /// most of the attempt to run in, while the attempts that converge within it, many of
-    /// them, start none. Default [`SPECULATE_AFTER`].
+    /// [`max_iterations`](NativeSettings::max_iterations), so a short delay leaves the
+    /// interior point most of the attempt to run in, while the attempts that converge within
+    /// it, many of them, start none. Default [`SPECULATE_AFTER`].
     pub speculate_after: u32,
     /// Most threads a projection runs on, the caller's included: blocks on threads of their
     /// own ([`parallel_rows`](NativeSettings::parallel_rows)) and the speculation
@@ -386,7 +386,8 @@ impl BlockContext<'_> {
             let after = self.settings.speculate_after;
             let outcome = {
                 let mut speculate = |iteration: u32| {
-                    if iteration == after + 1 {
+                    // `iteration` counts from 1; `after + 1` would overflow at `u32::MAX`.
+                    if iteration - 1 == after {
                         if let Some(s) = speculator.as_deref_mut() {
                             started = s.speculate(block, &r);
                         }
@@ -1327,6 +1328,10 @@ mod tests {
         );
         let mut plain = projector(4, 0, 0);
         let mut never = projector(4, 1, 4);
+        assert_eq!(speculations_matching(&mut plain, &mut never), (0, rescues));
+        // Nor after u32::MAX iterations (once `after + 1`, which overflowed).
+        let mut plain = projector(4, 0, 0);
+        let mut never = projector(4, 1, u32::MAX);
         assert_eq!(speculations_matching(&mut plain, &mut never), (0, rescues));
         // An attempt that converges at its first iteration: a speculation started with it
         // (then cancelled), none when it would start after the second.
