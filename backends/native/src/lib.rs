@@ -1352,6 +1352,87 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_block_whose_rows_are_remembered_by_their_keys_starts_warm() {
+        let p = sweeping_api::conformance::random_instance(3, 14, 30);
+        let keys = (0..p.n_rows() as u64)
+            .map(|member| sweeping_api::RowKey { family: 0, member })
+            .collect();
+        let p = p.with_row_keys(keys).unwrap();
+        let mut projector = NativeProjector::new(NativeSettings::default());
+        let first = projector.project(&p).unwrap();
+        let again = projector.project(&p).unwrap();
+        assert!(!first.stats.warm_started);
+        assert!(again.stats.warm_started, "{:?}", again.stats);
+        // From the last answer's active rows, the first solve is the answer.
+        assert!(again.stats.iterations <= 1, "{:?}", again.stats);
+        let gap = first.x.iter().zip(&again.x).map(|(a, b)| (a - b).abs());
+        assert!(gap.fold(0.0, f64::max) < 1e-12);
+    }
+
+    #[test]
+    fn an_answer_that_fails_the_kkt_check_is_never_returned_as_certified() {
+        // At tolerance 0, an exact answer passes: x = (1, 0), λ = 1 for x₀ ≥ 1 from y = 0.
+        let exact = ProjectionProblem::new(
+            vec![0.0, 0.0],
+            SparseRows::from_rows(2, &[vec![(0, 1.0)]]),
+            vec![1.0],
+        )
+        .unwrap();
+        let exacting = NativeSettings {
+            kkt_tolerance: 0.0,
+            ..NativeSettings::default()
+        };
+        let answer = NativeProjector::new(exacting.clone())
+            .project(&exact)
+            .unwrap();
+        assert_eq!(answer.x, vec![1.0, 0.0]);
+        assert_eq!(
+            exact.kkt_residuals(&answer.x, &answer.multipliers).max(),
+            0.0
+        );
+        // Rounding leaves residuals on a random instance: no answer without a fallback, and
+        // the fallback's with one.
+        let p = sweeping_api::conformance::random_instance(5, 16, 30);
+        let loose = NativeProjector::new(NativeSettings::default())
+            .project(&p)
+            .unwrap();
+        assert!(p.kkt_residuals(&loose.x, &loose.multipliers).max() > 0.0);
+        assert!(NativeProjector::new(exacting.clone()).project(&p).is_err());
+        let reference = sweeping_api::conformance::ReferenceProjector {
+            tolerance: 1e-6,
+            ..Default::default()
+        };
+        let mut with_fallback = NativeProjector::with_fallback(exacting, Box::new(reference));
+        let answer = with_fallback.project(&p).unwrap();
+        assert!(answer.stats.fallbacks >= 1, "{:?}", answer.stats);
+    }
+
+    #[test]
+    fn blocks_smaller_than_speculate_rows_start_no_speculation() {
+        let settings = NativeSettings {
+            speculate_rows: 3,
+            speculate_after: 0,
+            threads: 2,
+            ..NativeSettings::default()
+        };
+        let mut projector = NativeProjector::new(settings);
+        // A block of 30 rows starts the thread (and a speculation).
+        let large = sweeping_api::conformance::random_instance(2, 14, 30);
+        projector.project(&large).unwrap();
+        let started = projector.speculator.as_ref().map(|s| s.last);
+        assert!(started.is_some_and(|n| n >= 1), "{started:?}");
+        // A block of one row starts none.
+        let single = ProjectionProblem::new(
+            vec![0.0, 0.0],
+            SparseRows::from_rows(2, &[vec![(0, 1.0)]]),
+            vec![1.0],
+        )
+        .unwrap();
+        projector.project(&single).unwrap();
+        assert_eq!(projector.speculator.as_ref().map(|s| s.last), started);
+    }
+
     /// A chain `x_{j+1} − x_j ≥ 1` of 41 unknowns at spacing 1 but for the first pair (0.5):
     /// only the first row is violated at `y`, and each solve pushes the next one out of
     /// place, so rows join one per iteration (41 iterations from a cold start).
