@@ -578,6 +578,9 @@ struct Speculator {
     cancelled: std::sync::Arc<std::sync::atomic::AtomicU64>,
     /// The number of the last speculation started.
     last: u64,
+    /// How many speculations' iterates a rescue took (for tests: the rescue computes the
+    /// same iterate itself when none is taken, so answers cannot tell).
+    taken: u64,
     worker: Option<std::thread::JoinHandle<()>>,
 }
 
@@ -617,6 +620,7 @@ impl Speculator {
             results,
             cancelled,
             last: 0,
+            taken: 0,
             worker: Some(worker),
         })
     }
@@ -647,7 +651,10 @@ impl Speculator {
     fn take(&mut self, number: u64) -> Option<Option<interior_point::Iterate>> {
         loop {
             match self.results.recv() {
-                Ok((got, iterate)) if got == number => return Some(iterate),
+                Ok((got, iterate)) if got == number => {
+                    self.taken += u64::from(iterate.is_some());
+                    return Some(iterate);
+                }
                 Ok(_) => {}
                 Err(_) => return None,
             }
@@ -1300,6 +1307,12 @@ mod tests {
         let mut speculating = projector(1, 1, 0);
         let (started, rescues) = speculations_matching(&mut plain, &mut speculating);
         assert!(plain.speculator.is_none());
+        // The rescues started from the speculated iterates.
+        let taken = speculating.speculator.as_ref().map_or(0, |s| s.taken);
+        assert!(
+            taken >= 1 && taken <= u64::from(rescues),
+            "{taken} taken, {rescues} rescues"
+        );
         assert!(
             rescues >= 10,
             "only {rescues} rescues: the test would test little"
@@ -1345,10 +1358,13 @@ mod tests {
             let mut projector = projector(4, 1, after);
             let answer = projector.project(&single).unwrap();
             assert_eq!((answer.x[0], answer.stats.iterations), (1.0, 1));
-            assert_eq!(
-                projector.speculator.as_ref().map(|s| s.last),
-                Some(expected)
-            );
+            let speculator = projector.speculator.as_ref().unwrap();
+            assert_eq!(speculator.last, expected);
+            // A converged attempt cancels what it started.
+            let cancelled = speculator
+                .cancelled
+                .load(std::sync::atomic::Ordering::Acquire);
+            assert_eq!(cancelled, expected);
         }
     }
 
