@@ -1091,14 +1091,18 @@ impl Projector for NativeProjector {
         let wants_speculator = !self.speculator_decided
             && self.settings.interior_point
             && self.settings.speculate_rows > 0
-            && self.settings.thread_budget() >= 2
             && blocks
                 .blocks()
                 .iter()
                 .any(|block| block.rows.len() >= self.settings.speculate_rows);
         if wants_speculator {
+            // Decided here for good, threads or not: with `threads = 0` the budget asks the
+            // system for the cores (affinity, cgroup quota), not something to redo at every
+            // projection of a run pinned to one core.
             self.speculator_decided = true;
-            self.speculator = Speculator::start();
+            if self.settings.thread_budget() >= 2 {
+                self.speculator = Speculator::start();
+            }
         }
         let results = solve_blocks(
             &context,
