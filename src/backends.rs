@@ -158,6 +158,16 @@ pub struct ProjectorOptions {
     pub threads: usize,
 }
 
+/// How reports name [`ProjectorOptions::threads`] after a backend's name: nothing for `0`
+/// (every core), ` on 1 thread`, ` on at most N threads`.
+pub fn threads_phrase(threads: usize) -> String {
+    match threads {
+        0 => String::new(),
+        1 => " on 1 thread".to_string(),
+        n => format!(" on at most {n} threads"),
+    }
+}
+
 /// Builds the chosen backend with its default (tight) settings.
 ///
 /// # Errors

@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use sweeping::backends::{make_projector_with, BackendChoice, ProjectorOptions};
+use sweeping::backends::{make_projector_with, threads_phrase, BackendChoice, ProjectorOptions};
 use sweeping::error::SweepError;
 use sweeping::output::{
     prepare_output_dir, steps_between, AnimationWriter, RunSummary, SnapshotWriter,
@@ -178,11 +178,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name}{} → {}",
         built.name,
         built.population.len(),
-        match built.threads {
-            0 => String::new(),
-            1 => " on 1 thread".to_string(),
-            n => format!(" on at most {n} threads"),
-        },
+        threads_phrase(built.threads),
         out.display()
     );
     let mut observers: Vec<&mut dyn Observer> = Vec::new();

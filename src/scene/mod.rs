@@ -474,11 +474,7 @@ impl BuiltScene {
                 ""
             },
             self.backend,
-            match self.threads {
-                0 => String::new(),
-                1 => " on 1 thread".to_string(),
-                n => format!(" on at most {n} threads"),
-            }
+            crate::backends::threads_phrase(self.threads)
         );
         s
     }
