@@ -1948,6 +1948,73 @@ mod tests {
         );
     }
 
+    /// A chain of `chain` unknowns (`x_{j+1} − x_j ≥ 1`, rows present when `with_chain`), then
+    /// a grid of `w × h` unknowns pushed apart (`x_{c+1} − x_c ≥ 1` along a row of the grid,
+    /// `x_{c+w} − x_c ≥ 1` across); `y = 0`. Rows keyed by family (chain 0, grid 1) and
+    /// position, so the grid's keys are the same with or without the chain.
+    fn chain_and_grid(chain: usize, w: usize, h: usize, with_chain: bool) -> ProjectionProblem {
+        let n = chain + w * h;
+        let (mut rows, mut keys) = (Vec::new(), Vec::new());
+        if with_chain {
+            for j in 0..chain - 1 {
+                rows.push(vec![(j, -1.0), (j + 1, 1.0)]);
+                keys.push(RowKey {
+                    family: 0,
+                    member: j as u64,
+                });
+            }
+        }
+        for g in 0..w * h {
+            let c = chain + g;
+            if (g + 1) % w != 0 {
+                rows.push(vec![(c, -1.0), (c + 1, 1.0)]);
+                keys.push(RowKey {
+                    family: 1,
+                    member: 2 * g as u64,
+                });
+            }
+            if g + w < w * h {
+                rows.push(vec![(c, -1.0), (c + w, 1.0)]);
+                keys.push(RowKey {
+                    family: 1,
+                    member: 2 * g as u64 + 1,
+                });
+            }
+        }
+        let b = vec![1.0; rows.len()];
+        ProjectionProblem::new(vec![0.0; n], SparseRows::from_rows(n, &rows), b)
+            .unwrap()
+            .with_row_keys(keys)
+            .unwrap()
+    }
+
+    #[test]
+    fn blocks_on_threads_order_from_the_memory_as_it_stood_before_any_of_them() {
+        // Two blocks of at least `parallel_rows` rows, so two groups, each ordered from a fork
+        // of the memory: the grid, remembered from the projection before, reuses its ordering
+        // under the fill budget of its own AMD ordering (fill 1.30). Solved one after the
+        // other, the chain (the first block) would set that budget by its fresh AMD ordering,
+        // which fills far less (0.50), and the grid's remembered ordering, beyond it, would
+        // run AMD again.
+        let settings = NativeSettings {
+            parallel_rows: 30,
+            threads: 1,
+            ..NativeSettings::default()
+        };
+        let mut warm = NativeProjector::new(settings);
+        let alone = chain_and_grid(40, 8, 8, false);
+        warm.project(&alone).unwrap();
+        assert_eq!(warm.orderings().stats(), (1, 0), "the grid, by AMD");
+        let both = chain_and_grid(40, 8, 8, true);
+        let answer = warm.project(&both).unwrap();
+        assert!(both.kkt_residuals(&answer.x, &answer.multipliers).max() < 1e-10);
+        assert_eq!(
+            warm.orderings().stats(),
+            (2, 1),
+            "the chain by AMD, the grid from memory"
+        );
+    }
+
     #[test]
     fn a_block_the_native_method_cannot_finish_goes_to_the_fallback_and_is_counted() {
         // x₁ − x₀ ≥ 1 is violated at y; its projection alone breaks x₂ − x₁ ≥ 1, which joins
