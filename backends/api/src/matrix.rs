@@ -230,6 +230,10 @@ mod tests {
         let mut atl = [0.0; 3];
         a.mul_transpose_vec(&[1.0, 5.0, 2.0], &mut atl);
         assert_eq!(atl, [2.0, -2.0, 7.0]);
+        // The compressed rows as stored (entries in the order given), which other crates read.
+        assert_eq!(a.row_ptr(), [0, 2, 2, 4]);
+        assert_eq!(a.col_idx(), [2, 0, 1, 2]);
+        assert_eq!(a.values(), [1.0, 2.0, -1.0, 3.0]);
     }
 
     #[test]
