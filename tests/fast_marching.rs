@@ -123,3 +123,75 @@ fn directions_are_continuous() {
     // would show a jump of order 1.
     assert!(worst < 0.02, "largest jump {worst} over δ = {delta}");
 }
+
+/// A 5 × 3 room whose exit on the right wall ends 6 cm below where a person of radius 0.2
+/// walking down that wall stopped for good: off the grid's nodes at both ends.
+fn room_with_an_off_grid_door() -> MarchingDomain {
+    MarchingDomain {
+        room: vec![[0.0, 0.0], [5.0, 0.0], [5.0, 3.0], [0.0, 3.0]],
+        exits: vec![([5.0, 0.38], [5.0, 1.84])],
+        ..Default::default()
+    }
+}
+
+#[test]
+fn beside_a_door_the_direction_along_the_wall_leads_into_it() {
+    // Nodes in the wall above the door lie within the seeding band of its end; seeded with
+    // minus their distance, they made the field fall into the wall along the row y = 1.9,
+    // and at (4.8, 1.9018) the direction was (1, −1.7e-5): into the wall, which stopped a
+    // lone person there for good. Along that wall, the direction must lead down to the door.
+    let field = DistanceField::compute(&room_with_an_off_grid_door(), 0.05).unwrap();
+    for k in 0..=70 {
+        let p = [4.8, 1.85 + 0.01 * k as f64];
+        let v = field.direction(p);
+        assert!(v[1] < -0.1, "at {p:?}: {v:?}");
+    }
+    // The same on a wall at 45°: a square turned by 45° with a door from (4, 1) to (5, 2), and
+    // the point where a person of radius 0.2 stopped against the wall from (3, 0) to (4, 1).
+    let diamond = MarchingDomain {
+        room: vec![[3.0, 0.0], [6.0, 3.0], [3.0, 6.0], [0.0, 3.0]],
+        exits: vec![([4.0, 1.0], [5.0, 2.0])],
+        ..Default::default()
+    };
+    let field = DistanceField::compute(&diamond, 0.05).unwrap();
+    let along = std::f64::consts::FRAC_1_SQRT_2;
+    for k in 0..=40 {
+        // Points 0.2 from the wall, from 0.4 m before the door's corner up to it.
+        let s = 0.01 * k as f64;
+        let on_wall = [4.0 - (0.4 - s) * along, 1.0 - (0.4 - s) * along];
+        let p = [on_wall[0] - 0.2 * along, on_wall[1] + 0.2 * along];
+        let v = field.direction(p);
+        assert!((v[0] + v[1]) * along > 0.1, "at {p:?}: {v:?}");
+    }
+}
+
+#[test]
+fn a_lone_person_walking_down_the_wall_beside_a_door_leaves_through_it() {
+    use sweeping::backends::{make_projector, BackendChoice};
+    use sweeping::scene::{Overrides, Scene};
+    let text = r#"
+name = "off-grid-door"
+[room]
+rectangle = [0.0, 0.0, 5.0, 3.0]
+[[exits]]
+from = [5.0, 0.38]
+to = [5.0, 1.84]
+[[people]]
+position = [4.5, 2.7]
+radius = 0.2
+[desired]
+kind = "exit"
+[run]
+h = 0.01
+t_end = 10.0
+stop_when_empty = true
+"#;
+    let built = Scene::from_toml_str(text, "off-grid-door.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap();
+    let mut projector = make_projector(BackendChoice::Native).unwrap();
+    let run = built.run(projector.as_mut(), &mut []).unwrap();
+    // It stood still at (4.8, 1.9018) from t = 3 s to the end; it is out in about 2 s.
+    assert!(run.t_final < 4.0, "still in the room at t = {}", run.t_final);
+    assert!(!built.population.is_present(&run.q_final, 0));
+}

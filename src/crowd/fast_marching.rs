@@ -198,8 +198,12 @@ impl DistanceField {
             }
         }
         // Seeds: free nodes within 1.5 cells of an exit get their exact distance to it.
-        // Blocked nodes just outside an exit get minus their distance, so the field carries
-        // people through the door rather than stopping them on it.
+        // Blocked nodes just outside an exit, behind its opening, get minus their distance, so
+        // the field carries people through the door rather than stopping them on it. Only
+        // behind the opening: a blocked node beside an end of the exit is in or behind the wall
+        // that continues it, and a value below the exit's there pulled people straight into
+        // that wall (a lone person stopped for good against it 6 cm from a door's edge, where
+        // the pull into the wall balanced the pull along it towards the door).
         let mut values = vec![f64::INFINITY; n];
         let mut known = vec![false; n];
         let band = 1.5 * cell;
@@ -207,22 +211,29 @@ impl DistanceField {
         for j in 0..grid.ny {
             for i in 0..grid.nx {
                 let p = grid.node(i, j);
-                let d = domain
-                    .exits
-                    .iter()
-                    .map(|(a, b)| segment_distance(p, *a, *b))
-                    .fold(f64::INFINITY, f64::min);
-                if d <= band {
-                    let k = grid.index(i, j);
-                    if free[k] {
+                let k = grid.index(i, j);
+                if free[k] {
+                    let d = domain
+                        .exits
+                        .iter()
+                        .map(|(a, b)| segment_distance(p, *a, *b))
+                        .fold(f64::INFINITY, f64::min);
+                    if d <= band {
                         values[k] = d;
+                        known[k] = true;
                         seeded = true;
-                    } else if !point_in_polygon(&domain.room, p) {
-                        values[k] = -d;
-                    } else {
-                        continue;
                     }
-                    known[k] = true;
+                } else {
+                    let behind = domain
+                        .exits
+                        .iter()
+                        .filter(|(a, b)| foot_is_on_segment(p, *a, *b))
+                        .map(|(a, b)| segment_distance(p, *a, *b))
+                        .fold(f64::INFINITY, f64::min);
+                    if behind <= band && !point_in_polygon(&domain.room, p) {
+                        values[k] = -behind;
+                        known[k] = true;
+                    }
                 }
             }
         }
@@ -308,6 +319,14 @@ impl DistanceField {
         let n = (g[0] * g[0] + g[1] * g[1]).sqrt().max(GRADIENT_FLOOR);
         [-g[0] / n, -g[1] / n]
     }
+}
+
+/// Whether the foot of the perpendicular from `p` to the line through `a` and `b` lies on the
+/// segment `[a, b]` (ends included): `p` is level with the segment, not beside one of its ends.
+fn foot_is_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> bool {
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let along = (p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1];
+    (0.0..=ab[0] * ab[0] + ab[1] * ab[1]).contains(&along)
 }
 
 /// First-order fast marching: computes every `allowed`, not yet `known` node reachable from
