@@ -192,6 +192,10 @@ stop_when_empty = true
     let mut projector = make_projector(BackendChoice::Native).unwrap();
     let run = built.run(projector.as_mut(), &mut []).unwrap();
     // It stood still at (4.8, 1.9018) from t = 3 s to the end; it is out in about 2 s.
-    assert!(run.t_final < 4.0, "still in the room at t = {}", run.t_final);
+    assert!(
+        run.t_final < 4.0,
+        "still in the room at t = {}",
+        run.t_final
+    );
     assert!(!built.population.is_present(&run.q_final, 0));
 }

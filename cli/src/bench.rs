@@ -1,5 +1,6 @@
 //! `sweep bench`: milliseconds per step, by stage, on synthetic crowds of growing size.
 
+use crate::stdout::{out, outln};
 use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::PathBuf;
@@ -152,8 +153,8 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
         "active",
         "peak MiB"
     );
-    println!("ms per step (mean), by stage; rows and active constraints per step (mean)");
-    println!("{header}");
+    outln!("ms per step (mean), by stage; rows and active constraints per step (mean)");
+    outln!("{header}");
     let mut csv = String::from(
         "start,n,backend,steps,effects_ms,broad_phase_ms,assembly_ms,projection_ms,check_ms,total_ms,rows,active,solves,peak_mib,failure\n",
     );
@@ -183,7 +184,7 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
                     .peak_mib
                     .map_or_else(|| "—".to_string(), |m| format!("{m:.0}"));
                 let failure = row.failure.as_deref().unwrap_or("");
-                print!(
+                out!(
                     "{:<7} {:>7} {:<9} {:>5}",
                     row.start.to_string(),
                     row.n,
@@ -191,13 +192,13 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
                     row.steps
                 );
                 for (v, width) in ms.iter().zip([9, 9, 9, 10, 9, 9]) {
-                    print!(" {v:>width$.3}");
+                    out!(" {v:>width$.3}");
                 }
-                print!(" {rows:>7} {active:>6} {peak:>8}");
+                out!(" {rows:>7} {active:>6} {peak:>8}");
                 if !failure.is_empty() {
-                    print!("  failed after {} steps: {failure}", row.steps);
+                    out!("  failed after {} steps: {failure}", row.steps);
                 }
-                println!();
+                outln!();
                 std::io::stdout().flush().ok();
                 let ms: Vec<String> = ms.iter().map(f64::to_string).collect();
                 csv.push_str(&format!(
@@ -217,7 +218,7 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
     if let Some(path) = &args.csv {
         std::fs::write(path, csv).with_context(|| format!("writing {}", path.display()))?;
     }
-    println!(
+    outln!(
         "peak MiB is the process's resident peak so far (VmHWM), so it only grows down the table"
     );
     Ok(())

@@ -1,5 +1,6 @@
 //! `sweep check`: validate a scene, and measure the constants of assumptions A0–A5 on it.
 
+use crate::stdout::{out, outln};
 use anyhow::{Context, Result};
 use sweeping::assumptions::{estimate_problem, samples_from_trajectory, EstimateSettings};
 use sweeping::backends::make_projector;
@@ -43,8 +44,8 @@ pub fn main(args: CheckArgs) -> Result<()> {
     }
     let scene = Scene::from_file(&args.scene)?;
     let built = scene.build(&Overrides::default())?;
-    print!("{}", built.describe());
-    println!("ok: {} is a valid scene", args.scene.display());
+    out!("{}", built.describe());
+    outln!("ok: {} is a valid scene", args.scene.display());
     if args.no_constants {
         return Ok(());
     }
@@ -79,23 +80,23 @@ pub fn main(args: CheckArgs) -> Result<()> {
     };
     let report = estimate_problem(&built.problem, &samples, &settings, projector.as_mut())
         .context("estimating the assumption constants")?;
-    println!();
-    println!(
+    outln!();
+    outln!(
         "assumptions A0–A5 measured on {} configuration(s) (t ≤ {}):",
         samples.len(),
         samples.last().map(|s| s.0).unwrap_or(0.0)
     );
-    print!("{}", report.table());
+    out!("{}", report.table());
     if let Some(path) = &args.json {
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
             .with_context(|| format!("writing {}", path.display()))?;
-        println!("report written to {}", path.display());
+        outln!("report written to {}", path.display());
     }
     if let Some(f) = sampling_failure {
         anyhow::bail!("verdict: the sampling run failed ({f}); constants above are from before it");
     }
     if report.failures.is_empty() {
-        println!("verdict: no assumption failed on these samples");
+        outln!("verdict: no assumption failed on these samples");
         Ok(())
     } else {
         // A failed assumption is a failed check: the exit status says so (scripts rely on it).

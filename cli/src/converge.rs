@@ -2,6 +2,7 @@
 //! fitted order), or the true error on the built-in exact solutions.
 
 use crate::scene_loader::load_scene;
+use crate::stdout::outln;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 use sweeping::backends::{make_projector_with, BackendChoice, ProjectorOptions};
@@ -66,18 +67,18 @@ fn write_outputs(report: &ConvergenceReport, out: &Path) -> anyhow::Result<()> {
     let json = serde_json::to_string_pretty(report)?;
     std::fs::write(out.join("convergence.json"), json)
         .with_context(|| format!("writing {}", out.join("convergence.json").display()))?;
-    println!("{}", report.summary());
+    outln!("{}", report.summary());
     let per_time = report.order_at_times();
     if !per_time.is_empty() && report.reference.is_some() {
-        println!("fitted order of |q_ref(tᵢ) − qⁿ(tᵢ)| at each comparison time:");
+        outln!("fitted order of |q_ref(tᵢ) − qⁿ(tᵢ)| at each comparison time:");
         for (t, fit) in per_time {
             match fit {
-                Some(f) => println!("  t = {t:>8.3}: {:.3} (R² = {:.3})", f.order, f.r_squared),
-                None => println!("  t = {t:>8.3}: -"),
+                Some(f) => outln!("  t = {t:>8.3}: {:.3} (R² = {:.3})", f.order, f.r_squared),
+                None => outln!("  t = {t:>8.3}: -"),
             }
         }
     }
-    println!(
+    outln!(
         "wrote {}/convergence.csv, convergence_times.csv, convergence.svg, convergence.json",
         out.display()
     );

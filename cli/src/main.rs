@@ -10,6 +10,7 @@ mod converge;
 mod heap;
 mod run;
 mod scene_loader;
+mod stdout;
 mod work_precision;
 
 /// Perturbed sweeping processes and crowd motion by the Bernicot–Venel scheme.
@@ -47,6 +48,11 @@ fn main() {
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+    // The command's files are written; what it could not print is said here.
+    if let Some(e) = stdout::finish() {
+        eprintln!("error: could not write to standard output: {e}");
         std::process::exit(1);
     }
 }

@@ -1,6 +1,7 @@
 //! `sweep run`: run a scene and write its trajectory (CSV and/or JuPedSim's SQLite format),
 //! summary, snapshots and animation.
 
+use crate::stdout::outln;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
@@ -232,32 +233,32 @@ fn sqlite_writer(_: &sweeping::scene::BuiltScene, _: &std::path::Path) -> Result
 }
 
 fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFormat]) {
-    println!("scene `{}` ({}, backend {})", s.scene, s.status, s.backend);
-    println!(
+    outln!("scene `{}` ({}, backend {})", s.scene, s.status, s.backend);
+    outln!(
         "  people: {}, left: {}, remaining: {}",
         s.people,
         s.people - s.people_remaining,
         s.people_remaining
     );
     match s.evacuation_time {
-        Some(t) => println!("  evacuation time: {t:.2} s"),
-        None => println!(
+        Some(t) => outln!("  evacuation time: {t:.2} s"),
+        None => outln!(
             "  evacuation time: — (not everybody left by t = {:.2} s)",
             s.t_final
         ),
     }
     let m = &s.ms_per_step;
-    println!("  steps: {} (h = {}, t = {:.2} s)", s.steps, s.h, s.t_final);
-    println!(
+    outln!("  steps: {} (h = {}, t = {:.2} s)", s.steps, s.h, s.t_final);
+    outln!(
         "  ms per step: {:.3} total = effects {:.3} + broad phase {:.3} + assembly {:.3} + projection {:.3} + check {:.3}",
         m.total, m.effects, m.broad_phase, m.assembly, m.projection, m.check
     );
-    println!(
+    outln!(
         "  solver iterations: {} over {} solves (max rows {}, max active {}, interior-point rescues {}, fallbacks {})",
         s.solver_iterations, s.solves, s.max_rows, s.max_active, s.rescues, s.fallbacks
     );
     if let Some(mib) = s.peak_memory_mib {
-        println!("  peak memory: {mib:.0} MiB (resident, the whole process)");
+        outln!("  peak memory: {mib:.0} MiB (resident, the whole process)");
     }
     // A positive worst value is followed by where it happened.
     let worst = |value: f64, at: &str| {
@@ -267,16 +268,16 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
             format!("{value:.3e}")
         }
     };
-    println!("  max overlap: {}", worst(s.max_overlap, &s.max_overlap_at));
-    println!(
+    outln!("  max overlap: {}", worst(s.max_overlap, &s.max_overlap_at));
+    outln!(
         "  max wall penetration: {}",
         worst(s.max_wall_penetration, &s.max_wall_penetration_at)
     );
     if let Some(e) = &s.error {
-        println!("  error: {e}");
+        outln!("  error: {e}");
     }
     let files: Vec<&str> = formats.iter().map(|f| f.file_name()).collect();
-    println!(
+    outln!(
         "  outputs: {}/{{{}, summary.json, snapshots/, animation.html}}",
         out.display(),
         files.join(", ")

@@ -2,6 +2,7 @@
 //! backend × solver tolerance.
 
 use crate::scene_loader::load_scene;
+use crate::stdout::outln;
 use anyhow::Context;
 use std::path::PathBuf;
 use sweeping::backends::{make_projector, BackendChoice};
@@ -116,8 +117,8 @@ pub fn main(args: WorkPrecisionArgs) -> anyhow::Result<()> {
         out.join("work_precision.json"),
         serde_json::to_string_pretty(&report)?,
     )?;
-    println!("{}", report.summary());
-    println!(
+    outln!("{}", report.summary());
+    outln!(
         "wrote {}/work_precision.csv, work_precision.svg, work_precision.json",
         out.display()
     );

@@ -1,0 +1,49 @@
+//! Standard output that a closed pipe or a full disk cannot turn into a panic.
+//!
+//! `println!` panics when it cannot write ("failed printing to stdout: Broken pipe"), as in
+//! `sweep run SCENE | head -3`: the run's files were complete, but the process ended with a
+//! panic and exit code 101. Here a failed write is remembered instead and the rest of the
+//! output skipped; [`finish`] then tells what happened. A closed pipe means the reader had
+//! seen enough, as for the shell's own tools, and is not an error; any other failure (a full
+//! disk) is reported on standard error and makes the exit status 1.
+
+use std::io::{ErrorKind, Write};
+use std::sync::Mutex;
+
+/// The first write that failed, if any: `Some(None)` for a closed pipe.
+static FAILED: Mutex<Option<Option<String>>> = Mutex::new(None);
+
+/// Writes `args` to standard output, unless an earlier write failed.
+pub fn write(args: std::fmt::Arguments<'_>) {
+    let mut failed = FAILED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if failed.is_some() {
+        return;
+    }
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
+        *failed = Some((e.kind() != ErrorKind::BrokenPipe).then(|| e.to_string()));
+    }
+}
+
+/// What failed on standard output, if anything but a closed pipe.
+pub fn finish() -> Option<String> {
+    let failed = FAILED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    failed.clone().flatten()
+}
+
+/// `println!` to [`write`].
+macro_rules! outln {
+    () => { $crate::stdout::write(format_args!("\n")) };
+    ($($arg:tt)*) => { $crate::stdout::write(format_args!("{}\n", format_args!($($arg)*))) };
+}
+
+/// `print!` to [`write`].
+macro_rules! out {
+    ($($arg:tt)*) => { $crate::stdout::write(format_args!($($arg)*)) };
+}
+
+pub(crate) use {out, outln};
