@@ -106,3 +106,27 @@ fn bench_runs_on_one_thread_and_refuses_an_empty_crowd_by_its_flag() {
     assert!(!ok);
     assert!(text.contains("--steps must be at least 1"), "{text}");
 }
+
+#[test]
+fn a_run_refused_before_its_first_step_writes_its_start_and_counts_everybody_in() {
+    // 1e13 steps, beyond the stepper's limit: refused when the run starts. It reported
+    // "left: 120, remaining: 0" and wrote no trajectory.
+    let run = sweep_run(
+        "refused-at-start",
+        JAM,
+        &["--t-end", "1e11", "--threads", "1"],
+    );
+    assert!(!run.success, "{}", run.output);
+    assert!(run.output.contains("would take"), "{}", run.output);
+    assert!(run.output.contains("remaining: 120"), "{}", run.output);
+    let summary = std::fs::read_to_string(run.out.join("summary.json")).unwrap();
+    assert!(summary.contains("\"people_remaining\": 120"), "{summary}");
+    let csv = std::fs::read_to_string(run.out.join("trajectory.csv")).unwrap();
+    let frames: std::collections::BTreeSet<&str> = csv
+        .lines()
+        .skip(1)
+        .filter_map(|line| line.split(',').next())
+        .collect();
+    assert_eq!(frames.into_iter().collect::<Vec<_>>(), ["0"], "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 120);
+}

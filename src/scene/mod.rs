@@ -680,10 +680,13 @@ impl BuiltScene {
         let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(error) => {
+                // The start is a state of the run all the same: written, and counted (a run
+                // refused here reported everybody as gone and wrote no trajectory).
+                let q0 = self.problem.q0().to_vec();
                 for o in observers.iter_mut() {
+                    let _ = o.on_start(self.problem.t0(), &q0);
                     let _ = o.on_finish(Some(&error));
                 }
-                let q0 = self.problem.q0().to_vec();
                 return Err(Box::new(RunFailure {
                     error,
                     partial: Run {
