@@ -385,6 +385,16 @@ pub enum FamilyKind {
     Other,
 }
 
+/// How far a moving set travels within an interval, and its largest speed there (see
+/// [`ConstraintFamily::travel_within`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Travel {
+    /// The length of its path in the interval.
+    pub distance: f64,
+    /// The largest speed along it.
+    pub max_speed: f64,
+}
+
 /// A family of constraints `gᵢ(t, q) ≥ 0`, indexed by family-defined member indices.
 ///
 /// # Members
@@ -482,6 +492,16 @@ pub trait ConstraintFamily: Send + Sync {
     /// smaller `c > 0` satisfies A0 with `Uᵢ(t)` the points within `c` of `Qᵢ(t)`; the
     /// A3/A4 bound `M` grows as `c` approaches it). Default `None`: not derivable.
     fn a0_margin(&self) -> Option<f64> {
+        None
+    }
+
+    /// How far member `index`'s set travels during `(t0, t1)`, and the largest speed it
+    /// reaches there, when its motion is not linear in that interval (a path that turns
+    /// inside it): what the derivatives at the ends of a step cannot see. Default `None`:
+    /// the motion is smooth, or the family does not know. `gᵢ` must be 1-Lipschitz in the
+    /// set's position (a distance) for the stepper's use of it to be a bound.
+    fn travel_within(&self, index: usize, t0: f64, t1: f64) -> Option<Travel> {
+        let _ = (index, t0, t1);
         None
     }
 

@@ -808,9 +808,16 @@ impl<'p> Stepper<'p> {
                 .fold(0.0, f64::max);
                 let clearance = now.value.max(0.0) + margin.unwrap_or(0.0);
                 let too_far = margin.is_some() && h * speed >= clearance;
-                if cos < 0.0 || too_far {
-                    let suggested_h = if speed > 0.0 && clearance > 0.0 {
-                        0.5 * clearance / speed
+                // A path that turns inside the step moves the set where neither end sees it
+                // (4 m out and back within one step went through two people unnoticed): the
+                // length of its path in the step bounds how far `g` can fall there.
+                let travel = fam.travel_within(idx, t_k, t_next);
+                let travels_too_far =
+                    margin.is_some() && travel.is_some_and(|t| t.distance >= clearance);
+                if cos < 0.0 || too_far || travels_too_far {
+                    let fastest = travel.map_or(speed, |t| t.max_speed.max(speed));
+                    let suggested_h = if fastest > 0.0 && clearance > 0.0 {
+                        0.5 * clearance / fastest
                     } else {
                         0.25 * h
                     };
@@ -818,6 +825,13 @@ impl<'p> Stepper<'p> {
                         format!(
                             "its normal at the point turns by {:.0}° within the step (the moving set passes over the point)",
                             cos.clamp(-1.0, 1.0).acos().to_degrees()
+                        )
+                    } else if travels_too_far && !too_far {
+                        format!(
+                            "its path within the step is {:.3e} long (up to {:.3e} per second), not less than the clearance g + c = {:.3e}",
+                            travel.map_or(0.0, |t| t.distance),
+                            travel.map_or(0.0, |t| t.max_speed),
+                            clearance
                         )
                     } else {
                         format!(

@@ -185,6 +185,40 @@ fn fast_obstacles_fail_loudly() {
     }
 }
 
+/// A disk whose path goes 4 m out and back between two step times (0.501 to 0.505 s, inside
+/// the step from 0.50 to 0.51) passes over two people standing in its way; the ends of the
+/// step see it at rest in the same place. It completed with nobody moved; the step is now
+/// refused, with the length of the path within it. A path that turns inside a step but moves
+/// less than the clearance is accepted.
+#[test]
+fn a_path_that_goes_out_and_back_within_one_step_is_seen() {
+    let scene = |path: &str| {
+        format!(
+            "[room]\nrectangle = [0.0, 0.0, 6.0, 4.0]\n[[obstacles]]\n\
+             disk = {{ center = [1.0, 2.0], radius = 0.5 }}\npath = {path}\n\
+             [[people]]\nposition = [3.1, 2.05]\nradius = 0.2\n\
+             [[people]]\nposition = [3.1, 2.5]\nradius = 0.2\n\
+             [desired]\nkind = \"constant\"\nvelocity = [0.0, 0.0]\n\
+             [run]\nh = 0.01\nt_end = 0.6\n"
+        )
+    };
+    let out_and_back = "[[0.0, 0.0, 0.0], [0.501, 0.0, 0.0], [0.503, 4.0, 0.0], [0.505, 0.0, 0.0]]";
+    let run = sweep_run("path-out-and-back", &scene(out_and_back), &[]);
+    assert!(!run.success, "completed:\n{}", run.output);
+    assert!(
+        run.output.contains("step 50, t = 0.51")
+            && run
+                .output
+                .contains("its path within the step is 8.000e0 long")
+            && run.output.contains("would do"),
+        "{}",
+        run.output
+    );
+    let small = "[[0.0, 0.0, 0.0], [0.501, 0.0, 0.0], [0.503, 0.2, 0.0], [0.505, 0.0, 0.0]]";
+    let run = sweep_run("path-small-wiggle", &scene(small), &[]);
+    assert!(run.success, "{}", run.output);
+}
+
 /// Items 3 and 6: 40 people pushed into a corner at 1e8 and 1e12 m/s: no backend's answer is
 /// accepted with an overlap (exit non-zero, the error names the step and the constraint or
 /// the check), and no backend's false "infeasible" is reported as the problem's (q_k always

@@ -4,7 +4,7 @@ use super::verlet::{self, Anchor, ListPolicy, NeighbourSearch};
 use super::Population;
 use crate::constraint::{
     linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
-    SecondOrderData,
+    SecondOrderData, Travel,
 };
 use num_dual::DualNum;
 use serde::{Deserialize, Serialize};
@@ -31,6 +31,31 @@ impl Motion {
             Motion::Velocity(v) => v[0] == 0.0 && v[1] == 0.0,
             Motion::Path(p) => p.windows(2).all(|w| w[0].1 == w[1].1),
         }
+    }
+
+    /// The length of the path in `(t0, t1)` and its largest speed there, when a waypoint lies
+    /// strictly inside that interval; `None` otherwise (the motion is linear there, or static).
+    pub fn travel_within(&self, t0: f64, t1: f64) -> Option<Travel> {
+        let Motion::Path(p) = self else {
+            return None;
+        };
+        if !p.iter().any(|&(t, _)| t0 < t && t < t1) {
+            return None;
+        }
+        let mut travel = Travel {
+            distance: 0.0,
+            max_speed: 0.0,
+        };
+        for w in p.windows(2) {
+            let ((ta, a), (tb, b)) = (w[0], w[1]);
+            let overlap = tb.min(t1) - ta.max(t0);
+            if overlap > 0.0 {
+                let speed = (b[0] - a[0]).hypot(b[1] - a[1]) / (tb - ta);
+                travel.distance += speed * overlap;
+                travel.max_speed = travel.max_speed.max(speed);
+            }
+        }
+        Some(travel)
     }
 
     /// `o(t)`, generic so that `∂ₜ` comes by autodiff.
@@ -453,6 +478,13 @@ impl ConstraintFamily for PersonShapes {
             .filter(|v| v.is_finite())
     }
 
+    /// The shape's path within `(t0, t1)`: `g` is a distance minus radii, 1-Lipschitz in the
+    /// shape's position.
+    fn travel_within(&self, index: usize, t0: f64, t1: f64) -> Option<Travel> {
+        let (_, shape) = self.split(index);
+        self.shapes[shape].1.travel_within(t0, t1)
+    }
+
     fn describe(&self, index: usize) -> String {
         let (i, s) = self.split(index);
         let what = match &self.shapes[s].0 {
@@ -556,6 +588,24 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn travel_within_counts_the_path_only_when_it_turns_inside_the_interval() {
+        // 3 m right in 1 s, then 4 m up in 1 s, then still.
+        let path = Motion::Path(vec![(1.0, [0.0, 0.0]), (2.0, [3.0, 0.0]), (3.0, [3.0, 4.0])]);
+        // No waypoint strictly inside: linear there (or still), left to the derivatives.
+        assert_eq!(path.travel_within(1.0, 2.0), None);
+        assert_eq!(path.travel_within(0.0, 1.0), None);
+        assert_eq!(path.travel_within(3.0, 9.0), None);
+        assert_eq!(Motion::Velocity([1.0, 0.0]).travel_within(0.0, 5.0), None);
+        assert_eq!(Motion::Static.travel_within(0.0, 5.0), None);
+        // Half a second of each leg, around the turn at t = 2.
+        let t = path.travel_within(1.5, 2.5).unwrap();
+        assert!((t.distance - 3.5).abs() < 1e-12 && t.max_speed == 4.0, "{t:?}");
+        // From before the start to after the end: the whole path, 7 m.
+        let t = path.travel_within(0.0, 5.0).unwrap();
+        assert!((t.distance - 7.0).abs() < 1e-12 && t.max_speed == 4.0, "{t:?}");
+    }
 
     /// The plain search's answer: every present person against every placed shape.
     fn plain(fam: &PersonShapes, t: f64, q: &[f64], cutoff: f64) -> Vec<usize> {
