@@ -75,6 +75,49 @@ impl Observer for Progress {
     }
 }
 
+/// Stops the run at the end of the step during which Ctrl-C (SIGINT) came, as a failure, so
+/// that every writer finishes its file and the summary is written: killed outright, a run
+/// left `trajectory.csv` cut in the middle of a row and no `summary.json`. A second Ctrl-C
+/// ends the process at once (exit code 130).
+struct Interrupt {
+    requested: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Interrupt {
+    /// Installs the handler; `None` (and a note) where the system refuses it, in which case
+    /// Ctrl-C kills the process as it would have.
+    fn install() -> Option<Self> {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        let requested = std::sync::Arc::new(AtomicBool::new(false));
+        let flag = requested.clone();
+        let installed = ctrlc::set_handler(move || {
+            if flag.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupted: finishing the step and writing what was computed (Ctrl-C again to stop at once)");
+        });
+        match installed {
+            Ok(()) => Some(Self { requested }),
+            Err(e) => {
+                eprintln!("note: Ctrl-C will not stop the run cleanly: {e}");
+                None
+            }
+        }
+    }
+}
+
+impl Observer for Interrupt {
+    fn name(&self) -> &str {
+        "interrupt"
+    }
+    fn on_step(&mut self, _: &StepReport, _: &[f64]) -> Result<(), ObserverError> {
+        if self.requested.load(std::sync::atomic::Ordering::SeqCst) {
+            return Err(ObserverError::Failed("interrupted (Ctrl-C)".into()));
+        }
+        Ok(())
+    }
+}
+
 /// Entry point of `sweep run`.
 pub fn main(args: RunArgs) -> Result<()> {
     let scene = Scene::from_file(&args.scene)?;
@@ -195,6 +238,11 @@ pub fn main(args: RunArgs) -> Result<()> {
         &mut animation,
         &mut progress,
     ]);
+    // Last, so that every other observer has seen the step it stops after.
+    let mut interrupt = Interrupt::install();
+    if let Some(i) = interrupt.as_mut() {
+        observers.push(i);
+    }
     let result = built.run(projector.as_mut(), &mut observers);
     summary
         .write_json(&summary_path)

@@ -592,7 +592,11 @@ mod tests {
     #[test]
     fn travel_within_counts_the_path_only_when_it_turns_inside_the_interval() {
         // 3 m right in 1 s, then 4 m up in 1 s, then still.
-        let path = Motion::Path(vec![(1.0, [0.0, 0.0]), (2.0, [3.0, 0.0]), (3.0, [3.0, 4.0])]);
+        let path = Motion::Path(vec![
+            (1.0, [0.0, 0.0]),
+            (2.0, [3.0, 0.0]),
+            (3.0, [3.0, 4.0]),
+        ]);
         // No waypoint strictly inside: linear there (or still), left to the derivatives.
         assert_eq!(path.travel_within(1.0, 2.0), None);
         assert_eq!(path.travel_within(0.0, 1.0), None);
@@ -601,10 +605,16 @@ mod tests {
         assert_eq!(Motion::Static.travel_within(0.0, 5.0), None);
         // Half a second of each leg, around the turn at t = 2.
         let t = path.travel_within(1.5, 2.5).unwrap();
-        assert!((t.distance - 3.5).abs() < 1e-12 && t.max_speed == 4.0, "{t:?}");
+        assert!(
+            (t.distance - 3.5).abs() < 1e-12 && t.max_speed == 4.0,
+            "{t:?}"
+        );
         // From before the start to after the end: the whole path, 7 m.
         let t = path.travel_within(0.0, 5.0).unwrap();
-        assert!((t.distance - 7.0).abs() < 1e-12 && t.max_speed == 4.0, "{t:?}");
+        assert!(
+            (t.distance - 7.0).abs() < 1e-12 && t.max_speed == 4.0,
+            "{t:?}"
+        );
     }
 
     /// The plain search's answer: every present person against every placed shape.
