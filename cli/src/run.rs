@@ -118,6 +118,42 @@ impl Observer for Interrupt {
     }
 }
 
+/// Removes from `out` what an earlier run wrote there and this one will not overwrite: a
+/// trajectory in a format not asked for now, and the snapshots (named by their times, so a
+/// longer earlier run's outlast this one's). Rerun into the same directory, a run left the
+/// earlier trajectory beside its own summary. Only the names `sweep run` writes are touched.
+fn remove_stale_outputs(out: &std::path::Path, formats: &[TrajectoryFormat]) -> Result<()> {
+    let remove = |path: &std::path::Path| match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(anyhow::anyhow!(
+            "removing the earlier run's {}: {e}",
+            path.display()
+        )),
+        _ => Ok(()),
+    };
+    for format in [TrajectoryFormat::Csv, TrajectoryFormat::Sqlite] {
+        if !formats.contains(&format) {
+            remove(&out.join(format.file_name()))?;
+        }
+    }
+    let snapshots = out.join("snapshots");
+    if let Ok(entries) = std::fs::read_dir(&snapshots) {
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            let ours = name == "final.svg"
+                || (name.starts_with('t')
+                    && name.ends_with(".svg")
+                    && name[1..name.len() - 4]
+                        .chars()
+                        .all(|c| c.is_ascii_digit() || c == '.'));
+            if ours {
+                remove(&entry.path())?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Entry point of `sweep run`.
 pub fn main(args: RunArgs) -> Result<()> {
     let scene = Scene::from_file(&args.scene)?;
@@ -142,6 +178,7 @@ pub fn main(args: RunArgs) -> Result<()> {
     };
     let mut seen = std::collections::HashSet::new();
     formats.retain(|f| seen.insert(*f));
+    remove_stale_outputs(&out, &formats)?;
     let h = built.settings.h;
     let t_end = built.settings.t_end;
     let backend_name = built.backend.to_string();

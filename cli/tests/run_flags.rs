@@ -130,3 +130,47 @@ fn a_run_refused_before_its_first_step_writes_its_start_and_counts_everybody_in(
     assert_eq!(frames.into_iter().collect::<Vec<_>>(), ["0"], "{csv}");
     assert_eq!(csv.lines().count(), 1 + 120);
 }
+
+#[test]
+fn a_run_into_an_earlier_runs_directory_leaves_none_of_its_stale_files() {
+    // First 1.5 s with the CSV, then 0.5 s with SQLite only, into the same directory: the
+    // CSV and the snapshots after 0.5 s were the first run's, left beside the second's
+    // summary.
+    let first = sweep_run("rerun", JAM, &["--threads", "1"]);
+    assert!(first.success, "{}", first.output);
+    let snapshots = |run: &support::CliRun| -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(run.out.join("snapshots"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
+    assert!(snapshots(&first).iter().any(|n| n.starts_with("t0001")));
+    let mut second_args = vec!["--threads", "1", "--t-end", "0.5"];
+    if cfg!(feature = "sqlite") {
+        second_args.extend(["--format", "sqlite"]);
+    }
+    // Into the first run's directory (sweep_run would start a fresh one).
+    let scene = first.out.with_file_name("rerun.toml");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .arg("run")
+        .arg(&scene)
+        .arg("--out")
+        .arg(&first.out)
+        .args(&second_args)
+        .output()
+        .unwrap();
+    assert!(status.status.success(), "{status:?}");
+    let second = &first;
+    if cfg!(feature = "sqlite") {
+        assert!(!second.out.join("trajectory.csv").exists());
+    }
+    let names = snapshots(second);
+    assert!(
+        names
+            .iter()
+            .all(|n| n == "final.svg" || n.as_str() <= "t0000.50.svg"),
+        "{names:?}"
+    );
+}
