@@ -452,3 +452,34 @@ fn threads_negative_are_refused_and_the_command_line_beats_the_scene() {
         .unwrap();
     assert_eq!(built.threads, 0);
 }
+
+#[test]
+fn a_speed_that_a_constant_desired_velocity_would_ignore_is_refused() {
+    // The constant velocity's length is the speed: `speed = 0` was ignored and the person
+    // walked at 1 m/s.
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\nspeed = 0.0\n\
+         [desired]\nkind = \"constant\"\nvelocity = [1.0, 0.0]\n"
+    );
+    let e = error_of(&text);
+    assert_message(
+        &e,
+        3,
+        &["[[people]] #1", "speed = 0 has no effect", "drop `speed`"],
+    );
+    // The same for a crowd with its own constant desire.
+    let text = format!(
+        "{ROOM}[[crowds]]\ncount = 3\nradius = 0.2\nspeed = 2.0\n\
+         desired = {{ kind = \"constant\", velocity = [0.0, 0.5] }}\n"
+    );
+    let e = error_of(&text);
+    assert_message(&e, 3, &["speed = 2 has no effect"]);
+    // A speed equal to the velocity's length says the same thing twice: accepted.
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\nspeed = 1.0\n\
+         [desired]\nkind = \"constant\"\nvelocity = [0.6, 0.8]\n"
+    );
+    Scene::from_toml_str(&text, "ok.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap();
+}

@@ -466,6 +466,8 @@ pub(super) struct People {
     pub positions: Vec<[f64; 2]>,
     pub radii: Vec<f64>,
     pub speeds: Vec<f64>,
+    /// The speed as the scene file gave it (`None`: the default).
+    pub speeds_given: Vec<Option<f64>>,
     pub desired: Vec<Option<DesiredSpec>>,
     pub origins: Vec<Origin>,
     pub group_of: Vec<usize>,
@@ -473,10 +475,18 @@ pub(super) struct People {
 }
 
 impl People {
-    fn push(&mut self, p: [f64; 2], r: f64, speed: f64, d: Option<DesiredSpec>, origin: Origin) {
+    fn push(
+        &mut self,
+        p: [f64; 2],
+        r: f64,
+        (speed, given): (f64, Option<f64>),
+        d: Option<DesiredSpec>,
+        origin: Origin,
+    ) {
         self.positions.push(p);
         self.radii.push(r);
         self.speeds.push(speed);
+        self.speeds_given.push(given);
         self.desired.push(d);
         self.origins.push(origin);
         self.group_of.push(self.groups.len());
@@ -540,7 +550,13 @@ pub(super) fn explicit_people(
             item: item.clone(),
             line,
         };
-        people.push(ps.position, ps.radius, speed, ps.desired.clone(), origin);
+        people.push(
+            ps.position,
+            ps.radius,
+            (speed, ps.speed),
+            ps.desired.clone(),
+            origin,
+        );
         people.groups.push(item);
     }
     check_overlaps(cx, &people)?;
@@ -671,7 +687,7 @@ pub(super) fn place_crowd(
             item: format!("{item}, person {}", placed + 1),
             line,
         };
-        people.push(p, r, speed, cs.desired.clone(), origin);
+        people.push(p, r, (speed, cs.speed), cs.desired.clone(), origin);
         placed += 1;
     }
     people.groups.push(format!("{item} ({} people)", cs.count));
@@ -679,12 +695,15 @@ pub(super) fn place_crowd(
 }
 
 /// One velocity term per distinct desire, with its people; a person's own desire wins over
-/// the scene's `[desired]`. A constant desire sets that person's speed to its norm. Also
-/// returns how many people have no desire at all (they stand still).
+/// the scene's `[desired]`. A constant desire sets that person's speed to its norm, and a
+/// `speed` the file gives that differs from it is an error (it was ignored: a person given
+/// `speed = 0` walked at the velocity's 1 m/s). Also returns how many people have no desire
+/// at all (they stand still).
 pub(super) fn desire_terms(
+    cx: &Ctx<'_>,
     people: &mut People,
     default: Option<&DesiredSpec>,
-) -> (Vec<(DesiredSpec, Vec<usize>)>, usize) {
+) -> Result<(Vec<(DesiredSpec, Vec<usize>)>, usize), SceneError> {
     let mut terms: Vec<(DesiredSpec, Vec<usize>)> = Vec::new();
     let mut still = 0usize;
     for (i, d) in people.desired.iter().enumerate() {
@@ -693,7 +712,21 @@ pub(super) fn desire_terms(
             Some(d) => {
                 if d.kind == DesiredKind::Constant {
                     let v = d.velocity.unwrap_or([0.0, 0.0]);
-                    people.speeds[i] = (v[0] * v[0] + v[1] * v[1]).sqrt();
+                    let norm = (v[0] * v[0] + v[1] * v[1]).sqrt();
+                    if let Some(given) = people.speeds_given[i] {
+                        if (given - norm).abs() > 1e-12 * norm.max(1.0) {
+                            let origin = &people.origins[i];
+                            return Err(cx.err(
+                                origin.line,
+                                origin.item.clone(),
+                                format!(
+                                    "speed = {given} has no effect with the constant desired velocity ({}, {}), whose length {norm} is the speed: drop `speed`, or scale the velocity",
+                                    v[0], v[1]
+                                ),
+                            ));
+                        }
+                    }
+                    people.speeds[i] = norm;
                 }
                 match terms.iter_mut().find(|(s, _)| *s == d) {
                     Some((_, who)) => who.push(i),
@@ -702,7 +735,7 @@ pub(super) fn desire_terms(
             }
         }
     }
-    (terms, still)
+    Ok((terms, still))
 }
 
 /// The geodesic distance to the exits by fast marching, only when somebody heads for them;

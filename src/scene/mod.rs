@@ -355,7 +355,7 @@ impl Scene {
         }
 
         let (terms, still) =
-            build::desire_terms(&mut people, default_desired.as_ref().map(|d| &d.0));
+            build::desire_terms(&cx, &mut people, default_desired.as_ref().map(|d| &d.0))?;
         let population = Population::new(people.radii.clone())
             .with_room(room.room.clone())
             .shared();
