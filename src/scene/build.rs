@@ -694,6 +694,9 @@ pub(super) fn place_crowd(
     Ok(())
 }
 
+/// Each distinct desire with the people who have it.
+pub(super) type DesireTerms = Vec<(DesiredSpec, Vec<usize>)>;
+
 /// One velocity term per distinct desire, with its people; a person's own desire wins over
 /// the scene's `[desired]`. A constant desire sets that person's speed to its norm, and a
 /// `speed` the file gives that differs from it is an error (it was ignored: a person given
@@ -703,8 +706,8 @@ pub(super) fn desire_terms(
     cx: &Ctx<'_>,
     people: &mut People,
     default: Option<&DesiredSpec>,
-) -> Result<(Vec<(DesiredSpec, Vec<usize>)>, usize), SceneError> {
-    let mut terms: Vec<(DesiredSpec, Vec<usize>)> = Vec::new();
+) -> Result<(DesireTerms, usize), SceneError> {
+    let mut terms: DesireTerms = Vec::new();
     let mut still = 0usize;
     for (i, d) in people.desired.iter().enumerate() {
         match d.clone().or_else(|| default.cloned()) {
