@@ -483,3 +483,27 @@ fn a_speed_that_a_constant_desired_velocity_would_ignore_is_refused() {
         .and_then(|s| s.build(&Overrides::default()))
         .unwrap();
 }
+
+#[test]
+fn a_polygon_that_crosses_or_touches_itself_is_refused() {
+    // A bow tie: edges 1 ((0,0)→(4,4)) and 3 ((4,0)→(0,3)) cross. It was accepted.
+    let e = error_of("[room]\npolygon = [[0.0, 0.0], [4.0, 4.0], [4.0, 0.0], [0.0, 3.0]]\n");
+    assert_message(&e, 1, &["[room]", "edges 1 and 3 of the polygon meet"]);
+    // A vertex on a non-adjacent edge: vertex 4 (2, 0) lies on edge 1.
+    let e = error_of(
+        "[room]\npolygon = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [2.0, 0.0], [0.0, 4.0]]\n",
+    );
+    assert_message(&e, 1, &["of the polygon meet"]);
+    // An obstacle's bow tie.
+    let e = error_of(&format!(
+        "{ROOM}[[obstacles]]\npolygon = [[1.0, 1.0], [2.0, 2.0], [2.0, 1.0], [1.0, 1.8]]\n"
+    ));
+    assert_message(&e, 3, &["[[obstacles]] #1", "edges 1 and 3 of the polygon meet"]);
+    // Simple polygons, convex or not, pass (an L-shaped room and a triangle in it).
+    let ok = "[room]\npolygon = [[0.0, 0.0], [4.0, 0.0], [4.0, 2.0], [2.0, 2.0], [2.0, 4.0], [0.0, 4.0]]\n\
+              [[obstacles]]\npolygon = [[0.5, 0.5], [1.5, 0.5], [1.0, 1.5]]\n\
+              [[people]]\nposition = [3.0, 1.0]\nradius = 0.2\n";
+    Scene::from_toml_str(ok, "ok.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap();
+}

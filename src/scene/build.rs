@@ -6,8 +6,9 @@
 
 use super::spec::{CrowdSpec, DesiredKind, DesiredSpec, RadiusSpec, RunSpec, SceneSpec};
 use super::{
-    bbox, check_desired, check_resolution, finite, fmt_pt, polygon_area, Ctx, Effect, Obstacle,
-    ObstacleShape, Origin, OutputSettings, Overrides, SceneError, SpatialHash, MAX_PEOPLE,
+    bbox, check_desired, check_resolution, finite, fmt_pt, meeting_edges, polygon_area, Ctx,
+    Effect, Obstacle, ObstacleShape, Origin, OutputSettings, Overrides, SceneError, SpatialHash,
+    MAX_PEOPLE,
 };
 use crate::backends::BackendChoice;
 use crate::constraint::ConstraintKernel;
@@ -175,6 +176,13 @@ pub(super) fn room(cx: &Ctx<'_>, spec: &SceneSpec) -> Result<RoomPlan, SceneErro
                     room_line,
                     "[room]",
                     format!("vertices {} and {} coincide", k + 1, (k + 1) % p.len() + 1),
+                ));
+            }
+            if let Some((a, b)) = meeting_edges(p) {
+                return Err(cx.err(
+                    room_line,
+                    "[room]",
+                    format!("edges {a} and {b} of the polygon meet: a room's boundary must not cross or touch itself (edge k runs from vertex k to the next)"),
                 ));
             }
             p.clone()
@@ -365,6 +373,13 @@ fn obstacle_shape(
                     line,
                     item,
                     format!("vertices {} and {} coincide", v + 1, (v + 1) % p.len() + 1),
+                ));
+            }
+            if let Some((a, b)) = meeting_edges(p) {
+                return Err(cx.err(
+                    line,
+                    item,
+                    format!("edges {a} and {b} of the polygon meet: an obstacle's boundary must not cross or touch itself (edge k runs from vertex k to the next)"),
                 ));
             }
             ObstacleShape::Polygon(p.clone())

@@ -618,6 +618,43 @@ fn polygon_area(p: &[[f64; 2]]) -> f64 {
         .sum::<f64>()
 }
 
+/// Two edges of the closed polygon `p` that are not neighbours and meet (cross or touch), by
+/// their numbers from 1 (edge `k` runs from vertex `k` to the next); `None` for a simple
+/// polygon. `O(n²)`: rooms and obstacles have few vertices.
+fn meeting_edges(p: &[[f64; 2]]) -> Option<(usize, usize)> {
+    let n = p.len();
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let within = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        c[0] >= a[0].min(b[0])
+            && c[0] <= a[0].max(b[0])
+            && c[1] >= a[1].min(b[1])
+            && c[1] <= a[1].max(b[1])
+    };
+    let meet = |a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]| {
+        let (d1, d2) = (cross(c, d, a), cross(c, d, b));
+        let (d3, d4) = (cross(a, b, c), cross(a, b, d));
+        ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+            && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+            || (d1 == 0.0 && within(c, d, a))
+            || (d2 == 0.0 && within(c, d, b))
+            || (d3 == 0.0 && within(a, b, c))
+            || (d4 == 0.0 && within(a, b, d))
+    };
+    for i in 0..n {
+        for j in i + 2..n {
+            if i == 0 && j == n - 1 {
+                continue; // the last edge and the first share vertex 1
+            }
+            if meet(p[i], p[(i + 1) % n], p[j], p[(j + 1) % n]) {
+                return Some((i + 1, j + 1));
+            }
+        }
+    }
+    None
+}
+
 fn bbox(p: &[[f64; 2]]) -> (f64, f64, f64, f64) {
     p.iter().fold(
         (
