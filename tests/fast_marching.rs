@@ -199,3 +199,12 @@ stop_when_empty = true
     );
     assert!(!built.population.is_present(&run.q_final, 0));
 }
+
+#[test]
+fn a_grid_too_large_says_how_large_in_a_readable_number() {
+    use sweeping::crowd::fast_marching::FastMarchingError;
+    // 1e-9 m cells on a 10 m room: 1e20 nodes, which overflowed to 18446744073709551615.
+    let e = DistanceField::compute(&square_with_exit(), 1e-9).unwrap_err();
+    assert!(matches!(e, FastMarchingError::TooLarge(n) if n > 1e19));
+    assert!(e.to_string().contains("would have 1.000e20 nodes"), "{e}");
+}

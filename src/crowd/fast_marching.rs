@@ -93,9 +93,9 @@ pub enum FastMarchingError {
     /// The grid spacing is not a positive finite number.
     #[error("the fast-marching cell size {0} must be positive and finite")]
     BadCell(f64),
-    /// The grid would be too large.
-    #[error("the fast-marching grid would have {0} nodes (more than 4·10⁶); use a larger cell")]
-    TooLarge(usize),
+    /// The grid would be too large (its node count, infinite when it overflows).
+    #[error("the fast-marching grid would have {0:.3e} nodes (more than 4·10⁶); use a larger cell")]
+    TooLarge(f64),
     /// No exit touches a free node.
     #[error("no exit is reachable on the fast-marching grid (cell {0}); is there an exit on a wall, with free space behind it?")]
     NoExit(f64),
@@ -172,11 +172,7 @@ impl DistanceField {
         let nodes = (((x1 - x0 + 2.0 * margin) / cell).ceil() + 1.0)
             * (((y1 - y0 + 2.0 * margin) / cell).ceil() + 1.0);
         if !nodes.is_finite() || nodes > 4e6 {
-            return Err(FastMarchingError::TooLarge(if nodes.is_finite() {
-                nodes as usize
-            } else {
-                usize::MAX
-            }));
+            return Err(FastMarchingError::TooLarge(nodes));
         }
         let grid = Grid::covering(x0 - margin, y0 - margin, x1 + margin, y1 + margin, cell);
         let n = grid.len();
