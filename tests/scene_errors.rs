@@ -498,7 +498,11 @@ fn a_polygon_that_crosses_or_touches_itself_is_refused() {
     let e = error_of(&format!(
         "{ROOM}[[obstacles]]\npolygon = [[1.0, 1.0], [2.0, 2.0], [2.0, 1.0], [1.0, 1.8]]\n"
     ));
-    assert_message(&e, 3, &["[[obstacles]] #1", "edges 1 and 3 of the polygon meet"]);
+    assert_message(
+        &e,
+        3,
+        &["[[obstacles]] #1", "edges 1 and 3 of the polygon meet"],
+    );
     // Simple polygons, convex or not, pass (an L-shaped room and a triangle in it).
     let ok = "[room]\npolygon = [[0.0, 0.0], [4.0, 0.0], [4.0, 2.0], [2.0, 2.0], [2.0, 4.0], [0.0, 4.0]]\n\
               [[obstacles]]\npolygon = [[0.5, 0.5], [1.5, 0.5], [1.0, 1.5]]\n\

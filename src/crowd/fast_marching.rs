@@ -94,7 +94,9 @@ pub enum FastMarchingError {
     #[error("the fast-marching cell size {0} must be positive and finite")]
     BadCell(f64),
     /// The grid would be too large (its node count, infinite when it overflows).
-    #[error("the fast-marching grid would have {0:.3e} nodes (more than 4·10⁶); use a larger cell")]
+    #[error(
+        "the fast-marching grid would have {0:.3e} nodes (more than 4·10⁶); use a larger cell"
+    )]
     TooLarge(f64),
     /// No exit touches a free node.
     #[error("no exit is reachable on the fast-marching grid (cell {0}); is there an exit on a wall, with free space behind it?")]

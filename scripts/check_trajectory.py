@@ -1,0 +1,350 @@
+#!/usr/bin/env python3
+"""An independent check of a `sweep run` output, written apart from the Rust code.
+
+usage: python3 scripts/check_trajectory.py SCENE.toml OUTDIR [--tol 1e-9]
+
+Reads the scene file (room, exits, obstacles and their motion, people and crowds) and the
+run's `trajectory.csv` and `summary.json`, and recomputes at every recorded frame: overlaps
+of people, penetrations of walls and obstacles, people outside the room not through an exit,
+non-finite numbers, people who came back after leaving, the largest speed between frames;
+then compares the summary's counts, times and largest overlap and penetration with what the
+trajectory shows. Standard library only (Python 3.11 or later, for tomllib).
+
+People are numbered as `sweep run` numbers them: the `[[people]]` first, then each crowd in
+order. A crowd with a range of radii draws them at random and no output records them, so
+they are read back from the first snapshot (`snapshots/t0000.00.svg`, four digits): a
+check of such a scene is good to about 1e-4, and says so.
+
+Prints what it found; exits with 1 when a flag is raised (anything beyond `--tol`, or a
+summary that disagrees with the trajectory), 0 otherwise.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import sys
+import tomllib
+from collections import defaultdict
+
+parser = argparse.ArgumentParser(description="An independent check of a `sweep run` output.")
+parser.add_argument("scene", help="the scene file the run was made from")
+parser.add_argument("out", help="the run's output directory")
+parser.add_argument("--tol", type=float, default=1e-9,
+                    help="largest overlap or penetration accepted (default 1e-9)")
+arguments = parser.parse_args()
+TOL = arguments.tol
+scene_path, out = arguments.scene, arguments.out
+with open(scene_path, "rb") as scene_file:
+    sc = tomllib.load(scene_file)
+
+# ---------- geometry
+room = sc['room']
+if 'rectangle' in room:
+    x0, y0, x1, y1 = room['rectangle']
+    poly = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+else:
+    poly = [tuple(p) for p in room['polygon']]
+exits = [(tuple(e['from']), tuple(e['to'])) for e in sc.get('exits', [])]
+
+
+def seg_dist(p, a, b):
+    ax, ay = a; bx, by = b; px, py = p
+    dx, dy = bx - ax, by - ay
+    L2 = dx * dx + dy * dy
+    if L2 == 0:
+        return math.hypot(px - ax, py - ay)
+    t = ((px - ax) * dx + (py - ay) * dy) / L2
+    t = max(0.0, min(1.0, t))
+    return math.hypot(px - ax - t * dx, py - ay - t * dy)
+
+
+def on_segment_param(p, a, b):
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    L2 = dx * dx + dy * dy
+    return ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / L2
+
+
+def collinear(a, b, c, eps=1e-12):
+    return abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) <= eps * max(1, abs(b[0]) + abs(b[1]) + abs(c[0]) + abs(c[1]))
+
+
+# walls = room edges minus exits
+walls = []
+n = len(poly)
+for i in range(n):
+    a, b = poly[i], poly[(i + 1) % n]
+    L2 = (b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2
+    if L2 == 0:
+        continue
+    cuts = []
+    for (e0, e1) in exits:
+        if collinear(a, b, e0) and collinear(a, b, e1):
+            t0, t1 = sorted((on_segment_param(e0, a, b), on_segment_param(e1, a, b)))
+            t0, t1 = max(0, t0), min(1, t1)
+            if t1 > t0:
+                cuts.append((t0, t1))
+    cuts.sort()
+    cur = 0.0
+    pieces = []
+    for (t0, t1) in cuts:
+        if t0 > cur:
+            pieces.append((cur, t0))
+        cur = max(cur, t1)
+    if cur < 1:
+        pieces.append((cur, 1.0))
+    for (t0, t1) in pieces:
+        walls.append(((a[0] + t0 * (b[0] - a[0]), a[1] + t0 * (b[1] - a[1])),
+                      (a[0] + t1 * (b[0] - a[0]), a[1] + t1 * (b[1] - a[1]))))
+
+
+def inside_poly(p, P):
+    x, y = p
+    c = False
+    m = len(P)
+    for i in range(m):
+        ax, ay = P[i]; bx, by = P[(i + 1) % m]
+        if (ay > y) != (by > y):
+            xi = ax + (y - ay) * (bx - ax) / (by - ay)
+            if x < xi:
+                c = not c
+    return c
+
+
+def dist_to_boundary(p, P):
+    return min(seg_dist(p, P[i], P[(i + 1) % len(P)]) for i in range(len(P)))
+
+
+obstacles = []  # (kind, data, motion)
+for o in sc.get('obstacles', []):
+    mot = None
+    if 'velocity' in o:
+        mot = ('vel', o['velocity'])
+    elif 'path' in o:
+        mot = ('path', o['path'])
+    if 'disk' in o:
+        obstacles.append(('disk', (tuple(o['disk']['center']), o['disk']['radius']), mot))
+    elif 'segment' in o:
+        obstacles.append(('seg', (tuple(o['segment']['from']), tuple(o['segment']['to'])), mot))
+    elif 'polygon' in o:
+        obstacles.append(('poly', [tuple(p) for p in o['polygon']], mot))
+
+
+def offset(mot, t):
+    if mot is None:
+        return (0.0, 0.0)
+    if mot[0] == 'vel':
+        return (t * mot[1][0], t * mot[1][1])
+    path = mot[1]
+    if t <= path[0][0]:
+        return (path[0][1], path[0][2])
+    for i in range(len(path) - 1):
+        t0, a0, b0 = path[i]; t1, a1, b1 = path[i + 1]
+        if t0 <= t <= t1:
+            s = (t - t0) / (t1 - t0) if t1 > t0 else 1
+            return (a0 + s * (a1 - a0), b0 + s * (b1 - b0))
+    return (path[-1][1], path[-1][2])
+
+
+def obstacle_gap(p, r, ob, t):
+    kind, d, mot = ob
+    ox, oy = offset(mot, t)
+    q = (p[0] - ox, p[1] - oy)
+    if kind == 'disk':
+        return math.hypot(q[0] - d[0][0], q[1] - d[0][1]) - d[1] - r
+    if kind == 'seg':
+        return seg_dist(q, d[0], d[1]) - r
+    g = dist_to_boundary(q, d)
+    if inside_poly(q, d):
+        return -g - r
+    return g - r
+
+
+# ---------- people radii and speeds
+radii, speeds = [], []
+for p in sc.get('people', []):
+    radii.append(p['radius']); speeds.append(p.get('speed', 1.0))
+svg_radii = None
+for c in sc.get('crowds', []):
+    r = c['radius']
+    if isinstance(r, list):
+        if svg_radii is None:
+            f = os.path.join(out, 'snapshots', 't0000.00.svg')
+            svg_radii = [float(m) for m in re.findall(r'<circle[^>]* r="([0-9.eE+-]+)" fill="#3b75af', open(f).read())]
+        radii.extend([None] * c['count'])
+    else:
+        radii.extend([r] * c['count'])
+    speeds.extend([c.get('speed', 1.0)] * c['count'])
+if svg_radii is not None and len(svg_radii) == len(radii):
+    radii = [r if r is not None else s for r, s in zip(radii, svg_radii)]
+    print('note: ranged radii read from the first snapshot (4 digits): good to about 1e-4,'
+          ' so nothing below 2e-4 is flagged')
+    TOL = max(TOL, 2e-4)
+elif svg_radii is not None:
+    radii = [r if r is not None else 1e-9 for r in radii]
+    print('could not read the ranged radii from the first snapshot'); sys.exit(2)
+N = len(radii)
+
+# ---------- read trajectory
+rows = defaultdict(dict)
+bad = []
+ids = set()
+with open(os.path.join(out, 'trajectory.csv')) as f:
+    rd = csv.reader(f)
+    hdr = next(rd)
+    assert hdr == ['t', 'id', 'x', 'y', 'present'], hdr
+    for line in rd:
+        t, i, x, y, pr = line
+        tf, xf, yf = float(t), float(x), float(y)
+        for v, nm in ((tf, 't'), (xf, 'x'), (yf, 'y')):
+            if not math.isfinite(v):
+                bad.append((t, i, nm, v))
+        rows[tf][int(i)] = (xf, yf, int(pr))
+        ids.add(int(i))
+times = sorted(rows)
+print(f'frames {len(times)}, t {times[0] if times else None}..{times[-1] if times else None}, ids {len(ids)}, scene people {N}')
+if bad:
+    print(f'NON-FINITE values: {len(bad)}, first {bad[:3]}')
+if ids and (min(ids) != 0 or max(ids) != N - 1 or len(ids) != N):
+    print(f'ID MISMATCH: ids {sorted(ids)[:5]}..{max(ids)} vs N={N}')
+for t in times:
+    if len(rows[t]) != len(ids):
+        print(f'frame t={t} has {len(rows[t])} rows, expected {len(ids)}')
+        break
+
+# ---------- checks
+worst_ov = (0.0, None)
+worst_wall = (0.0, None)
+worst_obs = (0.0, None)
+outside_present = (0.0, None)
+relapse = []
+left_ever = set()
+prev = None
+worst_disp = (0.0, None)
+first_empty = None
+maxr = max(radii) if radii else 0
+for t in times:
+    fr = rows[t]
+    pres = [(i, x, y) for i, (x, y, p) in fr.items() if p == 1]
+    for i, (x, y, p) in fr.items():
+        if p == 0:
+            left_ever.add(i)
+        elif i in left_ever:
+            relapse.append((t, i))
+        if p == 0 and math.isfinite(x) and math.isfinite(y):
+            # left: disk wholly outside the room?
+            if inside_poly((x, y), poly) and dist_to_boundary((x, y), poly) > 1e-9:
+                outside_present = max(outside_present, (dist_to_boundary((x, y), poly), f'left person {i} has centre inside room at t={t}'), key=lambda z: z[0])
+    # pairs via grid
+    cell = 2 * maxr if maxr > 0 else 1.0
+    grid = defaultdict(list)
+    for (i, x, y) in pres:
+        if not (math.isfinite(x) and math.isfinite(y)):
+            continue
+        grid[(math.floor(x / cell), math.floor(y / cell))].append((i, x, y))
+    for (gx, gy), lst in grid.items():
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                other = grid.get((gx + dx, gy + dy))
+                if not other:
+                    continue
+                for (i, x, y) in lst:
+                    for (j, u, v) in other:
+                        if j <= i:
+                            continue
+                        ov = radii[i] + radii[j] - math.hypot(x - u, y - v)
+                        if ov > worst_ov[0]:
+                            worst_ov = (ov, f'people {i},{j} at t={t}')
+    for (i, x, y) in pres:
+        if not (math.isfinite(x) and math.isfinite(y)):
+            continue
+        r = radii[i]
+        for (a, b) in walls:
+            pen = r - seg_dist((x, y), a, b)
+            if pen > worst_wall[0]:
+                worst_wall = (pen, f'person {i} wall {a}-{b} at t={t} centre ({x},{y})')
+        for k, ob in enumerate(obstacles):
+            pen = -obstacle_gap((x, y), r, ob, t)
+            if pen > worst_obs[0]:
+                worst_obs = (pen, f'person {i} obstacle #{k} at t={t}')
+        # a present person's centre must be in the room or beyond an exit
+        if not inside_poly((x, y), poly):
+            d = dist_to_boundary((x, y), poly)
+            near_exit = min([seg_dist((x, y), e0, e1) for e0, e1 in exits] or [1e300])
+            if near_exit > d + 1e-9 and d > 1e-9:
+                outside_present = max(outside_present, (d, f'present person {i} outside room not through exit at t={t} ({x},{y})'), key=lambda z: z[0])
+    if prev is not None:
+        pt, pf = prev
+        dt = t - pt
+        for i, (x, y, p) in fr.items():
+            if i in pf:
+                d = math.hypot(x - pf[i][0], y - pf[i][1])
+                rate = d / dt if dt > 0 else float('inf')
+                if rate > worst_disp[0]:
+                    worst_disp = (rate, f'person {i} moved {d:.6g} in dt={dt:.6g} ({pt}->{t}), speed {speeds[i]}')
+    if first_empty is None and N > 0 and not pres:
+        first_empty = t
+    prev = (t, fr)
+
+print(f'max overlap        {worst_ov[0]:.3e}  {worst_ov[1]}')
+print(f'max wall pen.      {worst_wall[0]:.3e}  {worst_wall[1]}')
+print(f'max obstacle pen.  {worst_obs[0]:.3e}  {worst_obs[1]}')
+print(f'outside/left issue {outside_present[0]:.3e}  {outside_present[1]}')
+print(f'max speed seen     {worst_disp[0]:.6g}  {worst_disp[1]}  (max desired speed {max(speeds) if speeds else None})')
+if relapse:
+    print(f'RELAPSE (present after left): {relapse[:5]}')
+flags = []
+if worst_ov[0] > TOL: flags.append('OVERLAP')
+if worst_wall[0] > TOL: flags.append('WALL')
+if worst_obs[0] > TOL: flags.append('OBSTACLE')
+if outside_present[0] > 1e-9: flags.append('OUTSIDE')
+if bad: flags.append('NONFINITE')
+if relapse: flags.append('RELAPSE')
+
+# ---------- summary
+sp = os.path.join(out, 'summary.json')
+if os.path.exists(sp):
+    raw = open(sp).read()
+    if re.search(r'\bNaN\b|\bInfinity\b|\binf\b', raw):
+        print('summary.json contains NaN/Infinity tokens'); flags.append('SUMMARY_NONFINITE')
+    s = json.loads(raw)
+    last = rows[times[-1]] if times else {}
+    remaining = sum(1 for v in last.values() if v[2] == 1)
+    print(f"summary: status {s.get('status')} people {s.get('people')} remaining {s.get('people_remaining')} "
+          f"evac {s.get('evacuation_time')} t_final {s.get('t_final')} max_overlap {s.get('max_overlap')} "
+          f"max_wall_pen {s.get('max_wall_penetration')} error {str(s.get('error'))[:300]}")
+    print(f'checker: remaining at last frame {remaining}, first empty frame t={first_empty}, last frame t={times[-1] if times else None}')
+    if s.get('people') != N: flags.append(f"SUMMARY_PEOPLE({s.get('people')} vs {N})")
+    if s.get('people_remaining') != remaining: flags.append(f"SUMMARY_REMAINING({s.get('people_remaining')} vs {remaining})")
+    if times and s.get('t_final') is not None and abs(s['t_final'] - times[-1]) > 1e-9: flags.append(f"T_FINAL({s['t_final']} vs {times[-1]})")
+    ev = s.get('evacuation_time')
+    if first_empty is not None and ev is None and s.get('status') == 'completed':
+        flags.append('EVAC_NULL_BUT_EMPTY')
+    if ev is not None and first_empty is not None and ev > first_empty + 1e-9:
+        flags.append(f'EVAC_LATE({ev} > {first_empty})')
+    if ev is not None and first_empty is None:
+        flags.append(f'EVAC_BUT_NOT_EMPTY')
+    mo = s.get('max_overlap')
+    if isinstance(mo, (int, float)) and worst_ov[0] > max(mo, 0) + max(1e-12, TOL if svg_radii else 0):
+        flags.append(f'SUMMARY_OVERLAP_UNDER({mo} < {worst_ov[0]})')
+    mw = s.get('max_wall_penetration')
+    if isinstance(mw, (int, float)) and worst_wall[0] > max(mw, 0) + max(1e-12, TOL if svg_radii else 0):
+        flags.append(f'SUMMARY_WALL_UNDER({mw} < {worst_wall[0]})')
+    po = s.get('people_out')
+    if po:
+        # compare count out at each frame time with people_out staircase
+        def out_at(t):
+            c = 0
+            for tt, k in po:
+                if tt <= t + 1e-12:
+                    c = k
+            return c
+        for t in times:
+            k = sum(1 for v in rows[t].values() if v[2] == 0)
+            if k != out_at(t):
+                flags.append(f'PEOPLE_OUT_MISMATCH(t={t}: csv {k} vs summary {out_at(t)})'); break
+else:
+    print('no summary.json'); flags.append('NO_SUMMARY')
+print('FLAGS:', flags if flags else 'none')
+sys.exit(1 if flags else 0)
