@@ -208,3 +208,12 @@ fn a_grid_too_large_says_how_large_in_a_readable_number() {
     assert!(matches!(e, FastMarchingError::TooLarge(n) if n > 1e19));
     assert!(e.to_string().contains("would have 1.000e20 nodes"), "{e}");
 }
+
+#[test]
+fn a_cell_that_is_not_a_positive_finite_number_is_refused() {
+    use sweeping::crowd::fast_marching::FastMarchingError;
+    for cell in [0.0, -0.1, f64::INFINITY, f64::NAN] {
+        let e = DistanceField::compute(&square_with_exit(), cell).unwrap_err();
+        assert!(matches!(e, FastMarchingError::BadCell(_)), "{cell}: {e}");
+    }
+}
