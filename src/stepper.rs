@@ -821,7 +821,16 @@ impl<'p> Stepper<'p> {
                     } else {
                         0.25 * h
                     };
-                    let detail = if cos < 0.0 {
+                    let detail = if cos < 0.0 && !(n1 > 1e-12) {
+                        // Not a turn that was measured: the normal at the end of the step
+                        // vanished, or is not a number (a set moving at 1e308 m/s is
+                        // nowhere representable a step later).
+                        if n1.is_nan() {
+                            "its normal at the point is not a number at the end of the step (the moving set's position overflows)".to_string()
+                        } else {
+                            "its normal at the point vanishes at the end of the step (the moving set's centre or edge reaches the point)".to_string()
+                        }
+                    } else if cos < 0.0 {
                         format!(
                             "its normal at the point turns by {:.0}° within the step (the moving set passes over the point)",
                             cos.clamp(-1.0, 1.0).acos().to_degrees()

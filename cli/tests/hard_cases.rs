@@ -219,6 +219,23 @@ fn a_path_that_goes_out_and_back_within_one_step_is_seen() {
     assert!(run.success, "{}", run.output);
 }
 
+/// A disk obstacle at 1e308 m/s is nowhere representable a step later: its normal there is
+/// not a number. The refusal said the normal "turns by 180°", which was not measured.
+#[test]
+fn an_obstacle_too_fast_to_represent_is_refused_for_what_it_is() {
+    let scene = "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\n\
+                 disk = { center = [3.0, 3.0], radius = 0.3 }\nvelocity = [1e308, 0.0]\n\
+                 [[people]]\nposition = [1.0, 2.0]\nradius = 0.2\nspeed = 0\n\
+                 [run]\nh = 0.01\nt_end = 1.0\n";
+    let run = sweep_run("obstacle-1e308", scene, &[]);
+    assert!(!run.success, "completed:\n{}", run.output);
+    assert!(
+        run.output.contains("not a number at the end of the step") && !run.output.contains("180°"),
+        "{}",
+        run.output
+    );
+}
+
 /// Items 3 and 6: 40 people pushed into a corner at 1e8 and 1e12 m/s: no backend's answer is
 /// accepted with an overlap (exit non-zero, the error names the step and the constraint or
 /// the check), and no backend's false "infeasible" is reported as the problem's (q_k always
