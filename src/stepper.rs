@@ -821,7 +821,8 @@ impl<'p> Stepper<'p> {
                     } else {
                         0.25 * h
                     };
-                    let detail = if cos < 0.0 && !(n1 > 1e-12) {
+                    let normal_lost = n1.is_nan() || n1 <= 1e-12;
+                    let detail = if cos < 0.0 && normal_lost {
                         // Not a turn that was measured: the normal at the end of the step
                         // vanished, or is not a number (a set moving at 1e308 m/s is
                         // nowhere representable a step later).
