@@ -110,8 +110,10 @@ fn random_scene(seed: u64) -> String {
         ),
     };
     s.push_str(&extra);
+    // A constant desire's speed is its velocity's length: a `speed` beside it is refused.
+    let speed = if kind < 2 { "" } else { "speed = 1.5\n" };
     s.push_str(&format!(
-        "[[crowds]]\ncount = {n}\nregion = [{region_x0}, 0.0, {w}, 3.0]\nradius = [0.15, 0.25]\nspeed = 1.5\nseed = {seed}\ndesired = {desired}\n"
+        "[[crowds]]\ncount = {n}\nregion = [{region_x0}, 0.0, {w}, 3.0]\nradius = [0.15, 0.25]\n{speed}seed = {seed}\ndesired = {desired}\n"
     ));
     s.push_str("[run]\nh = 0.05\nt_end = 2.0\n");
     s
