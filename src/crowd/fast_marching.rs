@@ -440,6 +440,31 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_foot_is_on_the_segment_only_level_with_it() {
+        // Away from the origin on both axes, so that every coordinate counts.
+        let (a, b) = ([3.0, 5.0], [7.0, 8.0]); // along (4, 3), length 5
+        let normal = [-3.0 / 5.0, 4.0 / 5.0];
+        let at = |s: f64, off: f64| {
+            [
+                a[0] + s * 4.0 + off * normal[0],
+                a[1] + s * 3.0 + off * normal[1],
+            ]
+        };
+        for off in [-2.0, 0.0, 0.7] {
+            assert!(foot_is_on_segment(at(0.5, off), a, b));
+            assert!(foot_is_on_segment(at(0.001, off), a, b)); // just inside an end
+            assert!(foot_is_on_segment(at(0.999, off), a, b));
+            assert!(!foot_is_on_segment(at(-0.01, off), a, b)); // beside an end
+            assert!(!foot_is_on_segment(at(1.01, off), a, b));
+        }
+        // Vertical and horizontal exits, as on the rooms' walls.
+        assert!(foot_is_on_segment([5.1, 1.0], [5.0, 0.38], [5.0, 1.84]));
+        assert!(!foot_is_on_segment([5.1, 1.9], [5.0, 0.38], [5.0, 1.84]));
+        assert!(foot_is_on_segment([41.0, -0.1], [39.8, 0.0], [42.2, 0.0]));
+        assert!(!foot_is_on_segment([39.7, -0.1], [39.8, 0.0], [42.2, 0.0]));
+    }
+
+    #[test]
     fn local_solve_is_exact_for_axis_and_diagonal_plane_waves() {
         let grid = Grid::covering(0.0, 0.0, 1.0, 1.0, 0.5);
         // Node (1, 1) = index 4 with left neighbour 0.3 and bottom 0.3.
