@@ -2065,6 +2065,16 @@ mod tests {
             }
         }
         assert_eq!(residual_into(&mut [], &[], &[]), 0.0);
+        // A NaN anywhere, in the four lanes or in the remainder, makes the result NaN.
+        for len in 1..11 {
+            for at in 0..len {
+                let rhs = vec![1.0; len];
+                let mut kv = vec![0.5; len];
+                kv[at] = f64::NAN;
+                let mut step = vec![0.0; len];
+                assert!(residual_into(&mut step, &rhs, &kv).is_nan(), "len {len}, at {at}");
+            }
+        }
     }
 
     #[test]
