@@ -2048,6 +2048,23 @@ mod tests {
     }
 
     #[test]
+    fn refinement_of_inconsistent_equations_stops_after_its_first_steps_along_the_ray() {
+        // x₀ ≥ 1 and x₀ ≤ 0.5 both in the support: their equations have no solution, and each
+        // refinement step moves the multipliers along the ray (1, 1) by 0.25/δ = 2.5e8. The
+        // steps do not contract, so refinement stops after the second (and one more pass
+        // measures the residual): about 7.5e8. Run to its 50 steps, it reached 1.25e10.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, -0.5]).unwrap();
+        let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
+        let mut v = vec![0.0; 3];
+        let out = system.refine(&[0.0, 1.0, -0.5], &mut v).unwrap();
+        assert!(!out.solved);
+        assert!((out.second - 0.25).abs() < 1e-9, "{}", out.second);
+        assert!(v[1].abs() < 1e9 && v[2].abs() < 1e9, "{v:?}");
+        assert!(v[1].abs() > 1e8, "it did move along the ray: {v:?}");
+    }
+
+    #[test]
     fn residual_into_takes_the_largest_magnitude_over_lanes_and_remainder() {
         for len in 0..11 {
             for at in 0..len {
@@ -2072,7 +2089,10 @@ mod tests {
                 let mut kv = vec![0.5; len];
                 kv[at] = f64::NAN;
                 let mut step = vec![0.0; len];
-                assert!(residual_into(&mut step, &rhs, &kv).is_nan(), "len {len}, at {at}");
+                assert!(
+                    residual_into(&mut step, &rhs, &kv).is_nan(),
+                    "len {len}, at {at}"
+                );
             }
         }
     }
