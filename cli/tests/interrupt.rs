@@ -6,11 +6,12 @@
 
 #[path = "../../tests/common/mod.rs"]
 mod common;
+mod support;
 
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-use common::checker::scratch;
+use support::sweep_run_command;
 
 /// 100 people for 1000 s: far longer than the test waits.
 const LONG: &str = r#"
@@ -33,18 +34,8 @@ trajectory_every = 0.01
 
 #[test]
 fn ctrl_c_stops_the_run_with_its_files_finished() {
-    let dir = scratch("interrupt");
-    let scene = dir.join("long.toml");
-    std::fs::write(&scene, LONG).unwrap();
-    let out = dir.join("out");
-    let child = Command::new(env!("CARGO_BIN_EXE_sweep"))
-        .args([
-            "run",
-            scene.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .args(["--threads", "1"])
+    let (mut command, out) = sweep_run_command("interrupt", LONG, &["--threads", "1"]);
+    let child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -59,7 +50,7 @@ fn ctrl_c_stops_the_run_with_its_files_finished() {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
-    let killed = Command::new("kill")
+    let killed = std::process::Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
         .unwrap();

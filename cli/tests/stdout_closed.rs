@@ -3,10 +3,11 @@
 
 #[path = "../../tests/common/mod.rs"]
 mod common;
+mod support;
 
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 
-use common::checker::scratch;
+use support::sweep_run_command;
 
 const SMALL: &str = r#"
 name = "small"
@@ -29,18 +30,8 @@ t_end = 1.0
 /// `sweep run` on [`SMALL`] in the scratch directory `name`, its standard output `stdout`:
 /// the exit code, standard error, and whether `trajectory.csv` and `summary.json` exist.
 fn run_with_stdout(name: &str, stdout: Stdio, close_at_once: bool) -> (Option<i32>, String, bool) {
-    let dir = scratch(name);
-    let scene = dir.join("small.toml");
-    std::fs::write(&scene, SMALL).unwrap();
-    let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_sweep"))
-        .args([
-            "run",
-            scene.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .args(["--threads", "1"])
+    let (mut command, out) = sweep_run_command(name, SMALL, &["--threads", "1"]);
+    let mut child = command
         .stdout(stdout)
         .stderr(Stdio::piped())
         .spawn()

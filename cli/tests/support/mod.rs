@@ -8,6 +8,7 @@ use std::process::Command;
 use crate::common::checker::scratch;
 
 /// The outcome of `sweep run`.
+#[allow(dead_code)] // each test binary compiles this module and uses part of it
 pub struct CliRun {
     /// Exit status success.
     pub success: bool,
@@ -17,20 +18,30 @@ pub struct CliRun {
     pub out: PathBuf,
 }
 
-/// Writes `scene` and runs the real `sweep run` binary on it with `args`.
-pub fn sweep_run(name: &str, scene: &str, args: &[&str]) -> CliRun {
+/// Writes `scene` to a fresh scratch directory `name` and makes the `sweep run` command on
+/// it with `args`, its output directory `out` there (returned), for a caller that spawns it
+/// itself (to choose its standard streams, or signal it).
+#[allow(dead_code)] // each test binary compiles this module and uses part of it
+pub fn sweep_run_command(name: &str, scene: &str, args: &[&str]) -> (Command, PathBuf) {
     let dir = scratch(name);
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, scene).unwrap();
     let out = dir.join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_sweep"))
+    let mut command = Command::new(env!("CARGO_BIN_EXE_sweep"));
+    command
         .arg("run")
         .arg(&path)
         .arg("--out")
         .arg(&out)
-        .args(args)
-        .output()
-        .expect("running sweep");
+        .args(args);
+    (command, out)
+}
+
+/// Writes `scene` and runs the real `sweep run` binary on it with `args`.
+#[allow(dead_code)]
+pub fn sweep_run(name: &str, scene: &str, args: &[&str]) -> CliRun {
+    let (mut command, out) = sweep_run_command(name, scene, args);
+    let o = command.output().expect("running sweep");
     CliRun {
         success: o.status.success(),
         output: format!(
