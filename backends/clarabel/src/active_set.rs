@@ -2049,10 +2049,11 @@ mod tests {
 
     #[test]
     fn refinement_of_inconsistent_equations_stops_after_its_first_steps_along_the_ray() {
-        // x₀ ≥ 1 and x₀ ≤ 0.5 both in the support: their equations have no solution, and each
-        // refinement step moves the multipliers along the ray (1, 1) by 0.25/δ = 2.5e8. The
-        // steps do not contract, so refinement stops after the second (and one more pass
-        // measures the residual): about 7.5e8. Run to its 50 steps, it reached 1.25e10.
+        // x₀ ≥ 1 and x₀ ≤ 0.5 both in the support: their equations have no solution. Each
+        // refinement step moves the multipliers along the ray (1, 1) by 0.25/δ = 2.5e8, while
+        // x₀ settles at 0.75 within three steps, where refinement stops (the first block no
+        // longer moves): multipliers of about 7.5e8. A rule that also waited for the steps to
+        // contract (the stop rule's `||` made `&&`) ran to the cap of 50 steps: 1.25e10.
         let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
         let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, -0.5]).unwrap();
         let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
