@@ -35,13 +35,13 @@ pub fn finish() -> Option<String> {
     failed.clone().flatten()
 }
 
-/// `println!` to [`write`].
+/// `println!` to [`write()`].
 macro_rules! outln {
     () => { $crate::stdout::write(format_args!("\n")) };
     ($($arg:tt)*) => { $crate::stdout::write(format_args!("{}\n", format_args!($($arg)*))) };
 }
 
-/// `print!` to [`write`].
+/// `print!` to [`write()`].
 macro_rules! out {
     ($($arg:tt)*) => { $crate::stdout::write(format_args!($($arg)*)) };
 }
