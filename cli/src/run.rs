@@ -141,7 +141,8 @@ fn remove_stale_outputs(out: &std::path::Path, formats: &[TrajectoryFormat]) -> 
             let name = entry.file_name();
             let name = name.to_string_lossy();
             let ours = name == "final.svg"
-                || (name.starts_with('t')
+                || (name.len() > "t.svg".len()
+                    && name.starts_with('t')
                     && name.ends_with(".svg")
                     && name[1..name.len() - 4]
                         .chars()
