@@ -2048,6 +2048,28 @@ mod tests {
     }
 
     #[test]
+    fn refinement_goes_on_while_its_steps_contract_tenfold_and_gives_up_when_they_do_not() {
+        // x₀ ≥ 1 and x₀ + ε x₁ ≥ 1 + ε, both in the support: nearly dependent rows, whose
+        // `A Aᵀ` has a smallest eigenvalue of about ε²/2 against the factor's δ = 1e-9, so
+        // each refinement step shrinks the error by about δ/(δ + ε²/2).
+        let refined = |e: f64| {
+            let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(0, 1.0), (1, e)]]);
+            let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 1.0 + e]).unwrap();
+            let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
+            let mut v = vec![0.0; 4];
+            system.refine(&[0.0, 0.0, 1.0, 1.0 + e], &mut v).unwrap()
+        };
+        // ε = 1.5e-4: steps shrink by about 0.08, and refinement runs on until it is solved
+        // (nine steps).
+        let fast = refined(1.5e-4);
+        assert!(fast.solved && fast.second < 1e-12, "{}", fast.second);
+        // ε = 3e-5: about 0.2 per step, too slow to be worth it: refinement gives up after its
+        // second step, its residual still 7e-6 (run on, it reached 1.3e-13).
+        let slow = refined(3e-5);
+        assert!(!slow.solved && slow.second > 1e-7, "{}", slow.second);
+    }
+
+    #[test]
     fn refinement_of_inconsistent_equations_stops_after_its_first_steps_along_the_ray() {
         // x₀ ≥ 1 and x₀ ≤ 0.5 both in the support: their equations have no solution. Each
         // refinement step moves the multipliers along the ray (1, 1) by 0.25/δ = 2.5e8, while
