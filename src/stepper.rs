@@ -811,9 +811,9 @@ impl<'p> Stepper<'p> {
                 // A path that turns inside the step moves the set where neither end sees it
                 // (4 m out and back within one step went through two people unnoticed): the
                 // length of its path in the step bounds how far `g` can fall there.
-                let travel = fam.travel_within(idx, t_k, t_next);
-                let travels_too_far =
-                    margin.is_some() && travel.is_some_and(|t| t.distance >= clearance);
+                // Asked only where it can refuse the step: it is per member, at every step.
+                let travel = margin.and_then(|_| fam.travel_within(idx, t_k, t_next));
+                let travels_too_far = travel.is_some_and(|t| t.distance >= clearance);
                 if cos < 0.0 || too_far || travels_too_far {
                     let fastest = travel.map_or(speed, |t| t.max_speed.max(speed));
                     let suggested_h = if fastest > 0.0 && clearance > 0.0 {

@@ -39,7 +39,10 @@ impl Motion {
         let Motion::Path(p) = self else {
             return None;
         };
-        if !p.iter().any(|&(t, _)| t0 < t && t < t1) {
+        // Waypoints are in time order: the first after t0, found by bisection, since the
+        // stepper asks this of every person against the shape at every step.
+        let next = p.partition_point(|&(t, _)| t <= t0);
+        if !p.get(next).is_some_and(|&(t, _)| t < t1) {
             return None;
         }
         let mut travel = Travel {
