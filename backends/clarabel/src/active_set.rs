@@ -2070,6 +2070,64 @@ mod tests {
     }
 
     #[test]
+    fn refinement_gives_up_on_slow_contraction_at_any_scale_of_the_steps() {
+        // The slow case above with every right-hand side a thousandth as large: the steps
+        // are a thousandth as large too, and shrink by the same factor, so refinement gives
+        // up as it did. The rule compares each step with the one before (a ratio); a rule
+        // against the reciprocal of the last step would run on here until solved.
+        let e = 3e-5;
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(0, 1.0), (1, e)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1e-3, 1e-3 * (1.0 + e)]).unwrap();
+        let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
+        let mut v = vec![0.0; 4];
+        let slow = system
+            .refine(&[0.0, 0.0, 1e-3, 1e-3 * (1.0 + e)], &mut v)
+            .unwrap();
+        assert!(!slow.solved && slow.second > 1e-10, "{}", slow.second);
+    }
+
+    #[test]
+    fn refinement_tolerance_grows_with_the_right_hand_side() {
+        // Well-conditioned equations whose right-hand side is near 1e6: no residual can fall
+        // far below the rounding of numbers that size (about 1e-10), and the tolerance,
+        // relative to the right-hand side (1e-13 · 1e6 = 1e-7), takes that as solved. One
+        // that shrank with the scale would never be met, and refinement would give up with
+        // the equations unsolved.
+        let rows = [
+            vec![
+                (0, 0.7310585786300049),
+                (1, 0.2689414213699951),
+                (2, -0.1192029220221176),
+            ],
+            vec![
+                (1, -0.6224593312018546),
+                (3, 0.8807970779778823),
+                (4, 0.3775406687981454),
+            ],
+            vec![(0, 0.0474258731775668), (2, 0.9525741268224334), (5, -0.5)],
+            vec![
+                (3, 0.1824255238063563),
+                (4, -0.8175744761936437),
+                (5, 0.9933071490757153),
+            ],
+        ];
+        let rhs = [1.0e6 / 3.0, 2.0e6 / 7.0, -1.0e6 / 11.0, 0.9e6 / 13.0];
+        let a = SparseRows::from_rows(6, &rows);
+        let p = ProjectionProblem::new(vec![0.0; 6], a, rhs.to_vec()).unwrap();
+        let mut system = ActiveSystem::sparse(&p, &[0, 1, 2, 3]).unwrap();
+        let mut v = vec![0.0; 10];
+        let mut full_rhs = vec![0.0; 6];
+        full_rhs.extend_from_slice(&rhs);
+        let refined = system.refine(&full_rhs, &mut v).unwrap();
+        assert!(refined.solved, "{}", refined.second);
+        // And the answer satisfies the equations to the rounding of that scale.
+        for (row, r) in rows.iter().zip(rhs) {
+            let ax: f64 = row.iter().map(|&(c, a)| a * v[c]).sum();
+            assert!((ax - r).abs() < 1e-7, "{ax} against {r}");
+        }
+    }
+
+    #[test]
     fn refinement_of_inconsistent_equations_stops_after_its_first_steps_along_the_ray() {
         // x₀ ≥ 1 and x₀ ≤ 0.5 both in the support: their equations have no solution. Each
         // refinement step moves the multipliers along the ray (1, 1) by 0.25/δ = 2.5e8, while
