@@ -43,11 +43,13 @@
 //!
 //! Those tests allow `1e-12` (relative), which jams need to finish at all; an answer that
 //! uses that room (a row violated, or the support's equations left unsolved, by more than
-//! `1e-13`) is finished by a second pass at `1e-13` from its own support, under the same cap
+//! `1e-15`) is finished by a second pass at `1e-15` from its own support, under the same cap
 //! of iterations, and stands as it is when that pass does not converge. On a jam with more
 //! tight rows than unknowns the feasible set is a sliver around the projection, and two
-//! points that pass the `1e-12` tests can lie thousands of times further apart than that
-//! (measured in `docs/backends.md`).
+//! points that pass the `1e-12` tests can lie millions of times further apart than that
+//! (measured in `docs/backends.md`). The second pass tells a support whose rows are nearly
+//! dependent from one whose equations are inconsistent by conjugate gradients where
+//! refinement stalls ([`SECOND_PASS`]).
 //!
 //! The same method polishes Clarabel's interior-point answers (started from the interior-point
 //! guess, see the crate documentation) and is the whole of the native backend
@@ -77,9 +79,57 @@ const REFINE_TOL: f64 = 1e-13;
 /// The equations of the support are taken as inconsistent, and a row outside it as violated,
 /// beyond this, relative to `max(1, ‖r‖∞)`.
 const ACTIVE_TOL: f64 = 1e-12;
-/// The tolerance of the second pass ([`second_pass`]), relative as [`ACTIVE_TOL`]: the
-/// refinement's own ([`REFINE_TOL`]), below which a support's equations count as solved.
-const SECOND_PASS_TOL: f64 = REFINE_TOL;
+/// The tolerance of the second pass ([`second_pass`]), relative as [`ACTIVE_TOL`], and of its
+/// refinement, below which a support's equations count as solved there.
+///
+/// On a jam the support's rows can be nearly dependent: at a door queue of the 2000-person
+/// evacuation, the projection's support (1588 rows) had a smallest singular value of 1.7e-5,
+/// and of the 10 000-person hall 7.7e-7. A point that violates a row, or leaves its support's
+/// equations unsolved, by `τ` can then be `τ/σ` from the projection: at `1e-13`, answers of the
+/// two backends lay 1.5e-8 and 1.9e-8 apart there, and 1.3e-9 to 3.2e-8 from the certified
+/// projection. The crowd's problems are posed in the displacement `x − q_k`, whose rows and
+/// right-hand sides are of the order of a step's travel, so `1e-15` is still a hundred times
+/// the rounding of `r − A d`; answers finished at it came within 3e-10 of the projection on
+/// both blocks (`docs/backends.md`).
+const SECOND_PASS_TOL: f64 = 1e-15;
+
+/// The tests of one pass of the method.
+#[derive(Debug, Clone, Copy)]
+struct Tolerances {
+    /// A row outside the support is violated, and the support's equations inconsistent,
+    /// beyond this, relative to `max(1, ‖r‖∞)`.
+    active: f64,
+    /// Refinement's, relative to `max(1, ‖right-hand side‖∞)` (see [`ActiveSystem::refine`]).
+    refine: f64,
+    /// Whether a refinement that stalls is followed by conjugate gradients on the support's
+    /// equations ([`ActiveSystem::least_squares`]).
+    least_squares: bool,
+}
+
+/// The first pass: tests at [`ACTIVE_TOL`], refinement alone.
+const FIRST_PASS: Tolerances = Tolerances {
+    active: ACTIVE_TOL,
+    refine: REFINE_TOL,
+    least_squares: false,
+};
+
+/// The second pass: tests and refinement at [`SECOND_PASS_TOL`], and a refinement that stalls
+/// followed by conjugate gradients. Refinement (the proximal-point method with step `1/δ`)
+/// contracts an error along a singular vector of `A_P` by `δ/(σ² + δ)` per step, so it stalls
+/// on rows nearly dependent (`σ² ≲ 10δ`, `σ ≲ 1e-4`) whether or not their equations are
+/// consistent, and the method then took consistent supports for inconsistent ones: from an
+/// answer of Clarabel's polish at the door queue above, a second pass at `1e-13` dropped and
+/// took back the same rows until it restarted and ran out of its 1170 iterations. Conjugate
+/// gradients tell the two apart in two or three steps there.
+const SECOND_PASS: Tolerances = Tolerances {
+    active: SECOND_PASS_TOL,
+    refine: SECOND_PASS_TOL,
+    least_squares: true,
+};
+
+/// Most conjugate-gradient steps after a stalled refinement: on the nearly dependent supports
+/// where they succeed they take two or three.
+const LEAST_SQUARES_STEPS: usize = 8;
 
 /// Where the method starts.
 #[derive(Debug, Clone)]
@@ -242,6 +292,13 @@ struct Scratch {
     /// Refinement's product `K₀ v` and step.
     product: Vec<f64>,
     step: Vec<f64>,
+    /// Conjugate gradients' vectors ([`ActiveSystem::least_squares`]): by unknown, `A_Pᵀ·`;
+    /// by row, the residual, the preconditioned residual, the direction and its product.
+    by_unknown: Vec<f64>,
+    residual: Vec<f64>,
+    preconditioned: Vec<f64>,
+    direction: Vec<f64>,
+    product_g: Vec<f64>,
     /// Bordering's marks by row of the problem: whether a row is in the next support, and
     /// its position in the factored one (`usize::MAX` when not), clear between calls.
     in_next: Vec<bool>,
@@ -1105,17 +1162,40 @@ impl ActiveSystem {
         }
     }
 
-    /// Iterative refinement of `K₀ v = rhs` from `v`, until the residual is below
-    /// [`REFINE_TOL`] (relative), the first block of `v` stops moving by more than that, or
-    /// [`REFINE_STEPS`] steps. `None` when the numbers stop being finite.
-    fn refine(&mut self, rhs: &[f64], v: &mut [f64]) -> Option<Refined> {
+    /// Iterative refinement of `K₀ v = rhs` from `v`, until the residual is below `tol`
+    /// (relative to `max(1, ‖rhs‖∞)`), the first block of `v` stops moving by more than that,
+    /// or [`REFINE_STEPS`] steps; with `least_squares`, a refinement that ends unsolved is
+    /// followed by [`Self::least_squares`], whose answer replaces it when it solves the
+    /// equations. `None` when the numbers stop being finite.
+    fn refine(
+        &mut self,
+        rhs: &[f64],
+        v: &mut [f64],
+        tol: f64,
+        least_squares: bool,
+    ) -> Option<Refined> {
         let mut kv = std::mem::take(&mut self.scratch.product);
         let mut step = std::mem::take(&mut self.scratch.step);
         kv.resize(rhs.len(), 0.0);
         step.resize(rhs.len(), 0.0);
-        let refined = self.refine_with(rhs, v, &mut kv[..rhs.len()], &mut step[..rhs.len()]);
+        let refined = self.refine_with(rhs, v, &mut kv[..rhs.len()], &mut step[..rhs.len()], tol);
         (self.scratch.product, self.scratch.step) = (kv, step);
-        refined
+        match refined {
+            Some(refined) if least_squares && !refined.solved => {
+                // Tried on a copy: the refinement's answer stands when this one does not
+                // solve the equations either (on inconsistent ones its residual is the ray
+                // the method follows, as it always was).
+                let mut w = v.to_vec();
+                match self.least_squares(rhs, &mut w, tol) {
+                    Some(better) if better.solved => {
+                        v.copy_from_slice(&w);
+                        Some(better)
+                    }
+                    _ => Some(refined),
+                }
+            }
+            other => other,
+        }
     }
 
     /// [`Self::refine`] with the work vectors `kv` and `step` (as long as `rhs`).
@@ -1125,13 +1205,14 @@ impl ActiveSystem {
         v: &mut [f64],
         kv: &mut [f64],
         step: &mut [f64],
+        tol: f64,
     ) -> Option<Refined> {
         let n = self.n;
         let scale = rhs.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
         if !scale.is_finite() {
             return None;
         }
-        let tol = REFINE_TOL * scale;
+        let tol = tol * scale;
         let mut steps = 0;
         let mut last_moved = f64::INFINITY;
         loop {
@@ -1164,6 +1245,139 @@ impl ActiveSystem {
             }
             last_moved = moved;
         }
+    }
+}
+
+impl ActiveSystem {
+    /// `out = A_Pᵀ μ`, by unknown of the problem.
+    fn transposed_times(&self, mu: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.resize(self.n, 0.0);
+        for (row, m) in self.rows.iter().zip(mu) {
+            for &(c, a) in row {
+                out[c] += a * m;
+            }
+        }
+    }
+
+    /// `out = g − A_P (f + A_Pᵀ μ)`, by row of the support, with `d = f + A_Pᵀ μ` left in
+    /// `d`: the second block of the residual of `K₀ [d; −μ] = [f; g]`, whose first block is
+    /// then zero.
+    fn support_residual(
+        &self,
+        f: &[f64],
+        g: &[f64],
+        mu: &[f64],
+        d: &mut Vec<f64>,
+        out: &mut Vec<f64>,
+    ) {
+        self.transposed_times(mu, d);
+        d.iter_mut().zip(f).for_each(|(di, fi)| *di += fi);
+        out.clear();
+        out.extend(
+            self.rows
+                .iter()
+                .zip(g)
+                .map(|(row, gi)| gi - row.iter().map(|&(c, a)| a * d[c]).sum::<f64>()),
+        );
+    }
+
+    /// The support's equations `A_P d = g` with `d = f + A_Pᵀμ` (the system `K₀ [d; −μ] =
+    /// [f; g]`), solved in the least-squares sense by conjugate gradients from the `μ` of
+    /// `v = [d; −μ]`: on `G Δ = ρ` (`G = A_P A_Pᵀ`, `ρ` the residual at `μ`, `μ ← μ + Δ`),
+    /// preconditioned by `(G + δI)⁻¹ G (G + δI)⁻¹`, two solves with the factor. On a singular
+    /// vector of `A_P` the preconditioned `G` is `σ⁴/(σ² + δ)²`: near 1 where refinement was
+    /// fast, still well away from zero where it stalled (`σ² ≈ δ`), and zero on dependent rows,
+    /// which the preconditioner does not amplify (the plain `(G + δI)⁻¹` would, by `1/δ`, and
+    /// the method then diverges on inconsistent equations). So the steps stay in the range of
+    /// `G`: `μ` moves to the multipliers nearest it that solve the equations, as refinement's,
+    /// and on inconsistent equations the residual tends to its part orthogonal to the rows.
+    /// At most [`LEAST_SQUARES_STEPS`] steps; `None` when the numbers stop being finite.
+    fn least_squares(&mut self, rhs: &[f64], v: &mut [f64], tol: f64) -> Option<Refined> {
+        let n = self.n;
+        let scale = rhs.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
+        let tol = tol * scale;
+        let (f, g) = rhs.split_at(n);
+        let mut mu: Vec<f64> = v[n..].iter().map(|w| -w).collect();
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let Scratch {
+            by_unknown: d,
+            residual: rho,
+            preconditioned: z,
+            direction: p,
+            product_g: q,
+            step: solved,
+            ..
+        } = &mut scratch;
+        self.support_residual(f, g, &mu, d, rho);
+        p.clear();
+        p.resize(mu.len(), 0.0);
+        let mut rz_before = 0.0;
+        let mut finite = true;
+        for step in 0..LEAST_SQUARES_STEPS {
+            let r = rho.iter().fold(0.0, |acc: f64, v| max_or_nan(acc, v.abs()));
+            if r.is_nan() {
+                finite = false;
+                break;
+            }
+            if r <= tol {
+                break;
+            }
+            // z = (G + δI)⁻¹ G (G + δI)⁻¹ ρ: K_δ [u; ·] = [0; ρ] has u = A_Pᵀ(G + δI)⁻¹ρ, and
+            // K_δ [·; w] = [u; 0] has w = (G + δI)⁻¹ A_P u.
+            solved.clear();
+            solved.resize(n, 0.0);
+            solved.extend_from_slice(rho);
+            self.solve_in_place(solved);
+            solved[n..].iter_mut().for_each(|x| *x = 0.0);
+            self.solve_in_place(solved);
+            z.clear();
+            z.extend_from_slice(&solved[n..]);
+            let rz: f64 = rho.iter().zip(z.iter()).map(|(a, b)| a * b).sum();
+            if rz.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                // ρ is orthogonal to the rows: least squares reached (or rounding, or NaN).
+                break;
+            }
+            let beta = if step == 0 { 0.0 } else { rz / rz_before };
+            p.iter_mut()
+                .zip(z.iter())
+                .for_each(|(pi, zi)| *pi = zi + beta * *pi);
+            rz_before = rz;
+            // q = G p = A_P (A_Pᵀ p).
+            self.transposed_times(p, d);
+            q.clear();
+            q.extend(
+                self.rows
+                    .iter()
+                    .map(|row| row.iter().map(|&(c, a)| a * d[c]).sum::<f64>()),
+            );
+            let pq: f64 = p.iter().zip(q.iter()).map(|(a, b)| a * b).sum();
+            if pq.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                break;
+            }
+            let alpha = rz / pq;
+            mu.iter_mut()
+                .zip(p.iter())
+                .for_each(|(m, pi)| *m += alpha * pi);
+            rho.iter_mut()
+                .zip(q.iter())
+                .for_each(|(r, qi)| *r -= alpha * qi);
+        }
+        // The residual measured afresh, not as the recurrence left it.
+        self.support_residual(f, g, &mu, d, rho);
+        let second = rho.iter().fold(0.0, |acc: f64, v| max_or_nan(acc, v.abs()));
+        finite &= !second.is_nan() && d.iter().all(|x| x.is_finite());
+        let refined = finite.then(|| {
+            v[..n].copy_from_slice(d);
+            v[n..].iter_mut().zip(&mu).for_each(|(w, m)| *w = -m);
+            Refined {
+                second,
+                solved: second <= tol,
+                residual: rho.clone(),
+            }
+        });
+        self.scratch = scratch;
+        refined
     }
 }
 
@@ -1278,7 +1492,7 @@ fn solve_with(
         problem,
         start,
         cap,
-        ACTIVE_TOL,
+        FIRST_PASS,
         memory.as_mut(),
         None,
         before_iteration,
@@ -1344,7 +1558,7 @@ fn second_pass(
             .collect(),
         join_at_most: Some(1),
     };
-    match run(problem, start, cap, SECOND_PASS_TOL, memory, held) {
+    match run(problem, start, cap, SECOND_PASS, memory, held) {
         Ok(Finished {
             outcome: second, ..
         }) => Outcome {
@@ -1355,19 +1569,18 @@ fn second_pass(
     }
 }
 
-/// The method from `start`, for at most `cap` iterations, at tolerance `active_tol`
-/// (relative, as [`ACTIVE_TOL`]), its first iteration bordering `held` when it can. The
-/// answer comes with the factorization of its last iteration and whether it needs a second
-/// pass.
+/// The method from `start`, for at most `cap` iterations, with the tests of `pass`, its first
+/// iteration bordering `held` when it can. The answer comes with the factorization of its
+/// last iteration and whether it needs a second pass.
 fn run(
     problem: &ProjectionProblem,
     start: Start,
     cap: u32,
-    active_tol: f64,
+    pass: Tolerances,
     memory: Option<&mut Remembered<'_>>,
     held: Option<ActiveSystem>,
 ) -> Result<Finished, Failure> {
-    run_watched(problem, start, cap, active_tol, memory, held, &mut |_| {})
+    run_watched(problem, start, cap, pass, memory, held, &mut |_| {})
 }
 
 /// [`run`], calling `before_iteration(k)` before each iteration `k`.
@@ -1375,7 +1588,7 @@ fn run_watched(
     problem: &ProjectionProblem,
     start: Start,
     cap: u32,
-    active_tol: f64,
+    pass: Tolerances,
     mut memory: Option<&mut Remembered<'_>>,
     mut held: Option<ActiveSystem>,
     before_iteration: &mut dyn FnMut(u32),
@@ -1392,7 +1605,7 @@ fn run_watched(
         join_at_most,
     } = start;
     let scale = r.iter().fold(1.0, |acc: f64, v| acc.max(v.abs()));
-    let tol = active_tol * scale;
+    let tol = pass.active * scale;
     // d = A_Pᵀλ: the displacement the starting multipliers describe.
     let mut d = vec![0.0; n];
     for (&i, &l) in support.iter().zip(&lambda) {
@@ -1452,7 +1665,7 @@ fn run_watched(
         v.extend_from_slice(&d);
         v.extend(lambda.iter().map(|l| -l));
         let refined = system
-            .refine(&rhs, &mut v)
+            .refine(&rhs, &mut v, pass.refine, pass.least_squares)
             .ok_or(Failure::Numerical("refinement"))?;
         held = Some(system);
         d.copy_from_slice(&v[..n]);
@@ -1823,7 +2036,7 @@ mod tests {
         // x₀ ≥ 1, and x₁ ≥ 5e-13, which y = 0 violates by less than ACTIVE_TOL.
         let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
         let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 5e-13]).unwrap();
-        let first = run(&p, start_from(vec![0], 2), 10, ACTIVE_TOL, None, None)
+        let first = run(&p, start_from(vec![0], 2), 10, FIRST_PASS, None, None)
             .unwrap()
             .outcome;
         assert_eq!((first.x[1], first.lambda[1]), (0.0, 0.0));
@@ -1840,7 +2053,7 @@ mod tests {
         // drops the first row and lands on the second bound.
         let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, 1.0)]]);
         let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, 1.0 + 5e-13]).unwrap();
-        let first = run(&p, start_from(vec![0, 1], 2), 10, ACTIVE_TOL, None, None)
+        let first = run(&p, start_from(vec![0, 1], 2), 10, FIRST_PASS, None, None)
             .unwrap()
             .outcome;
         assert!(first.x[0] < 1.0 + 4e-13 && first.lambda.iter().all(|l| *l > 0.0));
@@ -1881,19 +2094,19 @@ mod tests {
 
     #[test]
     fn both_tolerances_are_relative_to_the_size_of_r() {
-        // y = 0, x₀ ≥ 1000 and x₁ ≥ 5e-11: r reaches 1000, so the first pass takes the second
-        // row as satisfied (5e-11 < 1e-12 · 1000) and so does the second pass (< 1e-13 · 1000).
+        // y = 0, x₀ ≥ 1000 and x₁ ≥ 5e-13: r reaches 1000, so the first pass takes the second
+        // row as satisfied (5e-13 < 1e-12 · 1000) and so does the second pass (< 1e-15 · 1000).
         let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
-        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1000.0, 5e-11]).unwrap();
-        let first = run(&p, start_from(vec![0], 2), 10, ACTIVE_TOL, None, None)
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1000.0, 5e-13]).unwrap();
+        let first = run(&p, start_from(vec![0], 2), 10, FIRST_PASS, None, None)
             .unwrap()
             .outcome;
         assert_eq!((first.x[1], first.iterations), (0.0, 1));
         let outcome = solve(&p, start_from(vec![0], 2), 10).unwrap();
         assert_eq!((outcome.x[1], outcome.iterations), (0.0, 1));
-        // An answer 5e-12 short of the first row is within the second pass's 1e-10.
+        // An answer 4.5e-13 short of the first row is within the second pass's 1e-12.
         let short = Outcome {
-            x: vec![1000.0 - 5e-12, 0.0],
+            x: vec![1000.0 - 4.5e-13, 0.0],
             lambda: vec![1000.0, 0.0],
             iterations: 2,
         };
@@ -1928,7 +2141,7 @@ mod tests {
         let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
         let y = 1.0 + 2.5e-13;
         let p = ProjectionProblem::new(vec![y], a, vec![1.0, -(1.0 + 5e-13)]).unwrap();
-        let first = run(&p, start_from(vec![0, 1], 2), 10, ACTIVE_TOL, None, None)
+        let first = run(&p, start_from(vec![0, 1], 2), 10, FIRST_PASS, None, None)
             .unwrap()
             .outcome;
         assert!(first.lambda.iter().all(|l| *l > 0.1));
@@ -1954,15 +2167,7 @@ mod tests {
         // empty); the first pass's x₀ = 1 stands.
         let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, -1.0)]]);
         let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, -(1.0 - 5e-13)]).unwrap();
-        assert!(run(
-            &p,
-            start_from(vec![0, 1], 2),
-            10,
-            SECOND_PASS_TOL,
-            None,
-            None
-        )
-        .is_err());
+        assert!(run(&p, start_from(vec![0, 1], 2), 10, SECOND_PASS, None, None).is_err());
         let outcome = solve(&p, start_from(vec![0], 2), 10).unwrap();
         assert_eq!(outcome.x, vec![1.0]);
         assert!(p.kkt_residuals(&outcome.x, &outcome.lambda).max() <= 1e-12);
@@ -2023,8 +2228,18 @@ mod tests {
         let rhs: Vec<f64> = (0..size).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut fresh = ActiveSystem::sparse(p, support).unwrap();
         let (mut a, mut b) = (vec![0.0; size], vec![0.0; size]);
-        assert!(fresh.refine(&rhs, &mut a).unwrap().solved);
-        assert!(system.refine(&rhs, &mut b).unwrap().solved);
+        assert!(
+            fresh
+                .refine(&rhs, &mut a, REFINE_TOL, false)
+                .unwrap()
+                .solved
+        );
+        assert!(
+            system
+                .refine(&rhs, &mut b, REFINE_TOL, false)
+                .unwrap()
+                .solved
+        );
         max_difference(&a, &b)
     }
 
@@ -2038,13 +2253,22 @@ mod tests {
         let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
         let mut v = vec![0.0; 5];
         v[0] = f64::NAN;
-        assert!(system.refine(&[0.0; 5], &mut v).is_none());
+        assert!(system
+            .refine(&[0.0; 5], &mut v, REFINE_TOL, false)
+            .is_none());
         // And one entry too many for the four lanes, the remainder's: NaN there too.
         let mut w = vec![0.0; 5];
         w[4] = f64::NAN;
-        assert!(system.refine(&[0.0; 5], &mut w).is_none());
+        assert!(system
+            .refine(&[0.0; 5], &mut w, REFINE_TOL, false)
+            .is_none());
         let mut u = vec![0.0; 5];
-        assert!(system.refine(&[0.0; 5], &mut u).unwrap().solved);
+        assert!(
+            system
+                .refine(&[0.0; 5], &mut u, REFINE_TOL, false)
+                .unwrap()
+                .solved
+        );
     }
 
     #[test]
@@ -2057,7 +2281,9 @@ mod tests {
             let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, 1.0 + e]).unwrap();
             let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
             let mut v = vec![0.0; 4];
-            system.refine(&[0.0, 0.0, 1.0, 1.0 + e], &mut v).unwrap()
+            system
+                .refine(&[0.0, 0.0, 1.0, 1.0 + e], &mut v, REFINE_TOL, false)
+                .unwrap()
         };
         // ε = 1.5e-4: steps shrink by about 0.08, and refinement runs on until it is solved
         // (nine steps).
@@ -2081,7 +2307,12 @@ mod tests {
         let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
         let mut v = vec![0.0; 4];
         let slow = system
-            .refine(&[0.0, 0.0, 1e-3, 1e-3 * (1.0 + e)], &mut v)
+            .refine(
+                &[0.0, 0.0, 1e-3, 1e-3 * (1.0 + e)],
+                &mut v,
+                REFINE_TOL,
+                false,
+            )
             .unwrap();
         assert!(!slow.solved && slow.second > 1e-10, "{}", slow.second);
     }
@@ -2118,13 +2349,114 @@ mod tests {
         let mut v = vec![0.0; 10];
         let mut full_rhs = vec![0.0; 6];
         full_rhs.extend_from_slice(&rhs);
-        let refined = system.refine(&full_rhs, &mut v).unwrap();
+        let refined = system.refine(&full_rhs, &mut v, REFINE_TOL, false).unwrap();
         assert!(refined.solved, "{}", refined.second);
         // And the answer satisfies the equations to the rounding of that scale.
         for (row, r) in rows.iter().zip(rhs) {
             let ax: f64 = row.iter().map(|&(c, a)| a * v[c]).sum();
             assert!((ax - r).abs() < 1e-7, "{ax} against {r}");
         }
+    }
+
+    /// `x₀ ≥ 1` and `x₀ + ε x₁ ≥ 1 + 0.3 ε` (ε = 1e-5), both in the support: independent
+    /// rows whose smallest singular value (about ε/√2) is below `√δ`, with the solution
+    /// `d = (1, 0.3)`. Refinement contracts along that singular vector by
+    /// `δ/(σ² + δ) ≈ 0.95` a step and stops unsolved; conjugate gradients solve it.
+    fn nearly_dependent() -> (ProjectionProblem, Vec<f64>) {
+        let e = 1e-5;
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(0, 1.0), (1, e)]]);
+        let b = vec![1.0, 1.0 + 0.3 * e];
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, b.clone()).unwrap();
+        (p, [vec![0.0, 0.0], b].concat())
+    }
+
+    #[test]
+    fn least_squares_solves_nearly_dependent_rows_that_refinement_leaves_unsolved() {
+        let (p, rhs) = nearly_dependent();
+        for sparse in [false, true] {
+            let system = || {
+                if sparse {
+                    ActiveSystem::sparse(&p, &[0, 1]).unwrap()
+                } else {
+                    ActiveSystem::new(&p, &[0, 1], None).unwrap()
+                }
+            };
+            let mut v = vec![0.0; 4];
+            let plain = system()
+                .refine(&rhs, &mut v, SECOND_PASS_TOL, false)
+                .unwrap();
+            assert!(!plain.solved, "refinement alone stalls (sparse: {sparse})");
+            let mut v = vec![0.0; 4];
+            let out = system()
+                .refine(&rhs, &mut v, SECOND_PASS_TOL, true)
+                .unwrap();
+            assert!(
+                out.solved && out.second <= SECOND_PASS_TOL,
+                "{}",
+                out.second
+            );
+            assert!(
+                (v[0] - 1.0).abs() <= 1e-15 && (v[1] - 0.3).abs() <= 1e-9,
+                "{v:?}"
+            );
+            // d = A_Pᵀμ: μ₁ = 0.3/ε = 3e4, μ₀ = 1 − μ₁ (v holds −μ).
+            assert!(
+                (v[3] + 3e4).abs() <= 1e-5 && (v[2] + 1.0 - 3e4).abs() <= 1e-5,
+                "{v:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn least_squares_leaves_inconsistent_equations_to_the_ray() {
+        // x₀ ≥ 1 and x₀ ≥ 1 + 1e-10, both in the support: the same row twice with different
+        // right-hand sides. No step solves them; refinement's answer (its residual along the
+        // ray (1, −1)) is kept as it was.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, 1.0)]]);
+        let rhs = [0.0, 1.0, 1.0 + 1e-10];
+        let p = ProjectionProblem::new(vec![0.0], a, rhs[1..].to_vec()).unwrap();
+        let mut plain_v = vec![0.0; 3];
+        let plain = ActiveSystem::sparse(&p, &[0, 1])
+            .unwrap()
+            .refine(&rhs, &mut plain_v, SECOND_PASS_TOL, false)
+            .unwrap();
+        let mut v = vec![0.0; 3];
+        let out = ActiveSystem::sparse(&p, &[0, 1])
+            .unwrap()
+            .refine(&rhs, &mut v, SECOND_PASS_TOL, true)
+            .unwrap();
+        assert!(!out.solved);
+        assert_eq!(
+            (out.second, &out.residual, &v),
+            (plain.second, &plain.residual, &plain_v)
+        );
+        assert!(
+            out.residual[0] < 0.0 && out.residual[1] > 0.0,
+            "{:?}",
+            out.residual
+        );
+        // Conjugate gradients alone end at the least-squares point, x₀ = 1 + 5e-11, their
+        // residual ±5e-11 orthogonal to the row.
+        let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
+        let mut w = vec![0.0; 3];
+        let ls = system.least_squares(&rhs, &mut w, SECOND_PASS_TOL).unwrap();
+        assert!(!ls.solved);
+        assert!((w[0] - (1.0 + 5e-11)).abs() <= 1e-15, "{w:?}");
+        assert!((ls.residual[0] + 5e-11).abs() <= 1e-15 && (ls.residual[1] - 5e-11).abs() <= 1e-15);
+    }
+
+    #[test]
+    fn on_nearly_dependent_rows_the_method_ends_at_the_projection_to_rounding() {
+        // The rows of `nearly_dependent` as `x₀ ≥ 1` and `x₀ + ε x₁ ≥ 1 + 0.3 ε` from y = 0:
+        // the projection is d = (1, 0.3) if both multipliers were positive; they are not (μ₀
+        // = 1 − 3e4), so the projection keeps the second row alone:
+        // x = (1 + 0.3ε)/(1 + ε²) · (1, ε). Either way the method must finish at it.
+        let (p, _) = nearly_dependent();
+        let e: f64 = 1e-5;
+        let t = (1.0 + 0.3 * e) / (1.0 + e * e);
+        let outcome = solve(&p, start_from(vec![0, 1], 2), 20).unwrap();
+        assert!((outcome.x[0] - t).abs() <= 1e-15 && (outcome.x[1] - t * e).abs() <= 1e-15);
+        assert!(p.kkt_residuals(&outcome.x, &outcome.lambda).max() <= 1e-15);
     }
 
     #[test]
@@ -2138,7 +2470,9 @@ mod tests {
         let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, -0.5]).unwrap();
         let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
         let mut v = vec![0.0; 3];
-        let out = system.refine(&[0.0, 1.0, -0.5], &mut v).unwrap();
+        let out = system
+            .refine(&[0.0, 1.0, -0.5], &mut v, REFINE_TOL, false)
+            .unwrap();
         assert!(!out.solved);
         assert!((out.second - 0.25).abs() < 1e-9, "{}", out.second);
         assert!(v[1].abs() < 1e9 && v[2].abs() < 1e9, "{v:?}");
