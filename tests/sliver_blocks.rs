@@ -1,0 +1,211 @@
+//! Two jammed blocks where `--backend cross-native` used to stop: a door queue of the
+//! 2000-person evacuation at t = 14.73 s (2261 rows on 1620 unknowns) and of the 10 000-person
+//! hall at t = 12.31 s (2044 rows on 1704 unknowns), each with more tight rows than unknowns.
+//! Their feasible sets are slivers: the projection's support has a smallest singular value of
+//! 1.7e-5 and 7.7e-7, so a point that violates a row by `τ` can be `τ/σ` from it, and the two
+//! backends' answers, each violating a row by 4e-14 to 7e-14, lay 1.5e-8 and 1.9e-8 apart.
+//!
+//! Each file holds the block (`problem`), both backends' multipliers on it as the run left
+//! them (`native_lambda`, `clarabel_lambda`), and `reference_support`: the support of the
+//! projection found by an independent solver (the least-distance program as a dense
+//! non-negative least-squares problem, Lawson and Hanson's, in SciPy). The test does not
+//! take that support on trust: it projects onto the support's affine set itself (dense
+//! Cholesky, refined with residuals in twice the working precision) and checks the KKT
+//! conditions of the result, positive multipliers and every row satisfied, which pin the
+//! projection whatever the support came from.
+#![cfg(all(feature = "clarabel", feature = "native"))]
+
+use nalgebra::{DMatrix, DVector};
+use serde::Deserialize;
+use sweeping::api::conformance::max_gap;
+use sweeping::api::{ProjectionProblem, Projector};
+use sweeping::backends::{native_projector, ClarabelProjector};
+use sweeping_clarabel::active_set::{self, Start};
+
+/// How far an answer may be from the certified projection, and from the other backend's.
+/// The answers at the stops were 1.3e-9 to 3.2e-8 from it.
+const TOLERANCE: f64 = 1e-9;
+
+#[derive(Deserialize)]
+struct Sliver {
+    problem: ProjectionProblem,
+    native_lambda: Vec<f64>,
+    clarabel_lambda: Vec<f64>,
+    reference_support: Vec<usize>,
+}
+
+fn sliver(name: &str) -> Sliver {
+    let path = format!("{}/tests/data/{name}_qp.json", env!("CARGO_MANIFEST_DIR"));
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// `a + b` as a double-double `(sum, error)` (Knuth's two-sum).
+fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let v = s - a;
+    (s, (a - (s - v)) + (b - v))
+}
+
+/// `hi + lo` plus `x`, in double-double.
+fn add(acc: (f64, f64), x: (f64, f64)) -> (f64, f64) {
+    let (s, e) = two_sum(acc.0, x.0);
+    let e = e + acc.1 + x.1;
+    two_sum(s, e)
+}
+
+/// `a · b` exactly, as `(product, error)`.
+fn two_prod(a: f64, b: f64) -> (f64, f64) {
+    let p = a * b;
+    (p, a.mul_add(b, -p))
+}
+
+/// The projection of `y` onto `{x : A_S x = b_S}` with `x − y = A_Sᵀμ`, certified: `(x, μ)`
+/// with `μ` found by a dense Cholesky of `A_S A_Sᵀ` and refined with `x − y` and every
+/// residual kept in double-double, then rounded. Returns also the largest violation of any row
+/// and the largest residual of the support's equations, both at the double-double point.
+fn project_on_support(p: &ProjectionProblem, support: &[usize]) -> (Vec<f64>, Vec<f64>, f64, f64) {
+    let (n, k) = (p.dim(), support.len());
+    let mut a_s = DMatrix::<f64>::zeros(k, n);
+    for (t, &i) in support.iter().enumerate() {
+        for (c, v) in p.a().row(i) {
+            a_s[(t, c)] += v;
+        }
+    }
+    let g = &a_s * a_s.transpose();
+    let chol = g.cholesky().expect("the support's rows are independent");
+    // μ as double-double (hi, lo); the displacement d = A_Sᵀμ and the slacks likewise.
+    let mut mu = vec![(0.0, 0.0); k];
+    let displacement = |mu: &[(f64, f64)]| {
+        let mut d = vec![(0.0, 0.0); n];
+        for (t, &i) in support.iter().enumerate() {
+            for (c, v) in p.a().row(i) {
+                let (hi, e1) = two_prod(v, mu[t].0);
+                d[c] = add(d[c], (hi, e1 + v * mu[t].1));
+            }
+        }
+        d
+    };
+    // slackᵢ = aᵢ·(y + d) − bᵢ.
+    let slack = |d: &[(f64, f64)]| -> Vec<(f64, f64)> {
+        (0..p.n_rows())
+            .map(|i| {
+                let mut s = (-p.b()[i], 0.0);
+                for (c, v) in p.a().row(i) {
+                    let x = two_sum(p.y()[c], d[c].0);
+                    let x = (x.0, x.1 + d[c].1);
+                    let (hi, e1) = two_prod(v, x.0);
+                    s = add(s, (hi, e1 + v * x.1));
+                }
+                s
+            })
+            .collect()
+    };
+    for _ in 0..6 {
+        let s = slack(&displacement(&mu));
+        let residual = DVector::from_iterator(k, support.iter().map(|&i| -(s[i].0 + s[i].1)));
+        let step = chol.solve(&residual);
+        for (m, dm) in mu.iter_mut().zip(step.iter()) {
+            *m = add(*m, (*dm, 0.0));
+        }
+    }
+    let d = displacement(&mu);
+    let s = slack(&d);
+    let violation = s.iter().map(|v| -(v.0 + v.1)).fold(0.0, f64::max);
+    let unsolved = support
+        .iter()
+        .map(|&i| (s[i].0 + s[i].1).abs())
+        .fold(0.0, f64::max);
+    let x = (0..n).map(|c| p.y()[c] + (d[c].0 + d[c].1)).collect();
+    let multipliers = mu.iter().map(|m| m.0 + m.1).collect();
+    (x, multipliers, violation, unsolved)
+}
+
+/// The certified projection of the block: the KKT conditions checked at the point.
+fn certified_projection(s: &Sliver) -> Vec<f64> {
+    let (x, mu, violation, unsolved) = project_on_support(&s.problem, &s.reference_support);
+    let smallest = mu.iter().copied().fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "certified projection: {} rows in its support, smallest multiplier {smallest:.2e}, \
+         largest violation {violation:.2e}, support equations to {unsolved:.2e}",
+        mu.len()
+    );
+    assert!(
+        smallest > 1e-6,
+        "a multiplier is not positive: {smallest:e}"
+    );
+    // Rows outside the support that the data make dependent on it and inconsistent with it
+    // by a few units in the last place of `b` (both blocks have such rows): any answer in
+    // double precision leaves them violated by that much.
+    assert!(violation <= 1e-14, "a row is violated by {violation:e}");
+    assert!(
+        unsolved <= 1e-17,
+        "the support's equations are off by {unsolved:e}"
+    );
+    x
+}
+
+/// The active-set method restarted from each backend's multipliers at the stop, as each
+/// backend's second pass restarts from its first answer: both end at the projection.
+fn the_method_from_either_answer_ends_at_the_projection(name: &str) {
+    let s = sliver(name);
+    let x_star = certified_projection(&s);
+    let p = &s.problem;
+    let cap = 40 + u32::try_from(p.n_rows() / 2).unwrap();
+    let mut answers = Vec::new();
+    for (who, lambda) in [
+        ("native", &s.native_lambda),
+        ("clarabel", &s.clarabel_lambda),
+    ] {
+        let support: Vec<usize> = (0..lambda.len()).filter(|&t| lambda[t] > 0.0).collect();
+        let start = Start {
+            lambda: support.iter().map(|&t| lambda[t]).collect(),
+            support,
+            join: lambda.iter().map(|l| l.max(f64::MIN_POSITIVE)).collect(),
+            join_at_most: Some(1),
+        };
+        let outcome = active_set::solve(p, start, cap).expect("the method converges");
+        let off = max_gap(&outcome.x, &x_star);
+        eprintln!(
+            "{name}: from the {who} answer, {} iterations, {off:.2e} from the projection",
+            outcome.iterations
+        );
+        assert!(off <= TOLERANCE, "from the {who} answer: {off:e} off");
+        answers.push(outcome.x);
+    }
+    assert!(max_gap(&answers[0], &answers[1]) <= TOLERANCE);
+}
+
+/// Both backends on the block alone.
+fn both_backends_project_the_block(name: &str) {
+    let s = sliver(name);
+    let x_star = certified_projection(&s);
+    let native = native_projector().project(&s.problem).unwrap().x;
+    let clarabel = ClarabelProjector::default().project(&s.problem).unwrap().x;
+    let (dn, dc) = (max_gap(&native, &x_star), max_gap(&clarabel, &x_star));
+    eprintln!("{name}: native {dn:.2e}, Clarabel {dc:.2e} from the projection");
+    assert!(
+        dn <= TOLERANCE && dc <= TOLERANCE,
+        "native {dn:e}, Clarabel {dc:e}"
+    );
+    assert!(max_gap(&native, &clarabel) <= TOLERANCE);
+}
+
+#[test]
+fn large_evacuation_the_method_from_either_answer_ends_at_the_projection() {
+    the_method_from_either_answer_ends_at_the_projection("large_evacuation_sliver");
+}
+
+#[test]
+fn hall_the_method_from_either_answer_ends_at_the_projection() {
+    the_method_from_either_answer_ends_at_the_projection("hall_sliver");
+}
+
+#[test]
+fn large_evacuation_both_backends_project_the_block() {
+    both_backends_project_the_block("large_evacuation_sliver");
+}
+
+#[test]
+fn hall_both_backends_project_the_block() {
+    both_backends_project_the_block("hall_sliver");
+}
