@@ -282,6 +282,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         observers.push(i);
     }
     let result = built.run(projector.as_mut(), &mut observers);
+    summary.record_cross_check(projector.cross_check());
     summary
         .write_json(&summary_path)
         .with_context(|| format!("writing {}", summary_path.display()))?;
@@ -359,6 +360,17 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         "  max wall penetration: {}",
         worst(s.max_wall_penetration, &s.max_wall_penetration_at)
     );
+    if let Some(c) = &s.cross_check {
+        let mean = if c.compared > 0 {
+            c.sum_gap / c.compared as f64
+        } else {
+            0.0
+        };
+        outln!(
+            "  cross-check: {} projections compared, largest gap {:.3e}, mean {mean:.3e} (seconds: first backend {:.1}, second {:.1})",
+            c.compared, c.max_gap, c.first_seconds, c.second_seconds
+        );
+    }
     if let Some(e) = &s.error {
         outln!("  error: {e}");
     }

@@ -108,6 +108,38 @@ fn bench_runs_on_one_thread_and_refuses_an_empty_crowd_by_its_flag() {
 }
 
 #[test]
+fn a_cross_checked_run_reports_the_gaps_it_saw_and_another_run_reports_none() {
+    let run = sweep_run(
+        "cross-report",
+        JAM,
+        &["--backend", "cross-native", "--threads", "1"],
+    );
+    assert!(run.success, "{}", run.output);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.out.join("summary.json")).unwrap())
+            .unwrap();
+    let cross = &summary["cross_check"];
+    // Every solve was compared: the summary's solves, and the gaps are the two answers'.
+    assert_eq!(cross["compared"], summary["solves"], "{summary}");
+    let max_gap = cross["max_gap"].as_f64().unwrap();
+    assert!((0.0..=1e-8).contains(&max_gap), "{max_gap}");
+    assert!(cross["second_seconds"].as_f64().unwrap() > 0.0);
+    assert!(
+        run.output.contains(&format!(
+            "cross-check: {} projections compared, largest gap {max_gap:.3e}",
+            cross["compared"]
+        )),
+        "{}",
+        run.output
+    );
+    let plain = sweep_run("no-cross-report", JAM, &["--threads", "1"]);
+    assert!(plain.success, "{}", plain.output);
+    assert!(!plain.output.contains("cross-check"), "{}", plain.output);
+    let summary = std::fs::read_to_string(plain.out.join("summary.json")).unwrap();
+    assert!(!summary.contains("cross_check"), "{summary}");
+}
+
+#[test]
 fn a_run_refused_before_its_first_step_writes_its_start_and_counts_everybody_in() {
     // 1e13 steps, beyond the stepper's limit: refused when the run starts. It reported
     // "left: 120, remaining: 0" and wrote no trajectory.

@@ -325,6 +325,11 @@ pub struct RunSummary {
     pub max_wall_penetration: f64,
     /// Where and when it happened.
     pub max_wall_penetration_at: String,
+    /// With a cross-checking backend (`cross`, `cross-native`): how many projections the two
+    /// backends made, the largest and summed gaps between their answers (∞-norm; a failed
+    /// run's last gap included) and the seconds each spent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cross_check: Option<sweeping_api::CrossCheckStats>,
 }
 
 /// Collects a [`RunSummary`] as the run goes.
@@ -367,6 +372,11 @@ impl<'a> SummaryCollector<'a> {
     /// The summary so far.
     pub fn summary(&self) -> &RunSummary {
         &self.summary
+    }
+
+    /// Records what a cross-checking backend saw over the run (`None` for other backends).
+    pub fn record_cross_check(&mut self, stats: Option<&sweeping_api::CrossCheckStats>) {
+        self.summary.cross_check = stats.cloned();
     }
 
     /// Marks the summary as failed with `message` (for errors the stepper never saw, such as

@@ -309,6 +309,10 @@ impl<P: Projector> Projector for Blocked<P> {
         self.inner.tolerance()
     }
 
+    fn cross_check(&self) -> Option<&crate::CrossCheckStats> {
+        self.inner.cross_check()
+    }
+
     fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
         let blocks = Blocks::split_violated(problem);
         if let Some(r) = blocks.infeasible_empty_row(problem) {

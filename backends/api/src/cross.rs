@@ -64,6 +64,10 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
         &self.name
     }
 
+    fn cross_check(&self) -> Option<&CrossCheckStats> {
+        Some(&self.stats)
+    }
+
     fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
         let t0 = std::time::Instant::now();
         let a = self.first.project(problem)?;

@@ -507,6 +507,12 @@ pub trait Projector: Send {
     fn tolerance(&self) -> f64 {
         1e-6
     }
+
+    /// What a backend that runs two others and compares them ([`CrossCheck`]) has seen so
+    /// far, for a run's report; `None` (the default) for every other backend.
+    fn cross_check(&self) -> Option<&CrossCheckStats> {
+        None
+    }
 }
 
 impl<P: Projector + ?Sized> Projector for Box<P> {
@@ -518,6 +524,9 @@ impl<P: Projector + ?Sized> Projector for Box<P> {
     }
     fn tolerance(&self) -> f64 {
         (**self).tolerance()
+    }
+    fn cross_check(&self) -> Option<&CrossCheckStats> {
+        (**self).cross_check()
     }
 }
 

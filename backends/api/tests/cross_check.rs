@@ -90,3 +90,32 @@ fn a_gap_beyond_the_tolerance_is_an_error_naming_the_largest_coordinate() {
     );
     assert!(at.project(&problem()).is_ok());
 }
+
+#[test]
+fn a_cross_check_reports_its_statistics_through_the_trait_and_its_wrappers() {
+    use sweeping_api::Blocked;
+    let p = problem();
+    let mut both: Box<dyn Projector> = Box::new(CrossCheck::new(
+        shifted("a", &[0.0, 0.0, 0.0], 1e-9),
+        shifted("b", &[2e-10, 0.0, 0.0], 1e-9),
+        1e-9,
+    ));
+    assert_eq!(both.cross_check().unwrap().compared, 0);
+    both.project(&p).unwrap();
+    let seen = both.cross_check().unwrap();
+    assert_eq!(seen.compared, 1);
+    assert!((seen.max_gap - 2e-10).abs() < 1e-15, "{}", seen.max_gap);
+    // Run block by block (a violated row, so that its block reaches the backends), the
+    // wrapped cross-check still reports.
+    let a = SparseRows::from_rows(3, &[vec![(0, 1.0)]]);
+    let violated = ProjectionProblem::new(vec![1.0, 2.0, 3.0], a, vec![2.0]).unwrap();
+    let mut blocked = Blocked::new(CrossCheck::new(
+        shifted("a", &[0.0; 3], 1e-9),
+        shifted("b", &[0.0; 3], 1e-9),
+        1e-9,
+    ));
+    blocked.project(&violated).unwrap();
+    assert_eq!(blocked.cross_check().unwrap().compared, 1);
+    // Any other backend reports nothing.
+    assert!(shifted("a", &[0.0; 3], 1e-9).cross_check().is_none());
+}
