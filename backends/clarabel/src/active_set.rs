@@ -129,7 +129,7 @@ const SECOND_PASS: Tolerances = Tolerances {
 
 /// Most conjugate-gradient steps after a stalled refinement: on the nearly dependent supports
 /// where they succeed they take two or three.
-const LEAST_SQUARES_STEPS: usize = 8;
+const LEAST_SQUARES_STEPS: usize = 4;
 
 /// Where the method starts.
 #[derive(Debug, Clone)]
