@@ -33,9 +33,11 @@ const DENSE_ROWS: usize = 600;
 /// for the dense reference ([`DENSE_ROWS`]) the step is left undecided, and what can be
 /// checked is: both answers pass the KKT certificate at the native tolerance, and they differ
 /// by less than `undecided_gap`. How far the block's answer moves when `b` moves in its last
-/// bits ([`moved_by_last_bits`]) is printed: beyond [`TOLERANCE`], the data themselves do not
-/// decide the step. Below it nothing follows: random draws give a lower bound on that
-/// sensitivity, not the worst direction.
+/// bits ([`moved_by_last_bits`]) is printed; it measures the method (its tolerances) as much
+/// as the data, and decides nothing. (An earlier release read a large movement as "the data
+/// do not decide the step"; on the two such stops, the projection computed independently and
+/// certified moved by at most 3e-11 under the same perturbation, and the answers' own
+/// tolerances were the cause: `tests/sliver_blocks.rs`.)
 fn native_is_right_where_cross_native_stops(name: &str, undecided_gap: f64) {
     let (mut native, mut clarabel) = (native_projector(), ClarabelProjector::default());
     let Some(d) = replay::first_disagreement(name, &mut native, &mut clarabel, TOLERANCE) else {
@@ -97,15 +99,11 @@ fn native_is_right_where_cross_native_stops(name: &str, undecided_gap: f64) {
         eprintln!(
             "with b moved by 1–16 units in its last place, the native answer moves by up to {moved:.3e}"
         );
-        if moved > TOLERANCE {
-            eprintln!("the data do not decide this step at {TOLERANCE:e}");
-        } else {
-            eprintln!(
-                "random draws moved it by less than the answers differ ({:.3e}): a lower \
-                 bound, which decides nothing",
-                d.gap
-            );
-        }
+        eprintln!(
+            "(the answers differ by {:.3e}; the movement measures the method's tolerances as \
+             much as the data, and decides nothing)",
+            d.gap
+        );
         return;
     }
     let best = replay::certified_projection(
@@ -125,9 +123,10 @@ fn native_is_right_where_cross_native_stops(name: &str, undecided_gap: f64) {
 }
 
 /// How far the native answer of `problem` moves when every `bᵢ` moves by up to 1, 4 or 16
-/// units in its last place (relative `ε`, four random draws each): the uncertainty that the
-/// rounding of the data alone leaves in the projection. On a jam with more tight rows than
-/// unknowns it can exceed `1e-8` (a sliver of a feasible set); elsewhere it is rounding.
+/// units in its last place (relative `ε`, four random draws each). Not the projection's own
+/// sensitivity to the data: the answer is the projection only to the method's tolerances,
+/// and on a jam whose support is nearly dependent those tolerances, divided by its smallest
+/// singular value, can move the answer far more than the data's rounding moves the projection.
 fn moved_by_last_bits(problem: &ProjectionProblem) -> f64 {
     use rand::{Rng, SeedableRng};
     let solve = |b: Vec<f64>| {
