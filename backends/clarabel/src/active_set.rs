@@ -2477,6 +2477,62 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_blocking_row_is_the_first_to_reach_zero_or_under_blands_rule_the_lowest_numbered_near_it()
+    {
+        // Positions 0..4 of the support [7, 3, 9, 5] reach zero at these steps.
+        let support = [7, 3, 9, 5];
+        let steps = [(0, 2.0), (1, 1.0 + 1e-12), (2, 1.0), (3, 1.0 + 1e-6)];
+        // The first smallest: position 2 (row 9).
+        assert_eq!(
+            blocking_row(steps.into_iter(), &support, false),
+            Some((2, 1.0))
+        );
+        // Bland: rows 3 and 9 reach zero within 1e-9 of each other, row 5 does not: row 3
+        // leaves, at the smallest step.
+        assert_eq!(
+            blocking_row(steps.into_iter(), &support, true),
+            Some((1, 1.0))
+        );
+        // A tie at zero: only exact zeros are tied.
+        let at_zero = [(0, 0.0), (1, 1e-300), (2, 0.0)];
+        assert_eq!(
+            blocking_row(at_zero.into_iter(), &support, true),
+            Some((0, 0.0))
+        );
+        assert_eq!(blocking_row(std::iter::empty(), &support, true), None);
+        assert_eq!(blocking_row(std::iter::empty(), &support, false), None);
+    }
+
+    #[test]
+    fn an_iterate_as_an_answer_is_off_by_its_worst_violation_or_support_gap() {
+        // Three rows on two unknowns at y = 0: r = b. The support {0, 2} with μ = (2, 0): row 2
+        // keeps no multiplier, so only its violation counts.
+        let a = SparseRows::from_rows(
+            2,
+            &[vec![(0, 1.0)], vec![(1, 1.0)], vec![(0, 1.0), (1, 1.0)]],
+        );
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, -1.0, 0.5]).unwrap();
+        let r = p.b().to_vec();
+        let d = [1.0 + 3e-15, 0.0];
+        let ad = [1.0 + 3e-15, 0.0, 1.0 + 3e-15];
+        let (off, outcome) = answer_at(&p, &d, &[0, 2], &[2.0, 0.0], &r, &ad, 7);
+        // Row 0 is in the support with μ > 0: its gap |1 − (1 + 3e-15)| counts; row 1 holds
+        // (r − ad = −1); row 2 holds with room.
+        assert_eq!(off, (1.0 + 3e-15) - 1.0);
+        assert_eq!(outcome.x, vec![1.0 + 3e-15, 0.0]);
+        assert_eq!(outcome.lambda, vec![2.0, 0.0, 0.0]);
+        assert_eq!(outcome.iterations, 7);
+        // A row outside the support violated by 2e-14 is the worst.
+        let ad = [1.0, -1.0, 0.5 - 2e-14];
+        let (off, _) = answer_at(&p, &d, &[0], &[2.0], &r, &ad, 1);
+        assert_eq!(off, 0.5 - (0.5 - 2e-14));
+        // Negative multipliers count as none.
+        let (off, outcome) = answer_at(&p, &d, &[0], &[-1.0], &r, &[0.5, -1.0, 0.5], 1);
+        assert_eq!(outcome.lambda, vec![0.0, 0.0, 0.0]);
+        assert_eq!(off, 0.5);
+    }
+
     /// `x₀ ≥ 1` and `x₀ + ε x₁ ≥ 1 + 0.3 ε` (ε = 1e-5), both in the support: independent
     /// rows whose smallest singular value (about ε/√2) is below `√δ`, with the solution
     /// `d = (1, 0.3)`. Refinement contracts along that singular vector by
