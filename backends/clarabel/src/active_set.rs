@@ -49,7 +49,7 @@
 //! points that pass the `1e-12` tests can lie millions of times further apart than that
 //! (measured in `docs/backends.md`). The second pass tells a support whose rows are nearly
 //! dependent from one whose equations are inconsistent by conjugate gradients where
-//! refinement stalls ([`SECOND_PASS`]).
+//! refinement stalls (see `LEAST_SQUARES_STEPS` in the source).
 //!
 //! The same method polishes Clarabel's interior-point answers (started from the interior-point
 //! guess, see the crate documentation) and is the whole of the native backend
@@ -137,7 +137,7 @@ const BLAND_TIE: f64 = 1e-9;
 
 /// Most conjugate-gradient steps after a stalled refinement: on the nearly dependent supports
 /// where they succeed they take two or three.
-const LEAST_SQUARES_STEPS: usize = 4;
+const LEAST_SQUARES_STEPS: usize = 3;
 
 /// Where the method starts.
 #[derive(Debug, Clone)]
@@ -671,6 +671,12 @@ struct Refined {
     second: f64,
     /// Whether the whole residual met the tolerance.
     solved: bool,
+    /// Whether refinement, unsolved, stopped while its first block still moved, slowly (its
+    /// steps contracting by less than [`REFINE_CONTRACTION`], or at [`REFINE_STEPS`]): the
+    /// mark of nearly dependent rows, where [`ActiveSystem::least_squares`] may solve what
+    /// refinement did not. Unsolved with the first block settled, the equations are
+    /// inconsistent and it could not.
+    stalled: bool,
     /// The second block of the residual, `r_P − A_P d` for the right-hand side `[0; r_P]`.
     residual: Vec<f64>,
 }
@@ -1189,7 +1195,7 @@ impl ActiveSystem {
         let refined = self.refine_with(rhs, v, &mut kv[..rhs.len()], &mut step[..rhs.len()], tol);
         (self.scratch.product, self.scratch.step) = (kv, step);
         match refined {
-            Some(refined) if least_squares && !refined.solved => {
+            Some(refined) if least_squares && refined.stalled => {
                 // Tried on a copy: the refinement's answer stands when this one does not
                 // solve the equations either (on inconsistent ones its residual is the ray
                 // the method follows, as it always was).
@@ -1223,6 +1229,7 @@ impl ActiveSystem {
         let tol = tol * scale;
         let mut steps = 0;
         let mut last_moved = f64::INFINITY;
+        let mut stalled = false;
         loop {
             self.apply(v, kv);
             let first = residual_into(&mut step[..n], &rhs[..n], &kv[..n]);
@@ -1235,6 +1242,7 @@ impl ActiveSystem {
                 return Some(Refined {
                     second,
                     solved,
+                    stalled: !solved && stalled,
                     residual: step[n..].to_vec(),
                 });
             }
@@ -1244,6 +1252,11 @@ impl ActiveSystem {
                 .fold(0.0, |acc: f64, s| max_or_nan(acc, s.abs()));
             v.iter_mut().zip(step.iter()).for_each(|(vi, si)| *vi += si);
             steps += 1;
+            // Slow progress of a first block still moving: a nearly dependent direction (or
+            // the cap).
+            stalled = moved > tol
+                && (steps == REFINE_STEPS
+                    || (steps >= 2 && moved > REFINE_CONTRACTION * last_moved));
             if moved <= tol || (steps >= 2 && moved > REFINE_CONTRACTION * last_moved) {
                 // The first block has converged, or converges too slowly to be worth it: the
                 // equations are inconsistent (or nearly so, rows nearly dependent), the
@@ -1381,6 +1394,7 @@ impl ActiveSystem {
             Refined {
                 second,
                 solved: second <= tol,
+                stalled: false,
                 residual: rho.clone(),
             }
         });
