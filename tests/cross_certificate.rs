@@ -3,8 +3,9 @@
 //!
 //! This test replays the cross-checked run, keeps the QP of the step where they disagree and
 //! both answers, and computes the exact projection independently of both backends, with a
-//! certificate: the projection of `y` onto the affine set of the rows tight at the answer
-//! (dense SVD least squares), checked feasible for every row, and `x − y = A_Tᵀλ` with `λ ≥ 0`
+//! certificate: the projection of `y` onto the affine set of the projection's support, found
+//! by the least-distance program (dense non-negative least squares) or as the rows tight at an
+//! answer (dense SVD least squares), checked feasible for every row, and `x − y = A_Tᵀλ` with `λ ≥ 0`
 //! found by a dense non-negative least-squares solve — the KKT conditions of the convex
 //! projection, which pin the point whatever active-set guess it came from. Long (≈1200 steps
 //! of both backends): `cargo test --release --test cross_certificate -- --ignored --nocapture`.

@@ -4,7 +4,8 @@
 //! As `cross_certificate.rs` does for Clarabel and OSQP: the run is replayed with both
 //! backends, the QP of the first step where they disagree is kept with both answers, and the
 //! exact projection is computed independently of both (the least-squares projection onto the
-//! rows tight at an answer, feasible for every row, with non-negative multipliers found by a
+//! support found by the least-distance program, or onto the rows tight at an answer, feasible
+//! for every row, with non-negative multipliers found by a
 //! dense non-negative least-squares solve), on the block where they differ most (the
 //! projection separates over blocks). The large scenes' blocks are too large for that
 //! reference: there both answers must pass the KKT certificate and stay close. Long (the

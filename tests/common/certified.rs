@@ -112,6 +112,40 @@ pub fn reference(
     (x.as_slice().to_vec(), violation, residual)
 }
 
+/// The certified projection from no guess at all: the least-distance program
+/// `min ‖x − y‖` over `A x ≥ b`, solved as Lawson and Hanson's dense non-negative least-squares
+/// problem (`min ‖E u − e‖`, `u ≥ 0`, with `E = [A; (b − A y)ᵀ]ᵀ` stacked as columns and `e` the
+/// last unit vector; the displacement is read from the residual), whose positive `u` name the
+/// projection's support; then the projection onto that support's affine set, certified as
+/// [`reference`] certifies its own. Where the rows tight at an answer are nearly dependent and
+/// not all in the support, forcing them all tight moves the point by their slack over the
+/// support's smallest singular value; this candidate does not depend on an answer's slacks.
+/// Dense, cubic in the rows: for problems of a few hundred rows.
+#[allow(dead_code)] // used by the replays, not by every includer
+pub fn least_distance(problem: &ProjectionProblem) -> (Vec<f64>, f64, f64) {
+    let (m, n) = (problem.n_rows(), problem.dim());
+    let mut ay = vec![0.0; m];
+    problem.a().mul_vec(problem.y(), &mut ay);
+    let all: Vec<usize> = (0..m).collect();
+    let a = dense_rows(problem, &all);
+    let mut e = DMatrix::zeros(n + 1, m);
+    e.view_mut((0, 0), (n, m)).copy_from(&a.transpose());
+    for i in 0..m {
+        e[(n, i)] = problem.b()[i] - ay[i];
+    }
+    let mut unit = DVector::zeros(n + 1);
+    unit[n] = 1.0;
+    let u = nnls(&e, &unit);
+    let support: Vec<usize> = (0..m).filter(|&i| u[i] > 0.0).collect();
+    let x = affine_projection(problem, &support);
+    let violation = problem.max_violation(x.as_slice());
+    let at = dense_rows(problem, &support).transpose();
+    let d = &x - DVector::from_column_slice(problem.y());
+    let lambda = nnls(&at, &d);
+    let residual = (at * &lambda - d).amax();
+    (x.as_slice().to_vec(), violation, residual)
+}
+
 /// The contact-loop QP of the including crate's `tests/data/contact_loop_qp.json` (step 287
 /// of the paper's evacuation: 142 rows, 300 coordinates, 113 dependent active rows).
 #[allow(dead_code)] // used by the backends' contact-loop tests, not by every includer
