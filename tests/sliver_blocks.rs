@@ -230,3 +230,48 @@ fn large_evacuation_both_backends_project_the_block() {
 fn hall_both_backends_project_the_block() {
     both_backends_project_the_block("hall_sliver");
 }
+
+/// What the two stops were, in numbers `docs/backends.md` quotes: how far each backend's
+/// answer at the stop (`y + Aᵀλ` from the multipliers the run left) was from the certified
+/// projection, and the smallest singular value of the projection's support, which turns a
+/// violation `τ` into a distance of up to `τ/σ`. Long (dense eigenvalues of the support's Gram
+/// matrix): `cargo test --release --test sliver_blocks -- --ignored --nocapture`.
+#[test]
+#[ignore = "long: dense eigenvalues of two Gram matrices of about 1500 rows"]
+fn what_the_stops_were() {
+    for name in ["large_evacuation_sliver", "hall_sliver"] {
+        let s = sliver(name);
+        let p = &s.problem;
+        let x_star = certified_projection(&s);
+        for (who, lambda) in [
+            ("native", &s.native_lambda),
+            ("clarabel", &s.clarabel_lambda),
+        ] {
+            let mut x = vec![0.0; p.dim()];
+            p.a().mul_transpose_vec(lambda, &mut x);
+            x.iter_mut().zip(p.y()).for_each(|(xi, yi)| *xi += yi);
+            let off = max_gap(&x, &x_star);
+            eprintln!("{name}: the run's {who} answer was {off:.2e} from the projection");
+            assert!(
+                off > TOLERANCE,
+                "{who}: {off:e}, so the stop was not this block's"
+            );
+        }
+        let mut a_s = DMatrix::<f64>::zeros(s.reference_support.len(), p.dim());
+        for (t, &i) in s.reference_support.iter().enumerate() {
+            for (c, v) in p.a().row(i) {
+                a_s[(t, c)] += v;
+            }
+        }
+        let gram = &a_s * a_s.transpose();
+        let smallest = gram
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        eprintln!(
+            "{name}: the support's smallest singular value {:.2e}",
+            smallest.max(0.0).sqrt()
+        );
+    }
+}
