@@ -56,8 +56,9 @@ fn a_door_queue_is_rescued_without_fallback_and_agrees_with_clarabel() {
     let iterations = solved_natively_as_clarabel_solves_it(&problem);
     // 32 interior-point iterations and 22 of the finish with the refined solves; without
     // them 407 in all (the finish then starts from the best iterate before the breakdown).
-    // A count, not a time: deterministic.
-    assert!(iterations <= 100, "{iterations} iterations");
+    // The finish's second pass at 1e-15 adds 83 (55 in all before it, 138 with it), which
+    // move this block's answer by 6.6e-14. A count, not a time: deterministic.
+    assert!(iterations <= 150, "{iterations} iterations");
 }
 
 #[test]
