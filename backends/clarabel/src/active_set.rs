@@ -2635,6 +2635,116 @@ mod tests {
     }
 
     #[test]
+    fn refinement_is_marked_stalled_only_when_unsolved_with_its_first_block_still_moving() {
+        let refine = |p: &ProjectionProblem, rhs: &[f64], tol: f64| {
+            let mut v = vec![0.0; rhs.len()];
+            ActiveSystem::sparse(p, &[0, 1])
+                .unwrap()
+                .refine(rhs, &mut v, tol, false)
+                .unwrap()
+        };
+        let (p, rhs) = nearly_dependent();
+        // Slow contraction (0.95 a step) at 1e-15: unsolved, stalled.
+        let r = refine(&p, &rhs, SECOND_PASS_TOL);
+        assert!(!r.solved && r.stalled);
+        // With ε = 1e-4 at 1e-7 the same slow steps are detected, and the residual measured
+        // after them meets the tolerance: solved, so not stalled.
+        let e = 1e-4;
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(0, 1.0), (1, e)]]);
+        let b = vec![1.0, 1.0 + 0.3 * e];
+        let q = ProjectionProblem::new(vec![0.0, 0.0], a, b.clone()).unwrap();
+        let r = refine(&q, &[vec![0.0, 0.0], b].concat(), 1e-7);
+        assert!(r.solved && !r.stalled);
+        // Inconsistent equations: the first block settles, unsolved but not stalled.
+        let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, 1.0)]]);
+        let rhs = [0.0, 1.0, 1.0 + 1e-10];
+        let q = ProjectionProblem::new(vec![0.0], a, rhs[1..].to_vec()).unwrap();
+        let r = refine(&q, &rhs, SECOND_PASS_TOL);
+        assert!(!r.solved && !r.stalled);
+    }
+
+    #[test]
+    fn least_squares_tests_relative_to_the_right_hand_side() {
+        // `x₀ + 0.37 x₁ ≥ 0.7k` and `0.41 x₀ + x₁ ≥ 0.11k` (k = 1234.567) in the support, from
+        // μ = 0: its residual ends at 2.3e-13, rounding of numbers of size k, within 1e-15
+        // relative to ‖rhs‖∞ = k, not within 1e-15 divided by it.
+        let k = 1234.567;
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 0.37)], vec![(0, 0.41), (1, 1.0)]]);
+        let b = vec![0.7 * k, 0.11 * k];
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, b.clone()).unwrap();
+        let rhs = [vec![0.0, 0.0], b].concat();
+        let mut v = vec![0.0; 4];
+        let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
+        let out = system.least_squares(&rhs, &mut v, SECOND_PASS_TOL).unwrap();
+        assert!(out.solved && out.second > 0.0, "{}", out.second);
+        // d = A_Pᵀμ solves A_P d = b: check it by the equations themselves.
+        let (r0, r1) = (v[0] + 0.37 * v[1] - 0.7 * k, 0.41 * v[0] + v[1] - 0.11 * k);
+        assert!(r0.abs() <= 1e-12 && r1.abs() <= 1e-12, "{r0:e} {r1:e}");
+    }
+
+    #[test]
+    fn least_squares_takes_conjugate_steps() {
+        // Three rows `x₀ ≥ 1`, `x₀ + ε₁x₁ ≥ 1 + 0.3ε₁`, `x₀ + ε₂x₂ ≥ 1 + 0.7ε₂` (ε₁ = 1e-5,
+        // ε₂ = 3e-5), all in the support: the preconditioned G has three distinct eigenvalues,
+        // so conjugate gradients need all three of their steps, each direction conjugate to the
+        // last (β = ρᵀz / ρ₋ᵀz₋, added); solution d = (1, 0.3, 0.7). Not to 1e-15 (below).
+        let (e1, e2) = (1e-5, 3e-5);
+        let a = SparseRows::from_rows(
+            3,
+            &[
+                vec![(0, 1.0)],
+                vec![(0, 1.0), (1, e1)],
+                vec![(0, 1.0), (2, e2)],
+            ],
+        );
+        let b = vec![1.0, 1.0 + 0.3 * e1, 1.0 + 0.7 * e2];
+        let p = ProjectionProblem::new(vec![0.0; 3], a, b.clone()).unwrap();
+        let rhs = [vec![0.0; 3], b].concat();
+        let mut v = vec![0.0; 6];
+        let mut system = ActiveSystem::sparse(&p, &[0, 1, 2]).unwrap();
+        let plain = system.refine(&rhs, &mut v, SECOND_PASS_TOL, false).unwrap();
+        assert!(!plain.solved && plain.stalled);
+        // Within `refine`, an answer of conjugate gradients that does not solve the equations
+        // to the tolerance (this one, below) is not taken: refinement's stands, its residual
+        // the ray the method would follow.
+        let mut w = vec![0.0; 6];
+        let with = ActiveSystem::sparse(&p, &[0, 1, 2])
+            .unwrap()
+            .refine(&rhs, &mut w, SECOND_PASS_TOL, true)
+            .unwrap();
+        assert_eq!(
+            (with.second, &with.residual, &w),
+            (plain.second, &plain.residual, &v)
+        );
+        let out = system.least_squares(&rhs, &mut v, SECOND_PASS_TOL).unwrap();
+        // Multipliers of 5e4 leave rounding of about 4e-12 in the residual (refinement left
+        // 5e-6; with β multiplied instead of divided, or subtracted, three steps leave 1e-6).
+        assert!(
+            out.second <= 1e-11,
+            "{} (refinement: {})",
+            out.second,
+            plain.second
+        );
+        assert!(
+            (v[0] - 1.0).abs() <= 1e-10
+                && (v[1] - 0.3).abs() <= 1e-10
+                && (v[2] - 0.7).abs() <= 1e-10,
+            "{v:?}"
+        );
+    }
+
+    #[test]
+    fn least_squares_from_multipliers_that_overflow_is_none() {
+        // μ = 1e308 on both rows: d = A_Pᵀμ overflows, its residual is infinite, not NaN.
+        let (p, rhs) = nearly_dependent();
+        let mut v = vec![0.0, 0.0, -1e308, -1e308];
+        let mut system = ActiveSystem::sparse(&p, &[0, 1]).unwrap();
+        assert!(system
+            .least_squares(&rhs, &mut v, SECOND_PASS_TOL)
+            .is_none());
+    }
+
+    #[test]
     fn on_nearly_dependent_rows_the_method_ends_at_the_projection_to_rounding() {
         // The rows of `nearly_dependent` as `x₀ ≥ 1` and `x₀ + ε x₁ ≥ 1 + 0.3 ε` from y = 0:
         // the projection is d = (1, 0.3) if both multipliers were positive; they are not (μ₀
