@@ -135,6 +135,8 @@ fn remove_stale_outputs(out: &std::path::Path, formats: &[TrajectoryFormat]) -> 
             remove(&out.join(format.file_name()))?;
         }
     }
+    // An earlier cross-checked run's disagreement: this run writes its own, if any.
+    remove(&out.join(DISAGREEMENT_FILE))?;
     let snapshots = out.join("snapshots");
     if let Ok(entries) = std::fs::read_dir(&snapshots) {
         for entry in entries.flatten() {
@@ -153,6 +155,28 @@ fn remove_stale_outputs(out: &std::path::Path, formats: &[TrajectoryFormat]) -> 
         }
     }
     Ok(())
+}
+
+/// Where a cross-checked run that stopped on a disagreement keeps the problem and both answers.
+const DISAGREEMENT_FILE: &str = "disagreement.json";
+
+/// Writes the problem on which a cross-checked run's backends disagreed, with both answers
+/// (a [`CrossCheckDisagreement`](sweeping::api::CrossCheckDisagreement)), to
+/// `out/disagreement.json`, so that the step can be decided afterwards (against a projection
+/// computed independently) without running again to it. Returns the path written, if any.
+fn write_disagreement(
+    out: &std::path::Path,
+    stats: Option<&sweeping::api::CrossCheckStats>,
+) -> Result<Option<PathBuf>> {
+    let Some(disagreement) = stats.and_then(|s| s.disagreement.as_deref()) else {
+        return Ok(None);
+    };
+    let path = out.join(DISAGREEMENT_FILE);
+    let file =
+        std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+    serde_json::to_writer(std::io::BufWriter::new(file), disagreement)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(Some(path))
 }
 
 /// Entry point of `sweep run`.
@@ -283,6 +307,7 @@ pub fn main(args: RunArgs) -> Result<()> {
     }
     let result = built.run(projector.as_mut(), &mut observers);
     summary.record_cross_check(projector.cross_check());
+    let disagreement = write_disagreement(&out, projector.cross_check())?;
     summary
         .write_json(&summary_path)
         .with_context(|| format!("writing {}", summary_path.display()))?;
@@ -290,8 +315,14 @@ pub fn main(args: RunArgs) -> Result<()> {
     match result {
         Ok(_) => Ok(()),
         Err(failure) => Err(anyhow::anyhow!(
-            "{failure}; what was computed is in {}",
-            out.display()
+            "{failure}; what was computed is in {}{}",
+            out.display(),
+            disagreement
+                .map(|path| format!(
+                    " (the problem the backends disagreed on, with both answers: {})",
+                    path.display()
+                ))
+                .unwrap_or_default()
         )),
     }
 }
@@ -380,4 +411,44 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         out.display(),
         files.join(", ")
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sweeping::api::{CrossCheck, ProjectionProblem, Projector, SparseRows};
+
+    #[test]
+    fn a_disagreement_is_written_with_its_problem_and_both_answers_and_nothing_else_is() {
+        use sweeping::api::conformance::ReferenceProjector;
+        let dir = std::env::temp_dir().join(format!("sweep-disagreement-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // Two backends that agree: nothing written.
+        let mut agree = CrossCheck::new(
+            ReferenceProjector::default(),
+            ReferenceProjector::default(),
+            1e-9,
+        );
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0]).unwrap();
+        agree.project(&p).unwrap();
+        assert_eq!(write_disagreement(&dir, agree.cross_check()).unwrap(), None);
+        assert_eq!(write_disagreement(&dir, None).unwrap(), None);
+        assert!(!dir.join(DISAGREEMENT_FILE).exists());
+        // A cross-check at a tolerance of −1 disagrees with itself on every problem.
+        let mut apart = CrossCheck::new(
+            ReferenceProjector::default(),
+            ReferenceProjector::default(),
+            -1.0,
+        );
+        assert!(apart.project(&p).is_err());
+        let path = write_disagreement(&dir, apart.cross_check())
+            .unwrap()
+            .unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let back: sweeping::api::CrossCheckDisagreement = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.problem, p);
+        assert!((back.first.x[0] - 0.5).abs() < 1e-9 && (back.second.x[1] - 0.5).abs() < 1e-9);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -183,6 +183,8 @@ fn a_run_into_an_earlier_runs_directory_leaves_none_of_its_stale_files() {
     if cfg!(feature = "sqlite") {
         second_args.extend(["--format", "sqlite"]);
     }
+    // An earlier cross-checked run's disagreement, which this run does not repeat.
+    std::fs::write(first.out.join("disagreement.json"), "{}").unwrap();
     // Into the first run's directory (sweep_run would start a fresh one).
     let scene = first.out.with_file_name("rerun.toml");
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_sweep"))
@@ -195,6 +197,7 @@ fn a_run_into_an_earlier_runs_directory_leaves_none_of_its_stale_files() {
         .unwrap();
     assert!(status.status.success(), "{status:?}");
     let second = &first;
+    assert!(!second.out.join("disagreement.json").exists());
     if cfg!(feature = "sqlite") {
         assert!(!second.out.join("trajectory.csv").exists());
     }

@@ -38,6 +38,32 @@ pub struct CrossCheckStats {
     pub first_seconds: f64,
     /// Seconds spent in the second backend.
     pub second_seconds: f64,
+    /// The problem on which the two disagreed beyond the tolerance, with both answers (the
+    /// last such, the one a run stops on). Not in a serialized summary: a caller that keeps it
+    /// writes it apart (`sweep run` writes `disagreement.json`).
+    #[serde(skip)]
+    pub disagreement: Option<Box<CrossCheckDisagreement>>,
+}
+
+/// The problem on which a [`CrossCheck`] found its two backends apart by more than its
+/// tolerance, and both answers: what is needed to decide afterwards which one is off (against
+/// a projection computed independently and certified) without running again to that step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CrossCheckDisagreement {
+    /// The first backend's name.
+    pub first_backend: String,
+    /// The second backend's name.
+    pub second_backend: String,
+    /// The ∞-norm gap between the two points.
+    pub gap: f64,
+    /// The coordinate where the gap is largest.
+    pub coordinate: usize,
+    /// The problem, as the two backends were given it.
+    pub problem: ProjectionProblem,
+    /// The first backend's answer.
+    pub first: Projection,
+    /// The second backend's answer.
+    pub second: Projection,
 }
 
 impl<P1: Projector, P2: Projector> CrossCheck<P1, P2> {
@@ -92,6 +118,15 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
         self.stats.sum_gap += gap;
         self.stats.max_gap = crate::max_or_nan(self.stats.max_gap, gap);
         if gap.is_nan() || gap > self.tolerance {
+            self.stats.disagreement = Some(Box::new(CrossCheckDisagreement {
+                first_backend: self.first.name().to_string(),
+                second_backend: self.second.name().to_string(),
+                gap,
+                coordinate,
+                problem: problem.clone(),
+                first: a,
+                second: b,
+            }));
             return Err(ProjectionError::Disagreement {
                 first: self.first.name().to_string(),
                 second: self.second.name().to_string(),

@@ -35,7 +35,7 @@ mod cross;
 mod matrix;
 
 pub use blocks::{Block, Blocked, Blocks};
-pub use cross::{CrossCheck, CrossCheckStats};
+pub use cross::{CrossCheck, CrossCheckDisagreement, CrossCheckStats};
 pub use matrix::SparseRows;
 
 /// A hash map for what backends look up on every solve (multipliers by [`RowKey`], working

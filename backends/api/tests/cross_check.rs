@@ -60,6 +60,7 @@ fn agreeing_answers_pass_and_their_gaps_are_counted() {
     assert!((stats.max_gap - 3e-10).abs() < 1e-15, "{}", stats.max_gap);
     assert!((stats.sum_gap - 6e-10).abs() < 1e-15, "{}", stats.sum_gap);
     assert!(stats.first_seconds >= 0.0 && stats.second_seconds >= 0.0);
+    assert!(stats.disagreement.is_none());
 }
 
 #[test]
@@ -82,6 +83,26 @@ fn a_gap_beyond_the_tolerance_is_an_error_naming_the_largest_coordinate() {
         }
         other => panic!("{other:?}"),
     }
+    // The problem and both answers are kept, so that the step can be decided afterwards.
+    let kept = both
+        .stats()
+        .disagreement
+        .as_deref()
+        .expect("the disagreement is kept");
+    assert_eq!(kept.problem, problem());
+    assert_eq!(
+        (kept.first_backend.as_str(), kept.second_backend.as_str()),
+        ("a", "b")
+    );
+    assert!(
+        (kept.gap - 5e-6).abs() < 1e-15 && kept.coordinate == 1,
+        "{kept:?}"
+    );
+    assert_eq!(kept.first.x, vec![1.0, 2.0, 3.0]);
+    assert_eq!(kept.second.x, vec![1.0 + 2e-6, 2.0 - 5e-6, 3.0 + 1e-6]);
+    // A summary written as JSON leaves it out (it is written apart).
+    let json = serde_json::to_value(both.stats()).unwrap();
+    assert!(json.get("disagreement").is_none(), "{json}");
     // A gap exactly at the tolerance passes.
     let mut at = CrossCheck::new(
         shifted("a", &[0.0; 3], 1e-9),
