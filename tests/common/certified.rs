@@ -80,6 +80,18 @@ pub fn affine_projection(problem: &ProjectionProblem, rows: &[usize]) -> DVector
     &y + a.transpose() * mu
 }
 
+/// `x`, the projection onto the affine set of `rows`, with its certificate: `(x, max
+/// violation, cone residual)`, the residual of `x − y = A_rowsᵀλ` with `λ ≥ 0` found by
+/// [`nnls`].
+fn certify(problem: &ProjectionProblem, rows: &[usize], x: DVector<f64>) -> (Vec<f64>, f64, f64) {
+    let violation = problem.max_violation(x.as_slice());
+    let at = dense_rows(problem, rows).transpose();
+    let d = &x - DVector::from_column_slice(problem.y());
+    let lambda = nnls(&at, &d);
+    let residual = (at * &lambda - d).amax();
+    (x.as_slice().to_vec(), violation, residual)
+}
+
 /// The certified projection from an active-set guess: `(x, max violation, cone residual)`.
 pub fn reference(
     problem: &ProjectionProblem,
@@ -104,12 +116,7 @@ pub fn reference(
         tight.sort_unstable();
         x = affine_projection(problem, &tight);
     }
-    let violation = problem.max_violation(x.as_slice());
-    let at = dense_rows(problem, &tight).transpose();
-    let d = &x - DVector::from_column_slice(problem.y());
-    let lambda = nnls(&at, &d);
-    let residual = (at * &lambda - d).amax();
-    (x.as_slice().to_vec(), violation, residual)
+    certify(problem, &tight, x)
 }
 
 /// The certified projection from no guess at all: the least-distance program
@@ -138,12 +145,7 @@ pub fn least_distance(problem: &ProjectionProblem) -> (Vec<f64>, f64, f64) {
     let u = nnls(&e, &unit);
     let support: Vec<usize> = (0..m).filter(|&i| u[i] > 0.0).collect();
     let x = affine_projection(problem, &support);
-    let violation = problem.max_violation(x.as_slice());
-    let at = dense_rows(problem, &support).transpose();
-    let d = &x - DVector::from_column_slice(problem.y());
-    let lambda = nnls(&at, &d);
-    let residual = (at * &lambda - d).amax();
-    (x.as_slice().to_vec(), violation, residual)
+    certify(problem, &support, x)
 }
 
 /// The contact-loop QP of the including crate's `tests/data/contact_loop_qp.json` (step 287
