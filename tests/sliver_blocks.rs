@@ -3,7 +3,8 @@
 //! hall at t = 12.31 s (2044 rows on 1704 unknowns), each with more tight rows than unknowns;
 //! and the block where the two backends differed most (9.98e-9) once the first two were
 //! mended, in the same evacuation (1858 rows on 1466 unknowns), where Clarabel's second pass
-//! cycled.
+//! cycled; and the hall's next stop, at t = 19.62 s (4397 rows on 3198 unknowns), written by
+//! the run to `disagreement.json`, where only Clarabel's answer was off.
 //! Their feasible sets are slivers: the projection's support has a smallest singular value of
 //! 1.7e-5 and 7.7e-7, so a point that violates a row by `τ` can be `τ/σ` from it, and the two
 //! backends' answers, each violating a row by 4e-14 to 7e-14, lay 1.5e-8 and 1.9e-8 apart.
@@ -238,6 +239,46 @@ fn hall_both_backends_project_the_block() {
     both_backends_project_the_block("hall_sliver");
 }
 
+/// The answer `y + Aᵀλ` that a run's multipliers describe.
+fn answer_from(p: &ProjectionProblem, lambda: &[f64]) -> Vec<f64> {
+    let mut x = vec![0.0; p.dim()];
+    p.a().mul_transpose_vec(lambda, &mut x);
+    x.iter_mut().zip(p.y()).for_each(|(xi, yi)| *xi += yi);
+    x
+}
+
+/// The 10 000-person hall's stop under `cross-native` at t = 19.62 s, decided: of the two
+/// answers 2.3e-8 apart, the native backend's was the projection (5e-12 from the certified
+/// one) and Clarabel's was not (2.3e-8). Clarabel's polish left rows violated by 8.5e-13; its
+/// second pass at `1e-15` cycled even under Bland's rule (about 500 iterations) on this block
+/// of 4397 rows on 3198 unknowns, whose projection holds 3072 tight rows (smallest multiplier
+/// 1.4e-5), and none of its iterates beat its first answer. The native backend's own second
+/// pass cycled too, but its best iterate (off by 2.7e-15) stood.
+#[test]
+fn hall_late_the_stop_was_clarabels_answer_and_the_native_backend_projects_the_block() {
+    let s = sliver("hall_late_sliver");
+    let p = &s.problem;
+    let x_star = certified_projection(&s);
+    let native_run = max_gap(&answer_from(p, &s.native_lambda), &x_star);
+    let clarabel_run = max_gap(&answer_from(p, &s.clarabel_lambda), &x_star);
+    eprintln!(
+        "hall_late: the run's native answer {native_run:.2e}, Clarabel's {clarabel_run:.2e} \
+         from the projection"
+    );
+    assert!(
+        native_run <= 1e-11,
+        "the run's native answer: {native_run:e}"
+    );
+    assert!(
+        clarabel_run > 1e-8,
+        "the run's Clarabel answer: {clarabel_run:e}"
+    );
+    let native = native_projector().project(p).unwrap().x;
+    let off = max_gap(&native, &x_star);
+    eprintln!("hall_late: native on the block alone {off:.2e} from the projection");
+    assert!(off <= TOLERANCE, "native {off:e}");
+}
+
 /// What the two stops were, in numbers `docs/backends.md` quotes: how far each backend's
 /// answer at the stop (`y + Aᵀλ` from the multipliers the run left) was from the certified
 /// projection, and the smallest singular value of the projection's support, which turns a
@@ -254,10 +295,7 @@ fn what_the_stops_were() {
             ("native", &s.native_lambda),
             ("clarabel", &s.clarabel_lambda),
         ] {
-            let mut x = vec![0.0; p.dim()];
-            p.a().mul_transpose_vec(lambda, &mut x);
-            x.iter_mut().zip(p.y()).for_each(|(xi, yi)| *xi += yi);
-            let off = max_gap(&x, &x_star);
+            let off = max_gap(&answer_from(p, lambda), &x_star);
             eprintln!("{name}: the run's {who} answer was {off:.2e} from the projection");
             assert!(
                 off > TOLERANCE,
