@@ -1,0 +1,154 @@
+#!/usr/bin/env python3
+"""Decides a cross-check's stop: which of the two answers in a `disagreement.json` is the
+projection. Written apart from the Rust code; run it through `scripts/decide-disagreement`,
+which provides NumPy and SciPy.
+
+usage: scripts/decide-disagreement OUTDIR/disagreement.json [--coordinate J] [--tol 1e-9]
+
+`sweep run --backend cross…` writes the file when its two backends disagree beyond the
+tolerance: the step's problem `min ½‖x − y‖² s.t. A x ≥ b` and both answers. A projection is
+unique, so the step is decided by computing it independently and certifying it:
+
+1. The block of the coordinate where the answers differ most (or `--coordinate J`): the
+   connected component of the rows sharing an unknown with it, which the projection
+   separates from the rest.
+2. The projection's support, from the least-distance program `min ‖z‖ s.t. A z ≥ b − A y`
+   solved as Lawson and Hanson's non-negative least-squares problem (SciPy's `nnls`, dense:
+   minutes for a few thousand rows).
+3. The projection onto that support's affine set (Cholesky of `A_S A_Sᵀ` on a linearly
+   independent subset of the support, chosen by QR with column pivoting), refined with
+   residuals in extended precision (`numpy.longdouble`).
+4. Its certificate, the KKT conditions: positive multipliers, the support's equations
+   solved, every row of the block satisfied. A point that passes them is the projection
+   (up to the printed residuals), whatever found its support.
+
+Prints each answer's distance from the certified projection (∞-norm) and which answers are
+within `--tol` of it. Exits with 1 when the certificate fails, 0 otherwise.
+"""
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+import scipy.linalg as sl
+import scipy.sparse as sp
+from scipy.optimize import nnls
+
+
+def block_of(problem, coordinate):
+    """Rows and unknowns of the connected component (rows sharing an unknown) holding
+    `coordinate`; stored zeros connect nothing."""
+    a = problem["a"]
+    n, rp, ci, va = a["n_cols"], a["row_ptr"], a["col_idx"], a["values"]
+    parent = list(range(n))
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    m = len(rp) - 1
+    for i in range(m):
+        cols = [ci[k] for k in range(rp[i], rp[i + 1]) if va[k] != 0.0]
+        for c in cols[1:]:
+            ra, rb = root(cols[0]), root(c)
+            if ra != rb:
+                parent[ra] = rb
+    r0 = root(coordinate)
+    rows = [
+        i
+        for i in range(m)
+        if any(va[k] != 0.0 and root(ci[k]) == r0 for k in range(rp[i], rp[i + 1]))
+    ]
+    cols = sorted({ci[k] for i in rows for k in range(rp[i], rp[i + 1]) if va[k] != 0.0})
+    return rows, cols
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("file")
+    ap.add_argument("--coordinate", type=int, default=None)
+    ap.add_argument("--tol", type=float, default=1e-9)
+    args = ap.parse_args()
+
+    data = json.load(open(args.file))
+    problem = data["problem"]
+    names = (data["first_backend"], data["second_backend"])
+    answers = (np.array(data["first"]["x"]), np.array(data["second"]["x"]))
+    coordinate = data["coordinate"] if args.coordinate is None else args.coordinate
+    a = problem["a"]
+    m_all, n_all = len(a["row_ptr"]) - 1, a["n_cols"]
+    print(
+        f"{args.file}: {m_all} rows on {n_all} unknowns; {names[0]} and {names[1]} differ by "
+        f"{data['gap']:.3e} (coordinate {data['coordinate']})"
+    )
+    if np.finfo(np.longdouble).eps > 1e-18:
+        print("note: numpy.longdouble is double precision here; the refinement gains nothing")
+
+    rows, cols = block_of(problem, coordinate)
+    if not rows:
+        print(f"coordinate {coordinate} is touched by no row: both answers must be y there")
+        return 0
+    local = {c: j for j, c in enumerate(cols)}
+    rp, ci, va = a["row_ptr"], a["col_idx"], a["values"]
+    A = np.zeros((len(rows), len(cols)))
+    for t, i in enumerate(rows):
+        for k in range(rp[i], rp[i + 1]):
+            if va[k] != 0.0:
+                A[t, local[ci[k]]] += va[k]
+    y = np.array([problem["y"][c] for c in cols])
+    b = np.array([problem["b"][i] for i in rows])
+    print(f"block of coordinate {coordinate}: {len(rows)} rows on {len(cols)} unknowns")
+
+    # 2. The least-distance program: u >= 0 minimizing ‖E u − e‖, E = [Aᵀ; (b − A y)ᵀ].
+    r = b - A @ y
+    E = np.vstack([A.T, r[None, :]])
+    e = np.zeros(len(cols) + 1)
+    e[-1] = 1.0
+    started = time.time()
+    u, _ = nnls(E, e, maxiter=50 * len(rows))
+    rho = E @ u - e
+    if not rho[-1] < 0:
+        print("the least-distance program says the block is infeasible")
+        return 1
+    support = np.where(u > 0)[0]
+    print(f"least-distance program: {time.time() - started:.1f} s, support of {len(support)} rows")
+
+    # 3. An independent subset of the support, and the projection onto its affine set.
+    _, R, piv = sl.qr(A[support].T, mode="economic", pivoting=True)
+    diag = np.abs(np.diag(R))
+    rank = int((diag > diag[0] * 1e-10).sum())
+    independent = np.sort(support[piv[:rank]])
+    Al = A.astype(np.longdouble)
+    rl = b.astype(np.longdouble) - Al @ y.astype(np.longdouble)
+    cho = sl.cho_factor(A[independent] @ A[independent].T)
+    mu = np.zeros(rank, dtype=np.longdouble)
+    for _ in range(8):
+        residual = rl[independent] - Al[independent] @ (Al[independent].T @ mu)
+        mu += sl.cho_solve(cho, residual.astype(np.float64)).astype(np.longdouble)
+    d = Al[independent].T @ mu
+    slack = Al @ d - rl
+    x = y.astype(np.longdouble) + d
+    violation = float(max(0.0, -slack.min()))
+    unsolved = float(np.abs(slack[support]).max())
+    smallest = float(mu.min())
+    print(
+        f"certified projection: support rank {rank} of {len(support)} "
+        f"(smallest |R_ii|/|R_00| kept {diag[rank - 1] / diag[0]:.2e}), smallest multiplier "
+        f"{smallest:.2e}, support equations to {unsolved:.2e}, every row of the block to "
+        f"{violation:.2e}"
+    )
+    ok = smallest > 0 and unsolved <= 1e-14 and violation <= 1e-14
+    if not ok:
+        print("the certificate FAILS: the distances below are not decided")
+    for name, answer in zip(names, answers):
+        off = float(np.abs(answer[cols] - x).max())
+        verdict = "within" if off <= args.tol else "NOT within"
+        print(f"  {name}: {off:.3e} from the projection ({verdict} {args.tol:g})")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
