@@ -223,9 +223,14 @@ fn large_evacuation_cycling_the_native_backend_projects_the_block() {
     // better than its first answer (`docs/backends.md`).
     let s = sliver("large_evacuation_cycling");
     let x_star = certified_projection(&s);
-    let native = native_projector().project(&s.problem).unwrap().x;
-    let off = max_gap(&native, &x_star);
-    eprintln!("large_evacuation_cycling: native {off:.2e} from the projection");
+    the_native_backend_projects_the_block("large_evacuation_cycling", &s.problem, &x_star);
+}
+
+/// The native backend on the block alone ends within [`TOLERANCE`] of `x_star`.
+fn the_native_backend_projects_the_block(name: &str, p: &ProjectionProblem, x_star: &[f64]) {
+    let native = native_projector().project(p).unwrap().x;
+    let off = max_gap(&native, x_star);
+    eprintln!("{name}: native on the block alone {off:.2e} from the projection");
     assert!(off <= TOLERANCE, "native {off:e}");
 }
 
@@ -273,10 +278,7 @@ fn hall_late_the_stop_was_clarabels_answer_and_the_native_backend_projects_the_b
         clarabel_run > 1e-8,
         "the run's Clarabel answer: {clarabel_run:e}"
     );
-    let native = native_projector().project(p).unwrap().x;
-    let off = max_gap(&native, &x_star);
-    eprintln!("hall_late: native on the block alone {off:.2e} from the projection");
-    assert!(off <= TOLERANCE, "native {off:e}");
+    the_native_backend_projects_the_block("hall_late", p, &x_star);
 }
 
 /// What the two stops were, in numbers `docs/backends.md` quotes: how far each backend's
