@@ -38,7 +38,9 @@ use crate::error::SweepError;
 use crate::problem::{LinearizeScratch, Problem};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
-use sweeping_api::{Projection, ProjectionProblem, Projector, RowKey, SolveStats, SparseRows};
+use sweeping_api::{
+    max_or_nan, Projection, ProjectionProblem, Projector, RowKey, SolveStats, SparseRows,
+};
 
 /// A time or coordinate for messages: rounded to 1e-9 so that `t = k·h` prints as `3.78`, not
 /// `3.7800000000000002`.
@@ -187,6 +189,13 @@ pub struct StepReport {
     /// solved, summed over the solves (see [`sweeping_api::SolveStats::rescues`]).
     #[serde(default)]
     pub rescues: u32,
+    /// Sub-problems whose answer the active-set method's second pass could not finish,
+    /// summed over the solves (see [`sweeping_api::SolveStats::unfinished`]).
+    #[serde(default)]
+    pub unfinished: u32,
+    /// The largest amount by which those answers are off (absolute; `0` when none).
+    #[serde(default)]
+    pub unfinished_off: f64,
     /// Seconds per stage.
     pub times: StageTimes,
     /// `max(0, −minᵢ gᵢ(t_{k+1}, q_{k+1}))`: how far the new configuration is outside the true
@@ -217,6 +226,12 @@ pub struct RunStats {
     /// Backend rescues (its own second method), summed.
     #[serde(default)]
     pub rescues: u64,
+    /// Answers the active-set method's second pass could not finish, summed.
+    #[serde(default)]
+    pub unfinished: u64,
+    /// The largest amount by which any of them was off.
+    #[serde(default)]
+    pub unfinished_off: f64,
     /// Solves, summed (more than `steps` when culling proofs failed).
     pub solves: u64,
     /// Rows assembled, summed over steps.
@@ -241,6 +256,8 @@ impl RunStats {
         self.iterations += u64::from(r.iterations);
         self.fallbacks += u64::from(r.fallbacks);
         self.rescues += u64::from(r.rescues);
+        self.unfinished += u64::from(r.unfinished);
+        self.unfinished_off = max_or_nan(self.unfinished_off, r.unfinished_off);
         self.solves += r.solves as u64;
         self.rows += r.rows as u64;
         self.max_rows = self.max_rows.max(r.rows);
@@ -948,6 +965,7 @@ impl<'p> Stepper<'p> {
         let mut iterations = 0u32;
         let mut fallbacks = 0u32;
         let mut rescues = 0u32;
+        let (mut unfinished, mut unfinished_off) = (0u32, 0.0f64);
         let solution: Projection = loop {
             self.assemble(t_next, &mut times)?;
             let tp = Instant::now();
@@ -983,6 +1001,8 @@ impl<'p> Stepper<'p> {
             iterations += sol.stats.iterations;
             fallbacks += sol.stats.fallbacks;
             rescues += sol.stats.rescues;
+            unfinished += sol.stats.unfinished;
+            unfinished_off = max_or_nan(unfinished_off, sol.stats.unfinished_off);
             if let Some(i) = sol.x.iter().position(|v| !v.is_finite()) {
                 return Err(SweepError::NonFinite {
                     step: self.k,
@@ -1059,6 +1079,8 @@ impl<'p> Stepper<'p> {
             iterations,
             fallbacks,
             rescues,
+            unfinished,
+            unfinished_off,
             times,
             max_violation,
             worst_constraint,

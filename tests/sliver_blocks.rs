@@ -150,8 +150,9 @@ fn certified_projection(s: &Sliver) -> Vec<f64> {
 
 /// The active-set method restarted from each backend's multipliers at the stop, as each
 /// backend's second pass restarts from its first answer: both end at the projection. Returns
-/// the iterations each restart reported (native, then Clarabel).
-fn the_method_from_either_answer_ends_at_the_projection(name: &str) -> Vec<u32> {
+/// the iterations each restart reported (native, then Clarabel), and whether its second pass
+/// left it unfinished ([`active_set::Outcome::unfinished`]).
+fn the_method_from_either_answer_ends_at_the_projection(name: &str) -> Vec<(u32, Option<f64>)> {
     let s = sliver(name);
     let x_star = certified_projection(&s);
     let p = &s.problem;
@@ -171,12 +172,13 @@ fn the_method_from_either_answer_ends_at_the_projection(name: &str) -> Vec<u32> 
         let outcome = active_set::solve(p, start, cap).expect("the method converges");
         let off = max_gap(&outcome.x, &x_star);
         eprintln!(
-            "{name}: from the {who} answer, {} iterations, {off:.2e} from the projection",
-            outcome.iterations
+            "{name}: from the {who} answer, {} iterations, {off:.2e} from the projection, \
+             unfinished {:?}",
+            outcome.iterations, outcome.unfinished
         );
         assert!(off <= TOLERANCE, "from the {who} answer: {off:e} off");
         answers.push(outcome.x);
-        iterations.push(outcome.iterations);
+        iterations.push((outcome.iterations, outcome.unfinished));
     }
     assert!(max_gap(&answers[0], &answers[1]) <= TOLERANCE);
     iterations
@@ -186,8 +188,11 @@ fn the_method_from_either_answer_ends_at_the_projection(name: &str) -> Vec<u32> 
 fn both_backends_project_the_block(name: &str) {
     let s = sliver(name);
     let x_star = certified_projection(&s);
-    let native = native_projector().project(&s.problem).unwrap().x;
-    let clarabel = ClarabelProjector::default().project(&s.problem).unwrap().x;
+    let native = native_projector().project(&s.problem).unwrap();
+    let clarabel = ClarabelProjector::default().project(&s.problem).unwrap();
+    // Both finished by their second passes.
+    assert_eq!((native.stats.unfinished, clarabel.stats.unfinished), (0, 0));
+    let (native, clarabel) = (native.x, clarabel.x);
     let (dn, dc) = (max_gap(&native, &x_star), max_gap(&clarabel, &x_star));
     eprintln!("{name}: native {dn:.2e}, Clarabel {dc:.2e} from the projection");
     assert!(
@@ -213,7 +218,13 @@ fn large_evacuation_cycling_the_method_from_either_answer_ends_at_the_projection
         the_method_from_either_answer_ends_at_the_projection("large_evacuation_cycling");
     // From Clarabel's answer the second pass fails and its best iterate stands: the count is
     // every iteration spent (290), not those up to the best iterate (190). Deterministic.
-    assert!(iterations[1] >= 250, "{iterations:?}");
+    // The answer says so: off by 6.7e-13, where a finished one is within 1e-15.
+    assert!(iterations[1].0 >= 250, "{iterations:?}");
+    assert!(
+        iterations[1].1.is_some_and(|off| off > 1e-13),
+        "{iterations:?}"
+    );
+    assert_eq!(iterations[0].1, None);
 }
 
 #[test]
@@ -224,14 +235,40 @@ fn large_evacuation_cycling_the_native_backend_projects_the_block() {
     let s = sliver("large_evacuation_cycling");
     let x_star = certified_projection(&s);
     the_native_backend_projects_the_block("large_evacuation_cycling", &s.problem, &x_star);
+    clarabels_answer_is_off_and_says_so("large_evacuation_cycling", &s.problem, &x_star);
 }
 
 /// The native backend on the block alone ends within [`TOLERANCE`] of `x_star`.
 fn the_native_backend_projects_the_block(name: &str, p: &ProjectionProblem, x_star: &[f64]) {
-    let native = native_projector().project(p).unwrap().x;
-    let off = max_gap(&native, x_star);
+    let native = native_projector().project(p).unwrap();
+    let off = max_gap(&native.x, x_star);
     eprintln!("{name}: native on the block alone {off:.2e} from the projection");
     assert!(off <= TOLERANCE, "native {off:e}");
+    // Its answer is finished, or stands as a second pass's best iterate within a few times
+    // that pass's 1e-15 (the hall's late block: 2.7e-15).
+    assert!(native.stats.unfinished_off <= 1e-14, "{:?}", native.stats);
+}
+
+/// Clarabel on the block alone ends farther than [`TOLERANCE`] from `x_star`, and its answer
+/// says it was left unfinished by the second pass, off by more than a finished one may be.
+fn clarabels_answer_is_off_and_says_so(name: &str, p: &ProjectionProblem, x_star: &[f64]) {
+    let clarabel = ClarabelProjector::default().project(p).unwrap();
+    let off = max_gap(&clarabel.x, x_star);
+    eprintln!(
+        "{name}: Clarabel on the block alone {off:.2e} from the projection, {} block(s) \
+         unfinished, off by {:.1e}",
+        clarabel.stats.unfinished, clarabel.stats.unfinished_off
+    );
+    assert!(
+        off > TOLERANCE,
+        "Clarabel {off:e}: the test would test little"
+    );
+    assert_eq!(clarabel.stats.unfinished, 1);
+    assert!(
+        clarabel.stats.unfinished_off > 1e-13,
+        "{:?}",
+        clarabel.stats
+    );
 }
 
 #[test]
@@ -279,6 +316,7 @@ fn hall_late_the_stop_was_clarabels_answer_and_the_native_backend_projects_the_b
         "the run's Clarabel answer: {clarabel_run:e}"
     );
     the_native_backend_projects_the_block("hall_late", p, &x_star);
+    clarabels_answer_is_off_and_says_so("hall_late", p, &x_star);
 }
 
 /// What the two stops were, in numbers `docs/backends.md` quotes: how far each backend's

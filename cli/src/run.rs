@@ -375,6 +375,12 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         "  solver iterations: {} over {} solves (max rows {}, max active {}, interior-point rescues {}, fallbacks {})",
         s.solver_iterations, s.solves, s.max_rows, s.max_active, s.rescues, s.fallbacks
     );
+    if s.unfinished > 0 {
+        outln!(
+            "  unfinished answers: {} (the active set's second pass did not converge; rows off by up to {:.1e}, certified to the first pass's 1e-12 only)",
+            s.unfinished, s.unfinished_off
+        );
+    }
     if let Some(mib) = s.peak_memory_mib {
         outln!("  peak memory: {mib:.0} MiB (resident, the whole process)");
     }

@@ -307,6 +307,15 @@ pub struct RunSummary {
     /// method solved (native backend: active set, then interior point), summed.
     #[serde(default)]
     pub rescues: u64,
+    /// Sub-problems whose answer the active-set method's second pass (at `1e-15`) could not
+    /// finish, summed: each stands certified only to the first pass's `1e-12` (see
+    /// `SolveStats::unfinished` in the projection contract).
+    #[serde(default)]
+    pub unfinished: u64,
+    /// The largest violation of a row, or gap of a row of the support, that those answers
+    /// left (absolute; `0` when there were none).
+    #[serde(default)]
+    pub unfinished_off: f64,
     /// The process's peak resident memory at the end of the run, in MiB (`None` where the
     /// platform does not report it).
     #[serde(default)]
@@ -475,6 +484,8 @@ impl Observer for SummaryCollector<'_> {
         s.solves = st.solves;
         s.fallbacks = st.fallbacks;
         s.rescues = st.rescues;
+        s.unfinished = st.unfinished;
+        s.unfinished_off = st.unfinished_off;
         s.max_rows = st.max_rows;
         s.max_active = st.max_active;
         self.record(r.t, q);

@@ -100,9 +100,10 @@ pub enum StudyError {
         steps: usize,
         /// Time reached.
         t: f64,
-        /// The run's error.
+        /// The run's error (boxed: a run's error carries the projection's, and a study's
+        /// every `Result` would otherwise be as large as the largest).
         #[source]
-        source: SweepError,
+        source: Box<SweepError>,
     },
     /// Writing an output file failed.
     #[error("writing {}: {source}", path.display())]
@@ -426,7 +427,7 @@ pub fn run_sampled(
         h,
         steps: 0,
         t: problem.t0(),
-        source,
+        source: Box::new(source),
     })?;
     let mut sampler = Sampler::new(times.to_vec());
     let cpu0 = thread_cpu_seconds();
@@ -441,7 +442,7 @@ pub fn run_sampled(
         h,
         steps: failure.partial.stats.steps,
         t: failure.partial.t_final,
-        source: failure.error,
+        source: Box::new(failure.error),
     })?;
     if sampler.samples().len() != times.len() {
         return Err(StudyError::InvalidInput(format!(
@@ -1082,6 +1083,8 @@ mod tests {
             iterations: 0,
             fallbacks: 0,
             rescues: 0,
+            unfinished: 0,
+            unfinished_off: 0.0,
             times: Default::default(),
             max_violation: 0.0,
             worst_constraint: None,
@@ -1095,6 +1098,8 @@ mod tests {
                 warm_started: false,
                 fallbacks: 0,
                 rescues: 0,
+                unfinished: 0,
+                unfinished_off: 0.0,
             },
         };
         s.on_step(&report(0.5), &[1.0, 3.0]).unwrap();

@@ -214,7 +214,8 @@ impl Blocks {
 
     /// The answer of the whole problem from one answer per block (in the order of
     /// [`Blocks::blocks`]): unknowns outside every block keep `y`, rows outside every block get
-    /// multiplier `0`. Statistics are summed (iterations, seconds, fallbacks, rescues); the status is
+    /// multiplier `0`. Statistics are summed (iterations, seconds, fallbacks, rescues, unfinished
+    /// blocks; the largest `unfinished_off` is kept); the status is
     /// the weakest of the blocks', `warm_started` whether any block was.
     ///
     /// # Panics
@@ -250,6 +251,8 @@ impl Blocks {
             stats.warm_started |= s.warm_started;
             stats.fallbacks = stats.fallbacks.saturating_add(s.fallbacks);
             stats.rescues = stats.rescues.saturating_add(s.rescues);
+            stats.unfinished = stats.unfinished.saturating_add(s.unfinished);
+            stats.unfinished_off = crate::max_or_nan(stats.unfinished_off, s.unfinished_off);
         }
         Projection {
             x,
@@ -404,6 +407,37 @@ mod tests {
             let n = 10;
             assert_eq!(&s2.x[n..n + 3], &[7.0, -8.0, 9.0], "free unknowns keep y");
         }
+    }
+
+    #[test]
+    fn stitched_statistics_sum_the_blocks_counts_and_keep_the_largest_unfinished_off() {
+        let p = two_copies(3);
+        let blocks = Blocks::split(&p);
+        let answers: Vec<Projection> = blocks
+            .blocks()
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let mut answer = Projection::identity(&b.problem, "b");
+                let k = u32::try_from(i).unwrap();
+                answer.stats.iterations = 10 + k;
+                answer.stats.fallbacks = k;
+                answer.stats.rescues = 2 * k;
+                answer.stats.unfinished = k + 1;
+                answer.stats.unfinished_off = [3e-13, 5e-13, 4e-13][i % 3];
+                answer
+            })
+            .collect();
+        let count = u32::try_from(answers.len()).unwrap();
+        assert!(count >= 2);
+        let stats = blocks.stitch(&p, answers, "whole").stats;
+        let triangle = count * (count - 1) / 2;
+        assert_eq!(stats.backend, "whole");
+        assert_eq!(stats.iterations, 10 * count + triangle);
+        assert_eq!(stats.fallbacks, triangle);
+        assert_eq!(stats.rescues, 2 * triangle);
+        assert_eq!(stats.unfinished, triangle + count);
+        assert_eq!(stats.unfinished_off, 5e-13);
     }
 
     #[test]

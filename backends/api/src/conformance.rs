@@ -530,6 +530,8 @@ impl Projector for ReferenceProjector {
                             warm_started: false,
                             fallbacks: 0,
                             rescues: 0,
+                            unfinished: 0,
+                            unfinished_off: 0.0,
                         },
                     });
                 }

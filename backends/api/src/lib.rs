@@ -279,6 +279,21 @@ pub fn max_or_nan(a: f64, b: f64) -> f64 {
     }
 }
 
+/// The end of a disagreement's message: `; NAME's answer: K block(s) left unfinished by the
+/// second pass` for each side with any, nothing when neither has.
+fn unfinished_clause(first: &str, second: &str, unfinished: &[u32; 2]) -> String {
+    [(first, unfinished[0]), (second, unfinished[1])]
+        .iter()
+        .filter(|(_, blocks)| *blocks > 0)
+        .map(|(name, blocks)| {
+            format!(
+                "; {name}'s answer: {blocks} block(s) left unfinished by the second pass \
+                 (see SolveStats::unfinished)"
+            )
+        })
+        .collect()
+}
+
 /// Residuals of the KKT conditions `Ax ≥ b`, `x − y = Aᵀλ`, `λ ≥ 0`, `λᵢ(Ax − b)ᵢ = 0`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct KktResiduals {
@@ -366,6 +381,19 @@ pub struct SolveStats {
     /// the others).
     #[serde(default)]
     pub rescues: u32,
+    /// How many (sub-)problems have an answer that the active-set method's second pass could
+    /// not finish (the native backend and Clarabel's polish; `0` for the others). Both run
+    /// the method with tests at `1e-12` (relative), then, when the answer uses that room, a
+    /// second pass at `1e-15`; when that pass does not converge, the answer stands as the
+    /// first pass (or the pass's best iterate) left it, certified only to `1e-12`. On a jam
+    /// with more tight rows than unknowns (a sliver of a feasible set) such an answer can lie
+    /// `1e-8` from the projection while every KKT residual is below `1e-12`.
+    #[serde(default)]
+    pub unfinished: u32,
+    /// The largest violation of a row, or gap of a row of the support, left by those answers
+    /// (absolute; `0` when there are none).
+    #[serde(default)]
+    pub unfinished_off: f64,
 }
 
 impl SolveStats {
@@ -381,6 +409,8 @@ impl SolveStats {
             warm_started: false,
             fallbacks: 0,
             rescues: 0,
+            unfinished: 0,
+            unfinished_off: 0.0,
         }
     }
 }
@@ -423,7 +453,7 @@ pub enum ProjectionError {
     },
     /// Two backends run by [`CrossCheck`] returned points farther apart than allowed.
     #[error(
-        "backends disagree: {first} and {second} differ by {gap:.3e} (∞-norm, coordinate {coordinate}) > tolerance {tolerance:.1e}"
+        "backends disagree: {first} and {second} differ by {gap:.3e} (∞-norm, coordinate {coordinate}) > tolerance {tolerance:.1e}{}", unfinished_clause(first, second, unfinished)
     )]
     Disagreement {
         /// First backend.
@@ -436,6 +466,11 @@ pub enum ProjectionError {
         coordinate: usize,
         /// The allowed gap.
         tolerance: f64,
+        /// How many blocks of each answer (first, second) the active-set method's second
+        /// pass left unfinished ([`SolveStats::unfinished`]); the message names the answers
+        /// that have any. On a sliver of a feasible set such an answer can be `1e-8` from the
+        /// projection, so this says which side to suspect.
+        unfinished: [u32; 2],
     },
 }
 
@@ -471,9 +506,8 @@ pub enum ProjectionError {
 ///                     x,
 ///                     multipliers: vec![lambda],
 ///                     stats: SolveStats {
-///                         backend: self.name().into(), status: SolveStatus::Solved,
-///                         iterations: 0, solve_seconds: 0.0, setup_seconds: 0.0,
-///                         warm_started: false, fallbacks: 0, rescues: 0,
+///                         status: SolveStatus::Solved,
+///                         ..SolveStats::trivial(self.name())
 ///                     },
 ///                 })
 ///             }

@@ -75,7 +75,9 @@ fn a_gap_beyond_the_tolerance_is_an_error_naming_the_largest_coordinate() {
             gap,
             coordinate,
             tolerance,
+            unfinished,
         }) => {
+            assert_eq!(unfinished, [0, 0], "neither answer says it is unfinished");
             assert_eq!((first.as_str(), second.as_str()), ("a", "b"));
             assert!((gap - 5e-6).abs() < 1e-15, "{gap}");
             assert_eq!(coordinate, 1);
@@ -139,4 +141,52 @@ fn a_cross_check_reports_its_statistics_through_the_trait_and_its_wrappers() {
     assert_eq!(blocked.cross_check().unwrap().compared, 1);
     // Any other backend reports nothing.
     assert!(shifted("a", &[0.0; 3], 1e-9).cross_check().is_none());
+}
+
+/// Answers as [`Shifted`], reporting `blocks` blocks left unfinished by a second pass, off by
+/// `off`.
+struct Unfinished {
+    inner: Shifted,
+    blocks: u32,
+    off: f64,
+}
+
+impl Projector for Unfinished {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let mut answer = self.inner.project(p)?;
+        answer.stats.unfinished = self.blocks;
+        answer.stats.unfinished_off = self.off;
+        Ok(answer)
+    }
+}
+
+#[test]
+fn a_disagreement_names_the_answer_left_unfinished() {
+    let first = shifted("native", &[0.0; 3], 1e-9);
+    let second = Unfinished {
+        inner: shifted("clarabel", &[0.0, 2.3e-8, 0.0], 1e-9),
+        blocks: 1,
+        off: 8.5e-13,
+    };
+    let mut both = CrossCheck::new(first, second, 1e-8);
+    let error = both.project(&problem()).unwrap_err();
+    let message = error.to_string();
+    assert!(
+        message.ends_with(
+            "> tolerance 1.0e-8; clarabel's answer: 1 block(s) left unfinished by the second \
+             pass (see SolveStats::unfinished)"
+        ),
+        "{message}"
+    );
+    assert!(!message.contains("native's answer"), "{message}");
+    // The kept answers carry the counts, for whoever decides the step from the file.
+    let kept = both.stats().disagreement.as_deref().unwrap();
+    assert_eq!(
+        (kept.first.stats.unfinished, kept.second.stats.unfinished),
+        (0, 1)
+    );
+    assert_eq!(kept.second.stats.unfinished_off, 8.5e-13);
 }

@@ -168,6 +168,12 @@ pub struct Outcome {
     /// Iterations spent: each solved the working set's system once, through a fresh
     /// factorization or through the previous one by bordering.
     pub iterations: u32,
+    /// `None` when the answer passed the tests at `1e-15`, relative (the first pass's, or
+    /// the second pass's own); `Some(off)` when the second pass did not converge and the
+    /// answer stands as the first pass, or the pass's best iterate, left it: a row violated,
+    /// or a row of its support not tight, by `off` (absolute), certified only to that. On a
+    /// sliver of a feasible set such an answer can lie `1e-8` from the projection.
+    pub unfinished: Option<f64>,
 }
 
 /// Why no answer came out.
@@ -1622,10 +1628,14 @@ fn second_pass(
         {
             Outcome {
                 iterations: first.iterations.saturating_add(spent),
+                unfinished: Some(best_off),
                 ..best
             }
         }
-        (Err(_), _) => first,
+        (Err(_), _) => Outcome {
+            unfinished: Some(off),
+            ..first
+        },
     }
 }
 
@@ -1858,6 +1868,7 @@ fn answer_at(
         x,
         lambda: full,
         iterations,
+        unfinished: None,
     };
     (off, outcome)
 }
@@ -2206,6 +2217,28 @@ mod tests {
         assert_eq!(outcome.iterations, 1);
         assert_eq!(outcome.x, vec![1.0, 7.0]);
         assert_eq!(outcome.lambda, vec![0.5, 0.0]);
+        assert_eq!(outcome.unfinished, None);
+    }
+
+    #[test]
+    fn an_answer_the_second_pass_cannot_finish_stands_and_says_by_how_much_it_is_off() {
+        // As below, an answer past the first row by 5e-13, but the pass gets no iteration:
+        // the first answer stands, off by 5e-13 (the row's gap), and says so.
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, -1.0]).unwrap();
+        let first = Outcome {
+            x: vec![1.0 + 5e-13, 0.0],
+            lambda: vec![1.0 + 5e-13, 0.0],
+            iterations: 3,
+            unfinished: None,
+        };
+        let kept = second_pass(&p, finished(&p, first.clone()), 0, None);
+        assert_eq!((&kept.x, kept.iterations), (&first.x, 3));
+        let off = kept.unfinished.expect("the answer says it is unfinished");
+        assert!((off - 5e-13).abs() < 1e-16, "{off:e}");
+        // Given the iteration, the pass finishes it.
+        let done = second_pass(&p, finished(&p, first), 10, None);
+        assert_eq!(done.unfinished, None);
     }
 
     #[test]
@@ -2217,6 +2250,7 @@ mod tests {
             x: vec![1.0 + 5e-13, 0.0],
             lambda: vec![1.0 + 5e-13, 0.0],
             iterations: 3,
+            unfinished: None,
         };
         let second = second_pass(&p, finished(&p, first), 10, None);
         assert_eq!(second.x, vec![1.0, 0.0]);
@@ -2242,6 +2276,7 @@ mod tests {
             x: vec![1000.0 - 4.5e-13, 0.0],
             lambda: vec![1000.0, 0.0],
             iterations: 2,
+            unfinished: None,
         };
         let kept = second_pass(&p, finished(&p, short.clone()), 10, None);
         assert_eq!((kept.x, kept.iterations), (short.x, 2));

@@ -493,8 +493,14 @@ impl Projector for ClarabelProjector {
             multipliers.push(z.max(0.0));
         }
         let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
+        let mut unfinished = (0, 0.0);
         if self.settings.polish {
-            if let Some((px, mut pl)) = polish::polish(problem, &x, &solution.z, &solution.s) {
+            if let Some(polish::Polished {
+                x: px,
+                lambda: mut pl,
+                unfinished: left,
+            }) = polish::polish(problem, &x, &solution.z, &solution.s)
+            {
                 // Tiny negative multipliers of weakly active rows are clamped as above; a
                 // larger one disqualifies the polished answer.
                 let valid = pl.iter().all(|l| *l >= -clamp);
@@ -510,6 +516,7 @@ impl Projector for ClarabelProjector {
                     x = px;
                     multipliers = pl;
                     kkt = polished;
+                    unfinished = left;
                 }
             }
         }
@@ -531,6 +538,8 @@ impl Projector for ClarabelProjector {
                 warm_started: false,
                 fallbacks: 0,
                 rescues: 0,
+                unfinished: unfinished.0,
+                unfinished_off: unfinished.1,
             },
         })
     }

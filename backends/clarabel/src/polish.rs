@@ -24,6 +24,18 @@ use sweeping_api::{Blocks, ProjectionProblem};
 /// Most active-set iterations on a block of `m` rows: `ITERATIONS + m/2`.
 const ITERATIONS: u32 = 40;
 
+/// A polished answer.
+#[derive(Debug, Clone)]
+pub(crate) struct Polished {
+    /// The point.
+    pub x: Vec<f64>,
+    /// One multiplier per row.
+    pub lambda: Vec<f64>,
+    /// Blocks whose answer the method's second pass could not finish
+    /// ([`active_set::Outcome::unfinished`]), and the largest amount by which they are off.
+    pub unfinished: (u32, f64),
+}
+
 /// The projection finished from the interior-point answer `x` with multipliers `z` and slacks
 /// `s`, block by block, as `(x, λ)`. On each block the active-set method runs under a cap of
 /// `ITERATIONS + rows/2`, first with every violated row joining at once, then, if that runs
@@ -35,7 +47,7 @@ pub(crate) fn polish(
     x: &[f64],
     z: &[f64],
     s: &[f64],
-) -> Option<(Vec<f64>, Vec<f64>)> {
+) -> Option<Polished> {
     let (m, n) = (problem.n_rows(), problem.dim());
     if z.len() != m || s.len() != m || x.len() != n {
         return None;
@@ -45,6 +57,7 @@ pub(crate) fn polish(
     let mut px = problem.y().to_vec();
     let mut pl = vec![0.0; m];
     let mut polished = false;
+    let mut unfinished = (0u32, 0.0f64);
     for block in blocks.blocks() {
         let rows = &block.rows;
         let support: Vec<usize> = (0..rows.len())
@@ -82,6 +95,9 @@ pub(crate) fn polish(
         match outcome {
             Ok(outcome) => {
                 polished = true;
+                if let Some(off) = outcome.unfinished {
+                    unfinished = (unfinished.0.saturating_add(1), unfinished.1.max(off));
+                }
                 block
                     .cols
                     .iter()
@@ -97,7 +113,11 @@ pub(crate) fn polish(
             }
         }
     }
-    polished.then_some((px, pl))
+    polished.then_some(Polished {
+        x: px,
+        lambda: pl,
+        unfinished,
+    })
 }
 
 #[cfg(test)]
@@ -154,7 +174,8 @@ mod tests {
         ));
         // Block by block, every chain is finished: x_j = j − 2.5, the copies inactive.
         let x_guess = vec![0.0; problem.dim()];
-        let (x, lambda) = polish(&problem, &x_guess, &z, &s).expect("every block polished");
+        let Polished { x, lambda, .. } =
+            polish(&problem, &x_guess, &z, &s).expect("every block polished");
         for (c, v) in x.iter().enumerate() {
             let exact = (c % 6) as f64 - 2.5;
             assert!((v - exact).abs() < 1e-12, "x[{c}] = {v}, exact {exact}");
@@ -172,7 +193,7 @@ mod tests {
         // iterations, fewer than 40 + 120/2.
         let (problem, z, s) = chains_of(1, 61);
         let x_guess = vec![0.0; problem.dim()];
-        let (x, _) = polish(&problem, &x_guess, &z, &s).expect("the chain is polished");
+        let Polished { x, .. } = polish(&problem, &x_guess, &z, &s).expect("the chain is polished");
         assert!((x[0] + 30.0).abs() < 1e-10 && (x[60] - 30.0).abs() < 1e-10);
     }
 
@@ -193,7 +214,8 @@ mod tests {
         z.extend([0.5, 0.5]);
         s.extend([0.0, 0.0]);
         let x_guess: Vec<f64> = (0..8).map(|c| 0.25 * c as f64).collect();
-        let (x, lambda) = polish(&problem, &x_guess, &z, &s).expect("the chain is polished");
+        let Polished { x, lambda, .. } =
+            polish(&problem, &x_guess, &z, &s).expect("the chain is polished");
         assert!((x[0] + 2.5).abs() < 1e-12 && (x[5] - 2.5).abs() < 1e-12);
         // The empty block keeps the guess and its multipliers; unknown 6 is in no row: y.
         assert_eq!((x[6], x[7]), (0.0, x_guess[7]));
@@ -224,7 +246,9 @@ mod tests {
             serde_json::from_str(include_str!("../tests/data/jam_polish_guess.json")).unwrap();
         let (problem, x, z) = (data.problem, data.interior_point_x, data.interior_point_z);
         let s: Vec<f64> = problem.shortfall(&x).iter().map(|r| -r).collect();
-        let (px, pl) = polish(&problem, &x, &z, &s).expect("the block is polished");
+        let Polished {
+            x: px, lambda: pl, ..
+        } = polish(&problem, &x, &z, &s).expect("the block is polished");
         assert!(problem.kkt_residuals(&px, &pl).max() <= 1e-12);
         // By the second try, under the block's cap of 40 + 400/2: the rows with z > s, one
         // violated row joining at a time.

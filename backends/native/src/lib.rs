@@ -447,6 +447,8 @@ impl BlockContext<'_> {
                 warm_started: warm,
                 fallbacks: 0,
                 rescues: u32::from(rescued),
+                unfinished: u32::from(outcome.unfinished.is_some()),
+                unfinished_off: outcome.unfinished.unwrap_or(0.0),
             },
         })
     }
@@ -873,6 +875,7 @@ fn certified_iterate(
         x,
         lambda,
         iterations: spent,
+        unfinished: None,
     })
 }
 

@@ -588,6 +588,8 @@ impl OsqpProjector {
                         warm_started: reusable || keyed_warm,
                         fallbacks: 0,
                         rescues: 0,
+                        unfinished: 0,
+                        unfinished_off: 0.0,
                     },
                 })
             }

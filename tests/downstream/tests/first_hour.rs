@@ -319,14 +319,9 @@ impl Projector for Cyclic {
                     x,
                     multipliers: lambda,
                     stats: SolveStats {
-                        backend: self.name().into(),
                         status: SolveStatus::Solved,
                         iterations: sweep,
-                        solve_seconds: 0.0,
-                        setup_seconds: 0.0,
-                        warm_started: false,
-                        fallbacks: 0,
-                        rescues: 0,
+                        ..SolveStats::trivial(self.name())
                     },
                 });
             }
