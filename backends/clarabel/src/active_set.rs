@@ -2220,10 +2220,9 @@ mod tests {
         assert_eq!(outcome.unfinished, None);
     }
 
-    #[test]
-    fn an_answer_the_second_pass_cannot_finish_stands_and_says_by_how_much_it_is_off() {
-        // As below, an answer past the first row by 5e-13, but the pass gets no iteration:
-        // the first answer stands, off by 5e-13 (the row's gap), and says so.
+    /// x₀ ≥ 1 active, x₁ ≥ −1 inactive (y = 0), and a first answer past the first row by
+    /// 5e-13, after three iterations.
+    fn overshot() -> (ProjectionProblem, Outcome) {
         let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
         let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, -1.0]).unwrap();
         let first = Outcome {
@@ -2232,6 +2231,14 @@ mod tests {
             iterations: 3,
             unfinished: None,
         };
+        (p, first)
+    }
+
+    #[test]
+    fn an_answer_the_second_pass_cannot_finish_stands_and_says_by_how_much_it_is_off() {
+        // As below, but the pass gets no iteration: the first answer stands, off by 5e-13
+        // (the row's gap), and says so.
+        let (p, first) = overshot();
         let kept = second_pass(&p, finished(&p, first.clone()), 0, None);
         assert_eq!((&kept.x, kept.iterations), (&first.x, 3));
         let off = kept.unfinished.expect("the answer says it is unfinished");
@@ -2243,15 +2250,7 @@ mod tests {
 
     #[test]
     fn a_support_row_overshot_beyond_the_second_tolerance_is_finished_and_counted() {
-        // x₀ ≥ 1 active, x₁ ≥ −1 inactive (y = 0); an answer past the first row by 5e-13.
-        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
-        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, -1.0]).unwrap();
-        let first = Outcome {
-            x: vec![1.0 + 5e-13, 0.0],
-            lambda: vec![1.0 + 5e-13, 0.0],
-            iterations: 3,
-            unfinished: None,
-        };
+        let (p, first) = overshot();
         let second = second_pass(&p, finished(&p, first), 10, None);
         assert_eq!(second.x, vec![1.0, 0.0]);
         assert_eq!(second.lambda, vec![1.0, 0.0]);
