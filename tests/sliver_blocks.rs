@@ -216,12 +216,16 @@ fn hall_the_method_from_either_answer_ends_at_the_projection() {
 fn large_evacuation_cycling_the_method_from_either_answer_ends_at_the_projection() {
     let iterations =
         the_method_from_either_answer_ends_at_the_projection("large_evacuation_cycling");
-    // From Clarabel's answer the second pass fails and its best iterate stands: the count is
-    // every iteration spent (290), not those up to the best iterate (190). Deterministic.
-    // The answer says so: off by 6.7e-13, where a finished one is within 1e-15.
-    assert!(iterations[1].0 >= 250, "{iterations:?}");
+    // From Clarabel's answer the second pass fails at 1e-15 (290 iterations) and at 1e-14
+    // (416 more), and the best iterate of the latter stands: the count is every iteration
+    // spent, not those up to the best iterate. Deterministic. The answer says so: off by
+    // 5.4e-15, where a finished one is within 1e-15 (before the pass at 1e-14 stood the
+    // first pass's best iterate, off by 6.7e-13 and 2.8e-10 from the projection).
+    assert!(iterations[1].0 >= 600, "{iterations:?}");
     assert!(
-        iterations[1].1.is_some_and(|off| off > 1e-13),
+        iterations[1]
+            .1
+            .is_some_and(|off| off > 1e-15 && off <= 1e-14),
         "{iterations:?}"
     );
     assert_eq!(iterations[0].1, None);
@@ -229,13 +233,13 @@ fn large_evacuation_cycling_the_method_from_either_answer_ends_at_the_projection
 
 #[test]
 fn large_evacuation_cycling_the_native_backend_projects_the_block() {
-    // Clarabel on this block alone ends 9.8e-9 from the projection: from its interior point's
-    // guess the second pass cycles at 1e-15, even under Bland's rule, and no iterate of it is
-    // better than its first answer (`docs/backends.md`).
+    // From its interior point's guess Clarabel's second pass cycles at 1e-15, even under
+    // Bland's rule, and no iterate of it is better than its first answer, 9.8e-9 from the
+    // projection; the pass at 1e-14 brings it to 3.1e-10 (`docs/backends.md`).
     let s = sliver("large_evacuation_cycling");
     let x_star = certified_projection(&s);
     the_native_backend_projects_the_block("large_evacuation_cycling", &s.problem, &x_star);
-    clarabels_answer_is_off_and_says_so("large_evacuation_cycling", &s.problem, &x_star);
+    clarabel_is_unfinished_but_within_tolerance("large_evacuation_cycling", &s.problem, &x_star);
 }
 
 /// The native backend on the block alone ends within [`TOLERANCE`] of `x_star`.
@@ -249,9 +253,11 @@ fn the_native_backend_projects_the_block(name: &str, p: &ProjectionProblem, x_st
     assert!(native.stats.unfinished_off <= 1e-14, "{:?}", native.stats);
 }
 
-/// Clarabel on the block alone ends farther than [`TOLERANCE`] from `x_star`, and its answer
-/// says it was left unfinished by the second pass, off by more than a finished one may be.
-fn clarabels_answer_is_off_and_says_so(name: &str, p: &ProjectionProblem, x_star: &[f64]) {
+/// Clarabel on the block alone ends within [`TOLERANCE`] of `x_star`, though its second pass
+/// could not finish at `1e-15` nor at `1e-14` (the ladder of `active_set`): the answer says it
+/// was left unfinished, off by more than a finished one may be. Before the pass at `1e-14`,
+/// Clarabel ended 1.06e-9 (hall) and 9.8e-9 (cycling) from the projection.
+fn clarabel_is_unfinished_but_within_tolerance(name: &str, p: &ProjectionProblem, x_star: &[f64]) {
     let clarabel = ClarabelProjector::default().project(p).unwrap();
     let off = max_gap(&clarabel.x, x_star);
     eprintln!(
@@ -259,10 +265,7 @@ fn clarabels_answer_is_off_and_says_so(name: &str, p: &ProjectionProblem, x_star
          unfinished, off by {:.1e}",
         clarabel.stats.unfinished, clarabel.stats.unfinished_off
     );
-    assert!(
-        off > TOLERANCE,
-        "Clarabel {off:e}: the test would test little"
-    );
+    assert!(off <= TOLERANCE, "Clarabel {off:e}");
     assert_eq!(clarabel.stats.unfinished, 1);
     assert!(
         clarabel.stats.unfinished_off > 1e-13,
@@ -316,7 +319,7 @@ fn hall_late_the_stop_was_clarabels_answer_and_the_native_backend_projects_the_b
         "the run's Clarabel answer: {clarabel_run:e}"
     );
     the_native_backend_projects_the_block("hall_late", p, &x_star);
-    clarabels_answer_is_off_and_says_so("hall_late", p, &x_star);
+    clarabel_is_unfinished_but_within_tolerance("hall_late", p, &x_star);
 }
 
 /// What the two stops were, in numbers `docs/backends.md` quotes: how far each backend's
@@ -359,4 +362,19 @@ fn what_the_stops_were() {
             smallest.max(0.0).sqrt()
         );
     }
+}
+
+/// The run's Clarabel answer at the hall's late stop was 2.3e-8 from the projection: its
+/// second pass cycled at `1e-15`. Restarted from it, the pass at `1e-14` finishes it 2.9e-11
+/// from the projection, so the stop would not have been one.
+#[test]
+fn hall_late_the_method_from_either_answer_ends_at_the_projection() {
+    let iterations = the_method_from_either_answer_ends_at_the_projection("hall_late_sliver");
+    assert_eq!(iterations[0].1, None);
+    assert!(
+        iterations[1]
+            .1
+            .is_some_and(|off| off > 1e-15 && off <= 1e-14),
+        "{iterations:?}"
+    );
 }

@@ -377,7 +377,7 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
     );
     if s.unfinished > 0 {
         outln!(
-            "  unfinished answers: {} (the active set's second pass did not converge; rows off by up to {:.1e}, certified to the first pass's 1e-12 only)",
+            "  unfinished answers: {} (the active set's second pass did not converge at 1e-15; rows off by up to {:.1e}, certified to that only)",
             s.unfinished, s.unfinished_off
         );
     }

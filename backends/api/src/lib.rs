@@ -384,10 +384,10 @@ pub struct SolveStats {
     /// How many (sub-)problems have an answer that the active-set method's second pass could
     /// not finish (the native backend and Clarabel's polish; `0` for the others). Both run
     /// the method with tests at `1e-12` (relative), then, when the answer uses that room, a
-    /// second pass at `1e-15`; when that pass does not converge, the answer stands as the
-    /// first pass (or the pass's best iterate) left it, certified only to `1e-12`. On a jam
-    /// with more tight rows than unknowns (a sliver of a feasible set) such an answer can lie
-    /// `1e-8` from the projection while every KKT residual is below `1e-12`.
+    /// second pass at `1e-15`, and one at `1e-14` when that does not converge; when neither
+    /// does, the answer stands as the first pass (or a pass's best iterate) left it, certified
+    /// only to [`SolveStats::unfinished_off`]. On a jam with more tight rows than unknowns (a
+    /// sliver of a feasible set) an answer off by `1e-12` lay `1e-8` from the projection.
     #[serde(default)]
     pub unfinished: u32,
     /// The largest violation of a row, or gap of a row of the support, left by those answers

@@ -44,7 +44,9 @@
 //! Those tests allow `1e-12` (relative), which jams need to finish at all; an answer that
 //! uses that room (a row violated, or the support's equations left unsolved, by more than
 //! `1e-15`) is finished by a second pass at `1e-15` from its own support, under the same cap
-//! of iterations, and stands as it is when that pass does not converge. On a jam with more
+//! of iterations, then, when that pass does not converge, by one at `1e-14`; when neither
+//! does, the answer stands as it is, or as a pass's best iterate, and says it is unfinished
+//! ([`Outcome::unfinished`]). On a jam with more
 //! tight rows than unknowns the feasible set is a sliver around the projection, and two
 //! points that pass the `1e-12` tests can lie millions of times further apart than that
 //! (measured in `docs/backends.md`). The second pass tells a support whose rows are nearly
@@ -92,6 +94,18 @@ const ACTIVE_TOL: f64 = 1e-12;
 /// the rounding of `r − A d`; answers finished at it came within 3e-10 of the projection on
 /// both blocks (`docs/backends.md`).
 const SECOND_PASS_TOL: f64 = 1e-15;
+
+/// The tests of the second pass, tried in turn, each from the first answer, until a pass
+/// converges; an answer that only the second converges to is [`Outcome::unfinished`], off by
+/// up to `1e-14`. On the slivers where the pass at `1e-15` cycles, a row violated by about
+/// `2e-15` joins and the refinement then measures the support's equations inconsistent by
+/// `2e-14`, so the row leaves again: the test is below what the refinement can resolve there.
+/// At `1e-14`, Clarabel's answer at the 10 000-person hall's stop of `docs/backends.md` was
+/// finished 2.9e-11 from the projection instead of 2.3e-8, and Clarabel on two such blocks
+/// alone ended 7.6e-10 and 3.1e-10 from it instead of 1.06e-9 and 9.8e-9. A third rung at
+/// `1e-13` finished those two blocks, 2.0e-9 and 9.8e-10 from the projection: worse than
+/// the `1e-14` pass's best iterates, and so not kept.
+const FINISH_LADDER: [f64; 2] = [SECOND_PASS_TOL, 1e-14];
 
 /// The tests of one pass of the method.
 #[derive(Debug, Clone, Copy)]
@@ -169,10 +183,11 @@ pub struct Outcome {
     /// factorization or through the previous one by bordering.
     pub iterations: u32,
     /// `None` when the answer passed the tests at `1e-15`, relative (the first pass's, or
-    /// the second pass's own); `Some(off)` when the second pass did not converge and the
-    /// answer stands as the first pass, or the pass's best iterate, left it: a row violated,
-    /// or a row of its support not tight, by `off` (absolute), certified only to that. On a
-    /// sliver of a feasible set such an answer can lie `1e-8` from the projection.
+    /// the second pass's own); `Some(off)` when the second pass did not converge at `1e-15`
+    /// and the answer is the one at `1e-14`, or stands as the first pass or a pass's best
+    /// iterate left it: a row violated, or a row of its support not tight, by `off`
+    /// (absolute), certified only to that. On a sliver of a feasible set an answer off by
+    /// `1e-12` lay `1e-8` from the projection.
     pub unfinished: Option<f64>,
 }
 
@@ -1552,11 +1567,13 @@ type Best = Option<(f64, Outcome)>;
 /// `cap` iterations (the first pass's own cap), through the factorization of its last
 /// iteration, bordered. When the pass does not converge (it runs out, or cycles: it does not
 /// restart from an empty support as the first pass does, which on a block of 1858 rows of the
-/// 2000-person evacuation spent 900 iterations for nothing), the answer is the better of the
-/// first and the pass's best iterate ([`Best`]): at such a jam's queue, rows that the data make
-/// dependent on the support and inconsistent with it by a few units in the last place of `b`
-/// keep joining and leaving at `1e-15`, and the pass's iterates between them were off by a few
-/// `1e-15`, where the first answer was off by `1e-12` and `1e-8` from the projection.
+/// 2000-person evacuation spent 900 iterations for nothing), it is run again from the same
+/// start at the next tolerance of [`FINISH_LADDER`]; when none converges, the answer is the
+/// first or a pass's best iterate ([`Best`]), whichever is off by least, marked
+/// [`Outcome::unfinished`]: at such a jam's queue, rows that the data make dependent on the
+/// support and inconsistent with it by a few units in the last place of `b` keep joining and
+/// leaving at `1e-15`, and the pass's iterates between them were off by a few `1e-15`, where
+/// the first answer was off by `1e-12` and `1e-8` from the projection.
 ///
 /// On a jam with more tight rows than unknowns the feasible set is a sliver around the
 /// projection, and a point that violates a row, or solves its support's equations, only to
@@ -1572,11 +1589,11 @@ fn second_pass(
     problem: &ProjectionProblem,
     first: Finished,
     cap: u32,
-    memory: Option<&mut Remembered<'_>>,
+    mut memory: Option<&mut Remembered<'_>>,
 ) -> Outcome {
     let Finished {
         outcome: first,
-        held,
+        mut held,
         needs_second_pass,
         off,
     } = first;
@@ -1602,40 +1619,61 @@ fn second_pass(
             .collect(),
         join_at_most: Some(1),
     };
-    let mut best: Best = None;
-    let pass = run_watched(
-        problem,
-        start,
-        cap,
-        SECOND_PASS,
-        memory,
-        held,
-        Some(&mut best),
-        &mut |_| {},
-    );
-    match (pass, best) {
-        (
-            Ok(Finished {
-                outcome: second, ..
-            }),
-            _,
-        ) => Outcome {
-            iterations: first.iterations.saturating_add(second.iterations),
-            ..second
-        },
-        (Err(Failure::Cap(spent) | Failure::Cycling(spent)), Some((best_off, best)))
-            if best_off < off =>
-        {
-            Outcome {
-                iterations: first.iterations.saturating_add(spent),
-                unfinished: Some(best_off),
-                ..best
+    // The answer off by least so far: the first, or a later pass's best iterate or answer.
+    let mut spent = first.iterations;
+    let mut kept: (f64, Outcome) = (off, first);
+    for (rung, &tolerance) in FINISH_LADDER.iter().enumerate() {
+        let mut best: Best = None;
+        let pass = run_watched(
+            problem,
+            start.clone(),
+            cap,
+            Tolerances {
+                active: tolerance,
+                refine: tolerance,
+                ..SECOND_PASS
+            },
+            memory.as_deref_mut(),
+            if rung == 0 { held.take() } else { None },
+            Some(&mut best),
+            &mut |_| {},
+        );
+        match (pass, best) {
+            (
+                Ok(Finished {
+                    outcome: second,
+                    off: second_off,
+                    ..
+                }),
+                _,
+            ) => {
+                spent = spent.saturating_add(second.iterations);
+                // Finished at the second pass's own tests.
+                if rung == 0 {
+                    return Outcome {
+                        iterations: spent,
+                        ..second
+                    };
+                }
+                if second_off < kept.0 {
+                    kept = (second_off, second);
+                }
+                break;
             }
+            (Err(Failure::Cap(n) | Failure::Cycling(n)), Some((best_off, best))) => {
+                spent = spent.saturating_add(n);
+                if best_off < kept.0 {
+                    kept = (best_off, best);
+                }
+            }
+            (Err(Failure::Cap(n) | Failure::Cycling(n)), None) => spent = spent.saturating_add(n),
+            (Err(_), _) => {}
         }
-        (Err(_), _) => Outcome {
-            unfinished: Some(off),
-            ..first
-        },
+    }
+    Outcome {
+        iterations: spent,
+        unfinished: Some(kept.0),
+        ..kept.1
     }
 }
 
@@ -2293,10 +2331,35 @@ mod tests {
         let outcome = solve(&p, start_from(vec![0], 21), 30).unwrap();
         assert!(outcome.x[1..].iter().all(|x| (x - 5e-13).abs() <= 1e-20));
         assert_eq!(outcome.iterations, 1 + 21);
-        // Under a cap of 10 the pass runs out and the first answer stands.
+        // Under a cap of 10 the pass runs out, at 1e-15 and at 1e-14 (each row still joins,
+        // 5e-13 exceeding both), and the first answer stands, unfinished; the count is every
+        // iteration spent.
         let capped = solve(&p, start_from(vec![0], 21), 10).unwrap();
         assert!(capped.x[1..].iter().all(|x| *x == 0.0));
-        assert_eq!(capped.iterations, 1);
+        assert_eq!(capped.iterations, 1 + 10 + 10);
+        assert_eq!(capped.unfinished, Some(5e-13));
+    }
+
+    #[test]
+    fn a_second_pass_that_runs_out_at_1e_15_is_finished_at_1e_14_and_says_so() {
+        // x₀ ≥ 1, and 20 rows xⱼ ≥ 5e-15 that y = 0 violates by more than the second pass's
+        // 1e-15 but less than 1e-14, and a cap of 10: at 1e-15 the pass takes them in one at
+        // a time and runs out; at 1e-14 it finds the first answer finished as it is.
+        let rows: Vec<Vec<(usize, f64)>> = (0..21).map(|j| vec![(j, 1.0)]).collect();
+        let a = SparseRows::from_rows(21, &rows);
+        let mut b = vec![5e-15; 21];
+        b[0] = 1.0;
+        let p = ProjectionProblem::new(vec![0.0; 21], a, b).unwrap();
+        let outcome = solve(&p, start_from(vec![0], 21), 10).unwrap();
+        assert_eq!(outcome.x[0], 1.0);
+        assert!(outcome.x[1..].iter().all(|x| *x == 0.0));
+        assert_eq!(outcome.unfinished, Some(5e-15));
+        // The first pass's iteration, the 10 at 1e-15 and the 1 at 1e-14.
+        assert_eq!(outcome.iterations, 1 + 10 + 1);
+        // With room for the 20 rows the pass at 1e-15 finishes, and nothing is unfinished.
+        let finished = solve(&p, start_from(vec![0], 21), 30).unwrap();
+        assert!(finished.x[1..].iter().all(|x| (x - 5e-15).abs() <= 1e-22));
+        assert_eq!(finished.unfinished, None);
     }
 
     #[test]
