@@ -2341,6 +2341,31 @@ mod tests {
     }
 
     #[test]
+    fn a_pass_that_runs_out_keeps_its_best_iterate_when_it_is_off_by_less() {
+        // x₀ ≥ 1, and 20 rows xⱼ ≥ 4e-14·j that y = 0 violates by 4e-14 to 8e-13: the first
+        // pass accepts y as it is (all within ACTIVE_TOL), off by 8e-13. Under a cap of 10 the
+        // passes at 1e-15 and 1e-14 run out, each joining the most violated row at a time, and
+        // the iterates they pass through are off by less and less: the answer is the best of
+        // them, not the first.
+        let rows: Vec<Vec<(usize, f64)>> = (0..21).map(|j| vec![(j, 1.0)]).collect();
+        let a = SparseRows::from_rows(21, &rows);
+        let mut b: Vec<f64> = (0..21).map(|j| 4e-14 * j as f64).collect();
+        b[0] = 1.0;
+        let p = ProjectionProblem::new(vec![0.0; 21], a, b.clone()).unwrap();
+        let outcome = solve(&p, start_from(vec![0], 21), 10).unwrap();
+        let joined: Vec<usize> = (1..21).filter(|&j| outcome.x[j] != 0.0).collect();
+        // The rows joined are the most violated ones, each made tight.
+        assert!(!joined.is_empty());
+        assert_eq!(joined, (21 - joined.len()..21).collect::<Vec<_>>());
+        assert!(joined.iter().all(|&j| (outcome.x[j] - b[j]).abs() <= 1e-20));
+        // Ten iterations: the start's own solve, then nine rows joined, one at a time.
+        assert_eq!(joined.len(), 9);
+        // Off by the most violated row left out, 4.4e-13, where the first answer was 8e-13.
+        assert_eq!(outcome.unfinished, Some(b[11]));
+        assert_eq!(outcome.iterations, 1 + 10 + 10);
+    }
+
+    #[test]
     fn a_second_pass_that_runs_out_at_1e_15_is_finished_at_1e_14_and_says_so() {
         // x₀ ≥ 1, and 20 rows xⱼ ≥ 5e-15 that y = 0 violates by more than the second pass's
         // 1e-15 but less than 1e-14, and a cap of 10: at 1e-15 the pass takes them in one at
