@@ -151,10 +151,11 @@ pub struct ProjectorOptions {
     /// `None` for its default (tight) settings. The cross-checks take none. Default `None`.
     pub tolerance: Option<f64>,
     /// Most threads a projection runs on, `0` meaning as many as the cores the process may run
-    /// on. Only the native backend runs a projection on more than one
+    /// on. The native backend runs a projection on more than one
     /// ([`NativeSettings::threads`](sweeping_native::NativeSettings::threads): its blocks and
-    /// its speculated rescues); the others, and `cross-native`'s Clarabel, run on the caller's
-    /// thread whatever it says. The answers do not depend on it. Default `0`.
+    /// its speculated rescues), and the cross-checks, with two or more, run their two backends
+    /// at once ([`CrossCheck::concurrent`]); Clarabel and OSQP run on the caller's thread
+    /// whatever it says. The answers do not depend on it. Default `0`.
     pub threads: usize,
 }
 
@@ -205,8 +206,12 @@ pub fn make_projector_with(
     options: ProjectorOptions,
 ) -> Result<Box<dyn Projector>, BackendError> {
     let ProjectorOptions { tolerance, threads } = options;
-    #[cfg(not(feature = "native"))]
-    let _ = threads;
+    // The cross-checks run their two backends at once when they may use two threads.
+    #[allow(unused_variables)]
+    let concurrent = match threads {
+        0 => std::thread::available_parallelism().map_or(1, usize::from),
+        n => n,
+    } >= 2;
     match (choice, tolerance) {
         (BackendChoice::Cross | BackendChoice::CrossNative, Some(_)) => {
             Err(BackendError::NoTolerance { backend: choice })
@@ -238,11 +243,14 @@ pub fn make_projector_with(
             ..Default::default()
         }))),
         #[cfg(all(feature = "clarabel", feature = "osqp"))]
-        (BackendChoice::Cross, None) => Ok(Box::new(CrossCheck::new(
-            ClarabelProjector::default(),
-            OsqpProjector::default(),
-            DEFAULT_CROSS_TOLERANCE,
-        ))),
+        (BackendChoice::Cross, None) => Ok(Box::new(
+            CrossCheck::new(
+                ClarabelProjector::default(),
+                OsqpProjector::default(),
+                DEFAULT_CROSS_TOLERANCE,
+            )
+            .concurrent(concurrent),
+        )),
         #[cfg(feature = "native")]
         (BackendChoice::Native, tol) => {
             let mut native = native_projector_on_threads(threads);
@@ -252,11 +260,14 @@ pub fn make_projector_with(
             Ok(Box::new(native))
         }
         #[cfg(all(feature = "clarabel", feature = "native"))]
-        (BackendChoice::CrossNative, None) => Ok(Box::new(CrossCheck::new(
-            native_projector_on_threads(threads),
-            ClarabelProjector::default(),
-            NATIVE_CROSS_TOLERANCE,
-        ))),
+        (BackendChoice::CrossNative, None) => Ok(Box::new(
+            CrossCheck::new(
+                native_projector_on_threads(threads),
+                ClarabelProjector::default(),
+                NATIVE_CROSS_TOLERANCE,
+            )
+            .concurrent(concurrent),
+        )),
         #[allow(unreachable_patterns)]
         (other, _) => Err(BackendError::NotCompiled {
             backend: other,

@@ -32,8 +32,8 @@ pub struct BenchArgs {
     /// Seed of the placements.
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
-    /// Most threads a projection runs on (0: as many as the cores). Only the native backend
-    /// uses more than one.
+    /// Most threads a projection runs on (0: as many as the cores). The native backend uses
+    /// more than one, and a cross-check with two or more runs its two backends at once.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Also write the table as CSV.

@@ -36,8 +36,9 @@ pub struct RunArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Most threads a projection runs on: 1 keeps the run on one core (for runs side by side);
-    /// 0, as many as the cores (default: the scene's `[run] threads`, else 0). Only the native
-    /// backend uses more than one; the trajectory does not depend on it.
+    /// 0, as many as the cores (default: the scene's `[run] threads`, else 0). The native backend
+    /// uses more than one, and a cross-check with two or more runs its two backends at once;
+    /// the trajectory does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
     /// Trajectory formats, comma-separated: csv (trajectory.csv), sqlite (trajectory.sqlite,

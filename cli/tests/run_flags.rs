@@ -140,6 +140,36 @@ fn a_cross_checked_run_reports_the_gaps_it_saw_and_another_run_reports_none() {
 }
 
 #[test]
+fn a_cross_check_on_two_threads_runs_its_backends_at_once_and_writes_the_same_run() {
+    let read =
+        |run: &support::CliRun, file: &str| std::fs::read_to_string(run.out.join(file)).unwrap();
+    let one = sweep_run(
+        "cross-threads-1",
+        JAM,
+        &["--backend", "cross-native", "--threads", "1"],
+    );
+    let two = sweep_run(
+        "cross-threads-2",
+        JAM,
+        &["--backend", "cross-native", "--threads", "2"],
+    );
+    assert!(one.success && two.success, "{}\n{}", one.output, two.output);
+    // The native backend on two threads and Clarabel beside it: the same answers, so the
+    // same trajectory to the byte and the same gaps.
+    assert!(read(&one, "trajectory.csv") == read(&two, "trajectory.csv"));
+    let cross = |run: &support::CliRun| {
+        let summary: serde_json::Value = serde_json::from_str(&read(run, "summary.json")).unwrap();
+        let c = summary["cross_check"].clone();
+        (
+            c["compared"].clone(),
+            c["max_gap"].clone(),
+            c["sum_gap"].clone(),
+        )
+    };
+    assert_eq!(cross(&one), cross(&two));
+}
+
+#[test]
 fn a_run_refused_before_its_first_step_writes_its_start_and_counts_everybody_in() {
     // 1e13 steps, beyond the stepper's limit: refused when the run starts. It reported
     // "left: 120, remaining: 0" and wrote no trajectory.

@@ -23,6 +23,7 @@ pub struct CrossCheck<P1, P2> {
     tolerance: f64,
     name: String,
     stats: CrossCheckStats,
+    concurrent: bool,
 }
 
 /// What a [`CrossCheck`] has seen so far.
@@ -76,7 +77,24 @@ impl<P1: Projector, P2: Projector> CrossCheck<P1, P2> {
             tolerance,
             name,
             stats: CrossCheckStats::default(),
+            concurrent: false,
         }
+    }
+
+    /// Runs the two backends at once, the first on a thread of its own, when `concurrent`
+    /// (default: one after the other). Each backend sees only the problem, so the answers,
+    /// the gaps and the verdict are the same either way; a run's wall time becomes that of
+    /// the slower backend instead of the sum of both, for a thread started per problem. For
+    /// two cores or more: on one, the two backends only take turns.
+    #[must_use]
+    pub fn concurrent(mut self, concurrent: bool) -> Self {
+        self.concurrent = concurrent;
+        self
+    }
+
+    /// Whether the two backends run at once ([`CrossCheck::concurrent`]).
+    pub fn is_concurrent(&self) -> bool {
+        self.concurrent
     }
 
     /// The statistics gathered so far.
@@ -95,12 +113,34 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
     }
 
     fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
-        let t0 = std::time::Instant::now();
-        let a = self.first.project(problem)?;
-        let t1 = std::time::Instant::now();
-        let b = self.second.project(problem)?;
-        self.stats.first_seconds += (t1 - t0).as_secs_f64();
-        self.stats.second_seconds += t1.elapsed().as_secs_f64();
+        let timed = |p: &mut dyn Projector| {
+            let t0 = std::time::Instant::now();
+            let answer = p.project(problem);
+            (answer, t0.elapsed().as_secs_f64())
+        };
+        let (a, b) = if self.concurrent {
+            let (first, second) = (&mut self.first, &mut self.second);
+            let ((a, first_seconds), (b, second_seconds)) = std::thread::scope(|scope| {
+                let on_its_own = scope.spawn(|| timed(first));
+                let b = timed(second);
+                match on_its_own.join() {
+                    Ok(a) => (a, b),
+                    // The first backend panicked: so does the caller, as it would have.
+                    Err(panic) => std::panic::resume_unwind(panic),
+                }
+            });
+            self.stats.first_seconds += first_seconds;
+            self.stats.second_seconds += second_seconds;
+            // The first backend's error first, as when they take turns.
+            (a?, b?)
+        } else {
+            let (a, first_seconds) = timed(&mut self.first);
+            self.stats.first_seconds += first_seconds;
+            let a = a?;
+            let (b, second_seconds) = timed(&mut self.second);
+            self.stats.second_seconds += second_seconds;
+            (a, b?)
+        };
         let (coordinate, gap) =
             a.x.iter()
                 .zip(&b.x)

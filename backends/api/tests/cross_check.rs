@@ -190,3 +190,122 @@ fn a_disagreement_names_the_answer_left_unfinished() {
     );
     assert_eq!(kept.second.stats.unfinished_off, 8.5e-13);
 }
+
+/// Answers as [`Shifted`], noting the thread each answer was computed on.
+struct OnThread {
+    inner: Shifted,
+    seen: std::sync::Arc<std::sync::Mutex<Vec<(&'static str, std::thread::ThreadId)>>>,
+}
+
+impl Projector for OnThread {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let here = std::thread::current().id();
+        self.seen.lock().unwrap().push((self.inner.name, here));
+        self.inner.project(p)
+    }
+}
+
+#[test]
+fn concurrent_backends_run_on_two_threads_and_give_what_turns_give() {
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let on_thread = |name, shift: &[f64]| OnThread {
+        inner: shifted(name, shift, 1e-9),
+        seen: seen.clone(),
+    };
+    let make = |concurrent| {
+        CrossCheck::new(
+            on_thread("a", &[0.0; 3]),
+            on_thread("b", &[0.0, 3e-10, 0.0]),
+            1e-9,
+        )
+        .concurrent(concurrent)
+    };
+    let p = problem();
+    let caller = std::thread::current().id();
+    let (mut turns, mut at_once) = (make(false), make(true));
+    assert!(!turns.is_concurrent() && at_once.is_concurrent());
+    let answer = turns.project(&p).unwrap();
+    let turns_seen: Vec<_> = seen.lock().unwrap().drain(..).collect();
+    assert_eq!(turns_seen, vec![("a", caller), ("b", caller)]);
+    assert_eq!(at_once.project(&p).unwrap().x, answer.x);
+    let mut at_once_seen: Vec<_> = seen.lock().unwrap().drain(..).collect();
+    at_once_seen.sort_by_key(|(name, _)| *name);
+    // The first backend on a thread of its own, the second on the caller's.
+    assert_eq!(at_once_seen[1], ("b", caller));
+    assert_eq!(at_once_seen[0].0, "a");
+    assert_ne!(at_once_seen[0].1, caller);
+    let (t, c) = (turns.stats(), at_once.stats());
+    assert_eq!(
+        (t.compared, t.max_gap, t.sum_gap),
+        (c.compared, c.max_gap, c.sum_gap)
+    );
+    assert!(c.first_seconds >= 0.0 && c.second_seconds >= 0.0);
+    // A disagreement is found and kept the same way.
+    let mut apart = CrossCheck::new(
+        shifted("a", &[0.0; 3], 1e-9),
+        shifted("b", &[0.0, 0.0, 4e-6], 1e-9),
+        1e-6,
+    )
+    .concurrent(true);
+    assert!(matches!(
+        apart.project(&p),
+        Err(ProjectionError::Disagreement { coordinate: 2, .. })
+    ));
+    assert!(apart.stats().disagreement.is_some());
+}
+
+/// Fails every problem with an error naming itself.
+struct Failing(&'static str);
+
+impl Projector for Failing {
+    fn name(&self) -> &str {
+        self.0
+    }
+    fn project(&mut self, _: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        Err(ProjectionError::Backend {
+            backend: self.0.to_string(),
+            message: "failed".to_string(),
+        })
+    }
+}
+
+#[test]
+fn the_first_backends_error_comes_first_in_turns_or_at_once() {
+    let p = problem();
+    for concurrent in [false, true] {
+        let mut both = CrossCheck::new(Failing("a"), Failing("b"), 1e-9).concurrent(concurrent);
+        match both.project(&p) {
+            Err(ProjectionError::Backend { backend, .. }) => assert_eq!(backend, "a"),
+            other => panic!("{other:?}"),
+        }
+        let mut second_fails = CrossCheck::new(shifted("a", &[0.0; 3], 1e-9), Failing("b"), 1e-9)
+            .concurrent(concurrent);
+        match second_fails.project(&p) {
+            Err(ProjectionError::Backend { backend, .. }) => assert_eq!(backend, "b"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(both.stats().compared + second_fails.stats().compared, 0);
+    }
+}
+
+/// Panics on every problem.
+struct Panicking;
+
+impl Projector for Panicking {
+    fn name(&self) -> &str {
+        "panicking"
+    }
+    fn project(&mut self, _: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        panic!("the first backend panicked")
+    }
+}
+
+#[test]
+#[should_panic(expected = "the first backend panicked")]
+fn a_panic_of_the_first_backend_on_its_thread_reaches_the_caller() {
+    let mut both = CrossCheck::new(Panicking, shifted("b", &[0.0; 3], 1e-9), 1e-9).concurrent(true);
+    let _ = both.project(&problem());
+}
