@@ -154,8 +154,9 @@ pub struct ProjectorOptions {
     /// on. The native backend runs a projection on more than one
     /// ([`NativeSettings::threads`](sweeping_native::NativeSettings::threads): its blocks and
     /// its speculated rescues), and the cross-checks, with two or more, run their two backends
-    /// at once ([`CrossCheck::concurrent`]); Clarabel and OSQP run on the caller's thread
-    /// whatever it says. The answers do not depend on it. Default `0`.
+    /// at once ([`CrossCheck::concurrent`]; `cross-native`'s native backend then on one
+    /// thread fewer); Clarabel and OSQP run on one thread whatever it says. The answers do
+    /// not depend on it. Default `0`.
     pub threads: usize,
 }
 
@@ -206,12 +207,15 @@ pub fn make_projector_with(
     options: ProjectorOptions,
 ) -> Result<Box<dyn Projector>, BackendError> {
     let ProjectorOptions { tolerance, threads } = options;
-    // The cross-checks run their two backends at once when they may use two threads.
-    #[allow(unused_variables)]
-    let concurrent = match threads {
+    // The cross-checks run their two backends at once when they may use two threads; then
+    // `cross-native`'s native backend runs on the threads Clarabel leaves it, so that the
+    // projection still runs on at most `threads`.
+    let usable = match threads {
         0 => std::thread::available_parallelism().map_or(1, usize::from),
         n => n,
-    } >= 2;
+    };
+    #[allow(unused_variables)]
+    let concurrent = usable >= 2;
     match (choice, tolerance) {
         (BackendChoice::Cross | BackendChoice::CrossNative, Some(_)) => {
             Err(BackendError::NoTolerance { backend: choice })
@@ -262,7 +266,7 @@ pub fn make_projector_with(
         #[cfg(all(feature = "clarabel", feature = "native"))]
         (BackendChoice::CrossNative, None) => Ok(Box::new(
             CrossCheck::new(
-                native_projector_on_threads(threads),
+                native_projector_on_threads(if concurrent { usable - 1 } else { threads }),
                 ClarabelProjector::default(),
                 NATIVE_CROSS_TOLERANCE,
             )
