@@ -309,3 +309,47 @@ fn a_panic_of_the_first_backend_on_its_thread_reaches_the_caller() {
     let mut both = CrossCheck::new(Panicking, shifted("b", &[0.0; 3], 1e-9), 1e-9).concurrent(true);
     let _ = both.project(&problem());
 }
+
+/// Answers as [`Shifted`] after sleeping `nap`.
+struct Napping {
+    inner: Shifted,
+    nap: std::time::Duration,
+}
+
+impl Projector for Napping {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        std::thread::sleep(self.nap);
+        self.inner.project(p)
+    }
+}
+
+#[test]
+fn each_backends_seconds_add_up_in_turns_or_at_once() {
+    let napping = |name, millis| Napping {
+        inner: shifted(name, &[0.0; 3], 1e-9),
+        nap: std::time::Duration::from_millis(millis),
+    };
+    let p = problem();
+    for concurrent in [false, true] {
+        let mut both =
+            CrossCheck::new(napping("a", 3), napping("b", 5), 1e-9).concurrent(concurrent);
+        for _ in 0..2 {
+            both.project(&p).unwrap();
+        }
+        // A sleep lasts at least as long as asked: two projections, each backend's own time.
+        let stats = both.stats();
+        assert!(
+            stats.first_seconds >= 0.006,
+            "{concurrent}: {}",
+            stats.first_seconds
+        );
+        assert!(
+            stats.second_seconds >= 0.010,
+            "{concurrent}: {}",
+            stats.second_seconds
+        );
+    }
+}
