@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""Decides a cross-check's stop: which of the two answers in a `disagreement.json` is the
-projection. Written apart from the Rust code; run it through `scripts/decide-disagreement`,
+"""Decides a cross-check's stop, or its closest call: which of the two answers in a
+`disagreement.json` (or a `largest-gap.json`) is the projection. Written apart from the Rust code; run it through `scripts/decide-disagreement`,
 which provides NumPy and SciPy.
 
 usage: scripts/decide-disagreement OUTDIR/disagreement.json [--coordinate J] [--tol 1e-9]
+       scripts/decide-disagreement OUTDIR/largest-gap.json [--coordinate J] [--tol 1e-9]
 
 `sweep run --backend cross…` writes the file when its two backends disagree beyond the
 tolerance: the step's problem `min ½‖x − y‖² s.t. A x ≥ b` and both answers. A projection is

@@ -136,8 +136,10 @@ fn remove_stale_outputs(out: &std::path::Path, formats: &[TrajectoryFormat]) -> 
             remove(&out.join(format.file_name()))?;
         }
     }
-    // An earlier cross-checked run's disagreement: this run writes its own, if any.
+    // An earlier cross-checked run's disagreement and largest gap: this run writes its own,
+    // if any.
     remove(&out.join(DISAGREEMENT_FILE))?;
+    remove(&out.join(LARGEST_GAP_FILE))?;
     let snapshots = out.join("snapshots");
     if let Ok(entries) = std::fs::read_dir(&snapshots) {
         for entry in entries.flatten() {
@@ -161,6 +163,10 @@ fn remove_stale_outputs(out: &std::path::Path, formats: &[TrajectoryFormat]) -> 
 /// Where a cross-checked run that stopped on a disagreement keeps the problem and both answers.
 const DISAGREEMENT_FILE: &str = "disagreement.json";
 
+/// Where a cross-checked run keeps the problem of the largest gap between its backends that
+/// passed, and both answers.
+const LARGEST_GAP_FILE: &str = "largest-gap.json";
+
 /// Writes the problem on which a cross-checked run's backends disagreed, with both answers
 /// (a [`CrossCheckDisagreement`](sweeping::api::CrossCheckDisagreement)), to
 /// `out/disagreement.json`, so that the step can be decided afterwards (against a projection
@@ -169,13 +175,40 @@ fn write_disagreement(
     out: &std::path::Path,
     stats: Option<&sweeping::api::CrossCheckStats>,
 ) -> Result<Option<PathBuf>> {
-    let Some(disagreement) = stats.and_then(|s| s.disagreement.as_deref()) else {
+    write_case(
+        out,
+        DISAGREEMENT_FILE,
+        stats.and_then(|s| s.disagreement.as_deref()),
+    )
+}
+
+/// Writes the problem of the largest gap that passed, with both answers
+/// ([`CrossCheckStats::largest_passed_gap`](sweeping::api::CrossCheckStats::largest_passed_gap)),
+/// to `out/largest-gap.json`: a run's closest call, decided the same way as a disagreement.
+/// Returns the path written, if any.
+fn write_largest_gap(
+    out: &std::path::Path,
+    stats: Option<&sweeping::api::CrossCheckStats>,
+) -> Result<Option<PathBuf>> {
+    write_case(
+        out,
+        LARGEST_GAP_FILE,
+        stats.and_then(|s| s.largest_passed_gap.as_deref()),
+    )
+}
+
+fn write_case(
+    out: &std::path::Path,
+    name: &str,
+    case: Option<&sweeping::api::CrossCheckDisagreement>,
+) -> Result<Option<PathBuf>> {
+    let Some(case) = case else {
         return Ok(None);
     };
-    let path = out.join(DISAGREEMENT_FILE);
+    let path = out.join(name);
     let file =
         std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
-    serde_json::to_writer(std::io::BufWriter::new(file), disagreement)
+    serde_json::to_writer(std::io::BufWriter::new(file), case)
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(Some(path))
 }
@@ -309,10 +342,17 @@ pub fn main(args: RunArgs) -> Result<()> {
     let result = built.run(projector.as_mut(), &mut observers);
     summary.record_cross_check(projector.cross_check());
     let disagreement = write_disagreement(&out, projector.cross_check())?;
+    let largest_gap = write_largest_gap(&out, projector.cross_check())?;
     summary
         .write_json(&summary_path)
         .with_context(|| format!("writing {}", summary_path.display()))?;
     print_summary(summary.summary(), &out, &formats);
+    if let Some(path) = largest_gap {
+        outln!(
+            "  the largest gap that passed, its problem and both answers: {}",
+            path.display()
+        );
+    }
     match result {
         Ok(_) => Ok(()),
         Err(failure) => Err(anyhow::anyhow!(

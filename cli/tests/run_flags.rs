@@ -132,11 +132,33 @@ fn a_cross_checked_run_reports_the_gaps_it_saw_and_another_run_reports_none() {
         "{}",
         run.output
     );
+    // The largest gap's problem and both answers are kept, to be decided afterwards.
+    let largest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.out.join("largest-gap.json")).unwrap())
+            .unwrap();
+    assert_eq!(largest["gap"].as_f64().unwrap(), max_gap);
+    let coordinate = usize::try_from(largest["coordinate"].as_u64().unwrap()).unwrap();
+    let point = |side: &str| largest[side]["x"][coordinate].as_f64().unwrap();
+    assert_eq!((point("first") - point("second")).abs(), max_gap);
+    assert!(largest["problem"]["y"].as_array().unwrap().len() > coordinate);
+    assert!(run.output.contains("largest-gap.json"), "{}", run.output);
+    // A run without a cross-check into the same directory removes it (it is not its own).
+    let again = std::process::Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .arg("run")
+        .arg(run.out.parent().unwrap().join("cross-report.toml"))
+        .arg("--out")
+        .arg(&run.out)
+        .args(["--threads", "1"])
+        .output()
+        .unwrap();
+    assert!(again.status.success());
+    assert!(!run.out.join("largest-gap.json").exists());
     let plain = sweep_run("no-cross-report", JAM, &["--threads", "1"]);
     assert!(plain.success, "{}", plain.output);
     assert!(!plain.output.contains("cross-check"), "{}", plain.output);
     let summary = std::fs::read_to_string(plain.out.join("summary.json")).unwrap();
     assert!(!summary.contains("cross_check"), "{summary}");
+    assert!(!plain.out.join("largest-gap.json").exists());
 }
 
 #[test]

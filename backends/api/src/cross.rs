@@ -44,11 +44,20 @@ pub struct CrossCheckStats {
     /// writes it apart (`sweep run` writes `disagreement.json`).
     #[serde(skip)]
     pub disagreement: Option<Box<CrossCheckDisagreement>>,
+    /// The problem of the largest gap that passed (within the tolerance, above zero), with
+    /// both answers: the closest call of a run that completed, kept so that it too can be
+    /// decided afterwards. Replaced only when a gap exceeds it, so a run copies a problem a
+    /// handful of times. Not in a serialized summary (`sweep run` writes
+    /// `largest-gap.json`).
+    #[serde(skip)]
+    pub largest_passed_gap: Option<Box<CrossCheckDisagreement>>,
 }
 
-/// The problem on which a [`CrossCheck`] found its two backends apart by more than its
-/// tolerance, and both answers: what is needed to decide afterwards which one is off (against
-/// a projection computed independently and certified) without running again to that step.
+/// A problem on which a [`CrossCheck`] found its two backends apart — by more than its
+/// tolerance ([`CrossCheckStats::disagreement`]), or by the largest gap that passed
+/// ([`CrossCheckStats::largest_passed_gap`]) — and both answers: what is needed to decide
+/// afterwards which one is off (against a projection computed independently and certified)
+/// without running again to that step.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CrossCheckDisagreement {
     /// The first backend's name.
@@ -176,6 +185,22 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
                 tolerance: self.tolerance,
                 unfinished,
             });
+        }
+        let largest_so_far = self
+            .stats
+            .largest_passed_gap
+            .as_ref()
+            .map_or(0.0, |kept| kept.gap);
+        if gap > largest_so_far {
+            self.stats.largest_passed_gap = Some(Box::new(CrossCheckDisagreement {
+                first_backend: self.first.name().to_string(),
+                second_backend: self.second.name().to_string(),
+                gap,
+                coordinate,
+                problem: problem.clone(),
+                first: a.clone(),
+                second: b,
+            }));
         }
         Ok(a)
     }

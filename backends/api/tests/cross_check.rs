@@ -353,3 +353,80 @@ fn each_backends_seconds_add_up_in_turns_or_at_once() {
         );
     }
 }
+
+/// Answers `y` shifted by the next of `shifts` at each call.
+struct ShiftedInTurn {
+    shifts: Vec<Vec<f64>>,
+    calls: usize,
+}
+
+impl Projector for ShiftedInTurn {
+    fn name(&self) -> &str {
+        "in-turn"
+    }
+    fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let mut answer = Projection::identity(p, "in-turn");
+        let shift = &self.shifts[self.calls];
+        self.calls += 1;
+        answer.x.iter_mut().zip(shift).for_each(|(x, s)| *x += s);
+        Ok(answer)
+    }
+}
+
+#[test]
+fn the_largest_gap_that_passed_is_kept_with_its_problem_and_both_answers() {
+    let second = ShiftedInTurn {
+        shifts: vec![
+            vec![0.0; 3],
+            vec![0.0, 4e-10, 0.0],
+            vec![0.0, 0.0, 1e-10],
+            vec![7e-10, 0.0, 0.0],
+            vec![0.0, 0.0, 5e-6],
+        ],
+        calls: 0,
+    };
+    let mut both = CrossCheck::new(shifted("a", &[0.0; 3], 1e-9), second, 1e-9);
+    let problems: Vec<ProjectionProblem> = (0..5)
+        .map(|k| {
+            let a = SparseRows::from_rows(3, &[vec![(0, 1.0)]]);
+            ProjectionProblem::new(vec![1.0, 2.0, f64::from(k)], a, vec![0.0]).unwrap()
+        })
+        .collect();
+    // No gap yet: nothing kept.
+    both.project(&problems[0]).unwrap();
+    assert!(both.stats().largest_passed_gap.is_none());
+    // 4e-10, then a smaller gap that does not replace it, then a larger one that does.
+    both.project(&problems[1]).unwrap();
+    let kept = both.stats().largest_passed_gap.as_deref().unwrap();
+    assert!(
+        (kept.gap - 4e-10).abs() < 1e-15 && kept.coordinate == 1,
+        "{kept:?}"
+    );
+    both.project(&problems[2]).unwrap();
+    let kept = both.stats().largest_passed_gap.as_deref().unwrap();
+    assert_eq!(kept.problem, problems[1]);
+    both.project(&problems[3]).unwrap();
+    let kept = both.stats().largest_passed_gap.as_deref().unwrap();
+    assert!(
+        (kept.gap - 7e-10).abs() < 1e-15 && kept.coordinate == 0,
+        "{kept:?}"
+    );
+    assert_eq!(kept.problem, problems[3]);
+    assert_eq!(kept.first.x, vec![1.0, 2.0, 3.0]);
+    assert_eq!(kept.second.x, vec![1.0 + 7e-10, 2.0, 3.0]);
+    assert_eq!(
+        (kept.first_backend.as_str(), kept.second_backend.as_str()),
+        ("a", "in-turn")
+    );
+    // A gap beyond the tolerance is the disagreement, not a gap that passed.
+    assert!(both.project(&problems[4]).is_err());
+    let stats = both.stats();
+    assert_eq!(
+        stats.largest_passed_gap.as_deref().unwrap().problem,
+        problems[3]
+    );
+    assert!((stats.disagreement.as_deref().unwrap().gap - 5e-6).abs() < 1e-12);
+    // Neither is in a serialized summary.
+    let json = serde_json::to_value(stats).unwrap();
+    assert!(json.get("largest_passed_gap").is_none(), "{json}");
+}
