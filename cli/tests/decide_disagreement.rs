@@ -34,3 +34,44 @@ fn the_paper_cross_stop_is_decided_for_clarabel() {
     assert!(printed.contains("clarabel: ") && printed.contains("(within 1e-09)"));
     assert!(printed.contains("(NOT within 1e-09)"));
 }
+
+/// A cross-checked run's closest call, `largest-gap.json`, is decided the same way: on a jam of
+/// 120 people, both answers are within 1e-9 of the certified projection.
+#[test]
+#[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
+fn a_cross_checked_runs_largest_gap_is_decided() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = std::env::temp_dir().join(format!("sweep-largest-gap-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("jam.toml");
+    std::fs::write(
+        &scene,
+        "name = \"jam\"\n[room]\nrectangle = [0.0, 0.0, 6.0, 6.0]\n[[crowds]]\ncount = 120\n\
+         radius = 0.2\nspeed = 1.0\nseed = 3\n[desired]\nkind = \"point\"\npoint = [3.0, 3.0]\n\
+         [run]\nh = 0.05\nt_end = 1.5\n",
+    )
+    .unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .arg("run")
+        .arg(&scene)
+        .args(["--backend", "cross-native", "--threads", "1", "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .expect("sweep runs");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let out = Command::new(root.join("scripts/decide-disagreement"))
+        .arg(dir.join("out/largest-gap.json"))
+        .output()
+        .expect("the script runs");
+    let printed = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{printed}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "no support certified");
+    assert!(printed.contains("certified: yes"), "{printed}");
+    assert_eq!(printed.matches("(within 1e-09)").count(), 2, "{printed}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
