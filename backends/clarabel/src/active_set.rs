@@ -44,9 +44,10 @@
 //! Those tests allow `1e-12` (relative), which jams need to finish at all; an answer that
 //! uses that room (a row violated, or the support's equations left unsolved, by more than
 //! `1e-15`) is finished by a second pass at `1e-15` from its own support, under the same cap
-//! of iterations, then, when that pass does not converge, by one at `1e-14`; when neither
-//! does, the answer stands as it is, or as a pass's best iterate, and says it is unfinished
-//! ([`Outcome::unfinished`]). On a jam with more
+//! of iterations, then, when that pass does not converge, by one at `1e-14`, then at `1e-13`;
+//! from the answer of the first that converges, the passes below it run again, down to
+//! `1e-15`. An answer no pass at `1e-15` finished stands as the best one of the others, or
+//! as it was, and says it is unfinished ([`Outcome::unfinished`]). On a jam with more
 //! tight rows than unknowns the feasible set is a sliver around the projection, and two
 //! points that pass the `1e-12` tests can lie millions of times further apart than that
 //! (measured in `docs/backends.md`). The second pass tells a support whose rows are nearly
@@ -96,16 +97,20 @@ const ACTIVE_TOL: f64 = 1e-12;
 const SECOND_PASS_TOL: f64 = 1e-15;
 
 /// The tests of the second pass, tried in turn, each from the first answer, until a pass
-/// converges; an answer that only the second converges to is [`Outcome::unfinished`], off by
-/// up to `1e-14`. On the slivers where the pass at `1e-15` cycles, a row violated by about
+/// converges; then the ones below it again, each from the last answer ([`second_pass`]); an
+/// answer that no pass at `1e-15` converges to is [`Outcome::unfinished`], off by up to
+/// `1e-14` or `1e-13`. On the slivers where the pass at `1e-15` cycles, a row violated by about
 /// `2e-15` joins and the refinement then measures the support's equations inconsistent by
 /// `2e-14`, so the row leaves again: the test is below what the refinement can resolve there.
 /// At `1e-14`, Clarabel's answer at the 10 000-person hall's stop of `docs/backends.md` was
 /// finished 2.9e-11 from the projection instead of 2.3e-8, and Clarabel on two such blocks
-/// alone ended 7.6e-10 and 3.1e-10 from it instead of 1.06e-9 and 9.8e-9. A third rung at
-/// `1e-13` finished those two blocks, 2.0e-9 and 9.8e-10 from the projection: worse than
-/// the `1e-14` pass's best iterates, and so not kept.
-const FINISH_LADDER: [f64; 2] = [SECOND_PASS_TOL, 1e-14];
+/// alone ended 7.6e-10 and 3.1e-10 from it instead of 1.06e-9 and 9.8e-9; from there, the
+/// pass at `1e-15` run again finished both, 2.8e-11 and 5.2e-11 from it. The rung at `1e-13`
+/// is for answers that neither lower rung finishes from the first answer: at the hall's stop
+/// at t = 28.57 s, the native backend's first answer was off by 9.7e-13 and 1.1e-8 from the
+/// projection, both lower rungs cycled from it, and it stood; the pass at `1e-13` converged,
+/// and the pass at `1e-14` from its answer, 1.4e-10 from the projection.
+const FINISH_LADDER: [f64; 3] = [SECOND_PASS_TOL, 1e-14, 1e-13];
 
 /// The tests of one pass of the method.
 #[derive(Debug, Clone, Copy)]
@@ -183,8 +188,8 @@ pub struct Outcome {
     /// factorization or through the previous one by bordering.
     pub iterations: u32,
     /// `None` when the answer passed the tests at `1e-15`, relative (the first pass's, or
-    /// the second pass's own); `Some(off)` when the second pass did not converge at `1e-15`
-    /// and the answer is the one at `1e-14`, or stands as the first pass or a pass's best
+    /// a second pass's own); `Some(off)` when no second pass converged at `1e-15` and the
+    /// answer is one at `1e-14` or `1e-13`, or stands as the first pass or a pass's best
     /// iterate left it: a row violated, or a row of its support not tight, by `off`
     /// (absolute), certified only to that. On a sliver of a feasible set an answer off by
     /// `1e-12` lay `1e-8` from the projection.
@@ -1568,8 +1573,11 @@ type Best = Option<(f64, Outcome)>;
 /// iteration, bordered. When the pass does not converge (it runs out, or cycles: it does not
 /// restart from an empty support as the first pass does, which on a block of 1858 rows of the
 /// 2000-person evacuation spent 900 iterations for nothing), it is run again from the same
-/// start at the next tolerance of [`FINISH_LADDER`]; when none converges, the answer is the
-/// first or a pass's best iterate ([`Best`]), whichever is off by least, marked
+/// start at the next tolerance of [`FINISH_LADDER`]. When one converges above `1e-15`, the
+/// tolerances below it are tried again in turn, each from the answer kept so far, closer to
+/// the projection than the first, until one does not converge. When none converges at
+/// `1e-15`, the answer is the first, a pass's answer or a pass's best iterate ([`Best`]),
+/// whichever is off by least, marked
 /// [`Outcome::unfinished`]: at such a jam's queue, rows that the data make dependent on the
 /// support and inconsistent with it by a few units in the last place of `b` keep joining and
 /// leaving at `1e-15`, and the pass's iterates between them were off by a few `1e-15`, where
@@ -1600,39 +1608,21 @@ fn second_pass(
     if !needs_second_pass {
         return first;
     }
-    let m = problem.n_rows();
     // In the factored support's order, so that the pass borders that factorization.
-    let order = held
-        .as_ref()
-        .map_or_else(|| (0..m).collect(), |h| h.support.clone());
-    let support: Vec<usize> = order
-        .into_iter()
-        .filter(|&i| first.lambda[i] > 0.0)
-        .collect();
-    let start = Start {
-        lambda: support.iter().map(|&i| first.lambda[i]).collect(),
-        support,
-        join: first
-            .lambda
-            .iter()
-            .map(|l| l.max(f64::MIN_POSITIVE))
-            .collect(),
-        join_at_most: Some(1),
-    };
+    let order = held.as_ref().map(|h| h.support.as_slice());
+    let start = start_at_answer(&first, order);
     // The answer off by least so far: the first, or a later pass's best iterate or answer.
     let mut spent = first.iterations;
     let mut kept: (f64, Outcome) = (off, first);
+    // Up the ladder, each rung from the first answer, until a pass converges.
+    let mut converged = None;
     for (rung, &tolerance) in FINISH_LADDER.iter().enumerate() {
         let mut best: Best = None;
         let pass = run_watched(
             problem,
             start.clone(),
             cap,
-            Tolerances {
-                active: tolerance,
-                refine: tolerance,
-                ..SECOND_PASS
-            },
+            finishing(tolerance),
             memory.as_deref_mut(),
             if rung == 0 { held.take() } else { None },
             Some(&mut best),
@@ -1658,6 +1648,7 @@ fn second_pass(
                 if second_off < kept.0 {
                     kept = (second_off, second);
                 }
+                converged = Some(rung);
                 break;
             }
             (Err(Failure::Cap(n) | Failure::Cycling(n)), Some((best_off, best))) => {
@@ -1670,10 +1661,94 @@ fn second_pass(
             (Err(_), _) => {}
         }
     }
+    // Down again: the rungs below the one that converged, each from the answer kept so far,
+    // which is closer to the projection than the first answer was. At the 10 000-person
+    // hall's stop at t = 28.57 s (`docs/backends.md`), the passes at `1e-15` and `1e-14`
+    // cycled from the native backend's first answer (off by 9.7e-13, 1.1e-8 from the
+    // projection) and the pass at `1e-13` converged (5.3e-9 from it); from there the pass at
+    // `1e-14` converged as well.
+    for rung in (0..converged.unwrap_or(0)).rev() {
+        let mut best: Best = None;
+        let pass = run_watched(
+            problem,
+            start_at_answer(&kept.1, None),
+            cap,
+            finishing(FINISH_LADDER[rung]),
+            memory.as_deref_mut(),
+            None,
+            Some(&mut best),
+            &mut |_| {},
+        );
+        match (pass, best) {
+            (
+                Ok(Finished {
+                    outcome: lower,
+                    off: lower_off,
+                    ..
+                }),
+                _,
+            ) => {
+                spent = spent.saturating_add(lower.iterations);
+                if rung == 0 {
+                    return Outcome {
+                        iterations: spent,
+                        ..lower
+                    };
+                }
+                if lower_off < kept.0 {
+                    kept = (lower_off, lower);
+                }
+            }
+            (Err(Failure::Cap(n) | Failure::Cycling(n)), best) => {
+                spent = spent.saturating_add(n);
+                if let Some((best_off, best)) = best.filter(|(best_off, _)| *best_off < kept.0) {
+                    kept = (best_off, best);
+                }
+                break;
+            }
+            (Err(_), _) => break,
+        }
+    }
     Outcome {
         iterations: spent,
         unfinished: Some(kept.0),
         ..kept.1
+    }
+}
+
+/// The tests of a second pass at `tolerance`, relative as [`ACTIVE_TOL`].
+fn finishing(tolerance: f64) -> Tolerances {
+    Tolerances {
+        active: tolerance,
+        refine: tolerance,
+        ..SECOND_PASS
+    }
+}
+
+/// A second pass's start from an answer: the rows with a positive multiplier (in `order`
+/// when given, the order of a factorization the pass can border, otherwise by index), the
+/// most violated row joining alone, and every row's multiplier as it stands (or the smallest
+/// positive number) if it joins.
+fn start_at_answer(answer: &Outcome, order: Option<&[usize]>) -> Start {
+    let support: Vec<usize> = match order {
+        Some(order) => order
+            .iter()
+            .copied()
+            .filter(|&i| answer.lambda[i] > 0.0)
+            .collect(),
+        None => (0..answer.lambda.len())
+            .filter(|&i| answer.lambda[i] > 0.0)
+            .collect(),
+    };
+    Start {
+        lambda: support.iter().map(|&i| answer.lambda[i]).collect(),
+        support,
+        join: answer
+            .lambda
+            .iter()
+            .map(|l| l.max(f64::MIN_POSITIVE))
+            .collect(),
+        join_at_most: Some(1),
     }
 }
 
@@ -2331,12 +2406,12 @@ mod tests {
         let outcome = solve(&p, start_from(vec![0], 21), 30).unwrap();
         assert!(outcome.x[1..].iter().all(|x| (x - 5e-13).abs() <= 1e-20));
         assert_eq!(outcome.iterations, 1 + 21);
-        // Under a cap of 10 the pass runs out, at 1e-15 and at 1e-14 (each row still joins,
-        // 5e-13 exceeding both), and the first answer stands, unfinished; the count is every
-        // iteration spent.
+        // Under a cap of 10 the pass runs out, at 1e-15, 1e-14 and 1e-13 (each row still
+        // joins, 5e-13 exceeding all three), and the first answer stands, unfinished; the
+        // count is every iteration spent.
         let capped = solve(&p, start_from(vec![0], 21), 10).unwrap();
         assert!(capped.x[1..].iter().all(|x| *x == 0.0));
-        assert_eq!(capped.iterations, 1 + 10 + 10);
+        assert_eq!(capped.iterations, 1 + 10 + 10 + 10);
         assert_eq!(capped.unfinished, Some(5e-13));
     }
 
@@ -2344,7 +2419,8 @@ mod tests {
     fn a_pass_that_runs_out_keeps_its_best_iterate_when_it_is_off_by_less() {
         // x₀ ≥ 1, and 20 rows xⱼ ≥ 4e-14·j that y = 0 violates by 4e-14 to 8e-13: the first
         // pass accepts y as it is (all within ACTIVE_TOL), off by 8e-13. Under a cap of 10 the
-        // passes at 1e-15 and 1e-14 run out, each joining the most violated row at a time, and
+        // passes at 1e-15, 1e-14 and 1e-13 run out, each joining the most violated row at a
+        // time, and
         // the iterates they pass through are off by less and less: the answer is the best of
         // them, not the first.
         let rows: Vec<Vec<(usize, f64)>> = (0..21).map(|j| vec![(j, 1.0)]).collect();
@@ -2362,14 +2438,15 @@ mod tests {
         assert_eq!(joined.len(), 9);
         // Off by the most violated row left out, 4.4e-13, where the first answer was 8e-13.
         assert_eq!(outcome.unfinished, Some(b[11]));
-        assert_eq!(outcome.iterations, 1 + 10 + 10);
+        assert_eq!(outcome.iterations, 1 + 10 + 10 + 10);
     }
 
     #[test]
     fn a_second_pass_that_runs_out_at_1e_15_is_finished_at_1e_14_and_says_so() {
         // x₀ ≥ 1, and 20 rows xⱼ ≥ 5e-15 that y = 0 violates by more than the second pass's
         // 1e-15 but less than 1e-14, and a cap of 10: at 1e-15 the pass takes them in one at
-        // a time and runs out; at 1e-14 it finds the first answer finished as it is.
+        // a time and runs out; at 1e-14 it finds the first answer finished as it is; down
+        // again at 1e-15 from that answer, the same 20 rows, and it runs out again.
         let rows: Vec<Vec<(usize, f64)>> = (0..21).map(|j| vec![(j, 1.0)]).collect();
         let a = SparseRows::from_rows(21, &rows);
         let mut b = vec![5e-15; 21];
@@ -2379,12 +2456,79 @@ mod tests {
         assert_eq!(outcome.x[0], 1.0);
         assert!(outcome.x[1..].iter().all(|x| *x == 0.0));
         assert_eq!(outcome.unfinished, Some(5e-15));
-        // The first pass's iteration, the 10 at 1e-15 and the 1 at 1e-14.
-        assert_eq!(outcome.iterations, 1 + 10 + 1);
+        // The first pass's iteration, the 10 at 1e-15, the 1 at 1e-14 and the 10 at 1e-15.
+        assert_eq!(outcome.iterations, 1 + 10 + 1 + 10);
         // With room for the 20 rows the pass at 1e-15 finishes, and nothing is unfinished.
         let finished = solve(&p, start_from(vec![0], 21), 30).unwrap();
         assert!(finished.x[1..].iter().all(|x| (x - 5e-15).abs() <= 1e-22));
         assert_eq!(finished.unfinished, None);
+    }
+
+    #[test]
+    fn a_pass_that_converges_higher_up_the_ladder_is_finished_again_from_its_answer() {
+        // x₀ ≥ 1, 8 rows xⱼ ≥ 5e-14 and 8 rows xⱼ ≥ 5e-15, y = 0 and a cap of 10: the first
+        // pass accepts y as it is. At 1e-15 the pass would take the 16 rows in one at a
+        // time, and runs out; at 1e-14 it takes the 8 larger ones and converges, off by 5e-15;
+        // down again at 1e-15 from that answer only the 8 smaller ones remain, and it
+        // finishes: nothing is left unfinished, where the answer at 1e-14 alone was.
+        let rows: Vec<Vec<(usize, f64)>> = (0..17).map(|j| vec![(j, 1.0)]).collect();
+        let a = SparseRows::from_rows(17, &rows);
+        let mut b = vec![1.0; 17];
+        b[1..9].fill(5e-14);
+        b[9..].fill(5e-15);
+        let p = ProjectionProblem::new(vec![0.0; 17], a, b.clone()).unwrap();
+        let outcome = solve(&p, start_from(vec![0], 17), 10).unwrap();
+        assert_eq!(outcome.unfinished, None);
+        assert!(outcome
+            .x
+            .iter()
+            .zip(&b)
+            .all(|(x, b)| (x - b).abs() <= 1e-22));
+        // The first pass's iteration, the 10 at 1e-15, the start's solve and 8 joins at
+        // 1e-14, the same at 1e-15.
+        assert_eq!(outcome.iterations, 1 + 10 + 9 + 9);
+        // Three rungs up and two down: 4 rows each at 5e-13, 5e-14 and 5e-15, a cap of 6.
+        // At 1e-15 (12 rows to take in) and 1e-14 (8) the passes run out; at 1e-13 the pass
+        // takes the 4 largest in and converges, off by 5e-14; from its answer the pass at
+        // 1e-14 takes the next 4, and the pass at 1e-15 the last 4.
+        let rows: Vec<Vec<(usize, f64)>> = (0..13).map(|j| vec![(j, 1.0)]).collect();
+        let a = SparseRows::from_rows(13, &rows);
+        let mut b = vec![1.0; 13];
+        b[1..5].fill(5e-13);
+        b[5..9].fill(5e-14);
+        b[9..].fill(5e-15);
+        let p = ProjectionProblem::new(vec![0.0; 13], a, b.clone()).unwrap();
+        let outcome = solve(&p, start_from(vec![0], 13), 6).unwrap();
+        assert_eq!(outcome.unfinished, None);
+        assert!(outcome
+            .x
+            .iter()
+            .zip(&b)
+            .all(|(x, b)| (x - b).abs() <= 1e-22));
+        assert_eq!(outcome.iterations, 1 + 6 + 6 + 5 + 5 + 5);
+    }
+
+    #[test]
+    fn a_pass_down_that_runs_out_keeps_its_best_iterate_when_it_is_off_by_less() {
+        // x₀ ≥ 1, 4 rows xⱼ ≥ 5e-14 and 16 rows xⱼ ≥ 2e-15 … 9.5e-15, a cap of 5. The pass
+        // at 1e-14 takes the 4 larger rows in and converges, off by 9.5e-15; down at 1e-15
+        // from its answer the pass runs out, the 4 most violated of the smaller rows joined:
+        // that iterate, off by less, is the answer.
+        let rows: Vec<Vec<(usize, f64)>> = (0..21).map(|j| vec![(j, 1.0)]).collect();
+        let a = SparseRows::from_rows(21, &rows);
+        let mut b = vec![1.0; 21];
+        b[1..5].fill(5e-14);
+        for (k, bj) in b[5..].iter_mut().enumerate() {
+            *bj = 2e-15 + 0.5e-15 * k as f64;
+        }
+        let p = ProjectionProblem::new(vec![0.0; 21], a, b.clone()).unwrap();
+        let outcome = solve(&p, start_from(vec![0], 21), 5).unwrap();
+        let joined: Vec<usize> = (5..21).filter(|&j| outcome.x[j] != 0.0).collect();
+        assert_eq!(joined, vec![17, 18, 19, 20]);
+        assert!(joined.iter().all(|&j| (outcome.x[j] - b[j]).abs() <= 1e-22));
+        assert_eq!(outcome.unfinished, Some(b[16]));
+        // The first pass's iteration; 5 at 1e-15, 5 at 1e-14, 5 at 1e-15 again.
+        assert_eq!(outcome.iterations, 1 + 5 + 5 + 5);
     }
 
     #[test]
