@@ -384,9 +384,10 @@ pub struct SolveStats {
     /// How many (sub-)problems have an answer that the active-set method's second pass could
     /// not finish (the native backend and Clarabel's polish; `0` for the others). Both run
     /// the method with tests at `1e-12` (relative), then, when the answer uses that room, a
-    /// second pass at `1e-15`, and one at `1e-14` when that does not converge; when neither
-    /// does, the answer stands as the first pass (or a pass's best iterate) left it, certified
-    /// only to [`SolveStats::unfinished_off`]. On a jam with more tight rows than unknowns (a
+    /// second pass at `1e-15`, and ones at `1e-14` and `1e-13` when that does not converge
+    /// (and from the answer of one that does, the lower ones again); when none converges at
+    /// `1e-15`, the answer is the one off by least of the first pass's, a pass's answer or
+    /// best iterate, certified only to [`SolveStats::unfinished_off`]. On a jam with more tight rows than unknowns (a
     /// sliver of a feasible set) an answer off by `1e-12` lay `1e-8` from the projection.
     #[serde(default)]
     pub unfinished: u32,
