@@ -5,7 +5,9 @@
 //! mended, in the same evacuation (1858 rows on 1466 unknowns), where Clarabel's second pass
 //! cycled; and the hall's next stop, at t = 19.62 s (4397 rows on 3198 unknowns), written by
 //! the run to `disagreement.json`, where only Clarabel's answer was off; and the hall's stop
-//! after that, at t = 28.57 s (4139 rows on 2889 unknowns), where only the native answer was.
+//! after that, at t = 28.57 s (4139 rows on 2889 unknowns), where only the native answer was;
+//! and the large evacuation's stop at h = 0.05, t = 44.6 s (1004 rows on 694 unknowns), where
+//! Clarabel's answer was its interior point's, unpolished.
 //! Their feasible sets are slivers: the projection's support has a smallest singular value of
 //! 1.7e-5 and 7.7e-7, so a point that violates a row by `τ` can be `τ/σ` from it, and the two
 //! backends' answers, each violating a row by 4e-14 to 7e-14, lay 1.5e-8 and 1.9e-8 apart.
@@ -404,4 +406,34 @@ fn hall_t28_the_stop_was_the_native_answer_and_both_backends_project_the_block()
     let off = max_gap(&clarabel.x, &x_star);
     eprintln!("hall_t28: Clarabel on the block alone {off:.2e} from the projection");
     assert!(off <= TOLERANCE, "Clarabel {off:e}");
+}
+
+/// The large evacuation at h = 0.05 under `cross-native` stopped at t = 44.6 s (a block of
+/// 1004 rows on 694 unknowns), once the ladder went down again and the run another way
+/// through its doors: the run's `disagreement.json` decided, the native answer was 3.3e-12
+/// from the certified projection and Clarabel's 1.0e-7. Clarabel's polish had run out of
+/// iterations on both of its tries from that interior-point answer, which stood unpolished
+/// (its rows violated by 1.8e-11); a third try under a longer cap now finishes it
+/// (`polish` in `sweeping-clarabel`, which tests that iterate). On the block alone
+/// Clarabel's interior point ends elsewhere and both backends project it.
+#[test]
+fn large_evacuation_h005_the_stop_was_clarabels_unpolished_answer() {
+    let s = sliver("large_evacuation_h005");
+    let p = &s.problem;
+    let x_star = certified_projection(&s);
+    let native_run = max_gap(&answer_from(p, &s.native_lambda), &x_star);
+    let clarabel_run = max_gap(&answer_from(p, &s.clarabel_lambda), &x_star);
+    eprintln!(
+        "large_evacuation_h005: the run's native answer {native_run:.2e}, Clarabel's \
+         {clarabel_run:.2e} from the projection"
+    );
+    assert!(
+        native_run <= 1e-11,
+        "the run's native answer: {native_run:e}"
+    );
+    assert!(
+        clarabel_run > 1e-8,
+        "the run's Clarabel answer: {clarabel_run:e}"
+    );
+    both_backends_project_the_block("large_evacuation_h005");
 }
