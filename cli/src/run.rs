@@ -418,7 +418,7 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
     );
     if s.unfinished > 0 {
         outln!(
-            "  unfinished answers: {} (the active set's second pass did not converge at 1e-15; rows off by up to {:.1e}, certified to that only)",
+            "  unfinished answers: {} (the active set did not finish them at 1e-15; rows off by up to {:.1e}, certified to that only)",
             s.unfinished, s.unfinished_off
         );
     }

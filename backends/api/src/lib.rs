@@ -280,14 +280,14 @@ pub fn max_or_nan(a: f64, b: f64) -> f64 {
 }
 
 /// The end of a disagreement's message: `; NAME's answer: K block(s) left unfinished by the
-/// second pass` for each side with any, nothing when neither has.
+/// active set` for each side with any, nothing when neither has.
 fn unfinished_clause(first: &str, second: &str, unfinished: &[u32; 2]) -> String {
     [(first, unfinished[0]), (second, unfinished[1])]
         .iter()
         .filter(|(_, blocks)| *blocks > 0)
         .map(|(name, blocks)| {
             format!(
-                "; {name}'s answer: {blocks} block(s) left unfinished by the second pass \
+                "; {name}'s answer: {blocks} block(s) left unfinished by the active set \
                  (see SolveStats::unfinished)"
             )
         })
@@ -387,7 +387,9 @@ pub struct SolveStats {
     /// second pass at `1e-15`, and ones at `1e-14` and `1e-13` when that does not converge
     /// (and from the answer of one that does, the lower ones again); when none converges at
     /// `1e-15`, the answer is the one off by least of the first pass's, a pass's answer or
-    /// best iterate, certified only to [`SolveStats::unfinished_off`]. On a jam with more tight rows than unknowns (a
+    /// best iterate, certified only to [`SolveStats::unfinished_off`]. Clarabel also counts
+    /// a block whose polish did not converge at all, where its interior-point iterate stands
+    /// (off by its largest violation of a row, or slack of a row whose multiplier exceeds it). On a jam with more tight rows than unknowns (a
     /// sliver of a feasible set) an answer off by `1e-12` lay `1e-8` from the projection.
     #[serde(default)]
     pub unfinished: u32,

@@ -176,8 +176,8 @@ fn a_disagreement_names_the_answer_left_unfinished() {
     let message = error.to_string();
     assert!(
         message.ends_with(
-            "> tolerance 1.0e-8; clarabel's answer: 1 block(s) left unfinished by the second \
-             pass (see SolveStats::unfinished)"
+            "> tolerance 1.0e-8; clarabel's answer: 1 block(s) left unfinished by the active \
+             set (see SolveStats::unfinished)"
         ),
         "{message}"
     );

@@ -495,6 +495,7 @@ impl Projector for ClarabelProjector {
         let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
         let mut unfinished = (0, 0.0);
         if self.settings.polish {
+            let mut polish_used = false;
             if let Some(polish::Polished {
                 x: px,
                 lambda: mut pl,
@@ -517,7 +518,16 @@ impl Projector for ClarabelProjector {
                     multipliers = pl;
                     kkt = polished;
                     unfinished = left;
+                    polish_used = true;
                 }
+            }
+            // The interior-point iterate stands, unpolished (no block polished, or the
+            // polished answer not kept): an answer the active-set method did not finish,
+            // which says so, as one.
+            if !polish_used && m > 0 {
+                let off =
+                    polish::iterate_off(solution.z.iter().copied().zip(solution.s.iter().copied()));
+                unfinished = (1, off);
             }
         }
         let status = match verify {

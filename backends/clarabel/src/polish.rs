@@ -30,6 +30,21 @@ fn long_cap(m: usize) -> u32 {
     ITERATIONS.saturating_add(u32::try_from(m.saturating_mul(2)).unwrap_or(u32::MAX))
 }
 
+/// How far an interior-point iterate is off, as [`active_set::Outcome::unfinished`] measures
+/// an answer, from its rows' `(multiplier, slack)`: the largest violation of a row, or slack
+/// of a row whose multiplier exceeds it (the rows the polish would start from as tight).
+pub(crate) fn iterate_off(rows: impl Iterator<Item = (f64, f64)>) -> f64 {
+    rows.fold(0.0, |off: f64, (z, s)| {
+        if s < 0.0 {
+            off.max(-s)
+        } else if z > s {
+            off.max(s)
+        } else {
+            off
+        }
+    })
+}
+
 /// A polished answer.
 #[derive(Debug, Clone)]
 pub(crate) struct Polished {
@@ -38,7 +53,8 @@ pub(crate) struct Polished {
     /// One multiplier per row.
     pub lambda: Vec<f64>,
     /// Blocks whose answer the method's second pass could not finish
-    /// ([`active_set::Outcome::unfinished`]), and the largest amount by which they are off.
+    /// ([`active_set::Outcome::unfinished`]) or that kept the interior-point iterate
+    /// ([`iterate_off`]), and the largest amount by which they are off.
     pub unfinished: (u32, f64),
 }
 
@@ -123,9 +139,13 @@ pub(crate) fn polish(
                     .zip(&outcome.lambda)
                     .for_each(|(&i, l)| pl[i] = *l);
             }
+            // The iterate stands, unfinished: its statistics say so, as for an answer the
+            // second pass could not finish.
             Err(_) => {
                 block.cols.iter().for_each(|&c| px[c] = x[c]);
                 rows.iter().for_each(|&i| pl[i] = z[i]);
+                let off = iterate_off(rows.iter().map(|&i| (z[i], s[i])));
+                unfinished = (unfinished.0.saturating_add(1), unfinished.1.max(off));
             }
         }
     }
@@ -236,6 +256,13 @@ mod tests {
         // The empty block keeps the guess and its multipliers; unknown 6 is in no row: y.
         assert_eq!((x[6], x[7]), (0.0, x_guess[7]));
         assert_eq!(&lambda[10..], &[0.5, 0.5]);
+        // And says so: one block unfinished, off by its slacks (none here).
+        let kept = polish(&problem, &x_guess, &z, &s).expect("the chain is polished");
+        assert_eq!(kept.unfinished, (1, 0.0));
+        let mut s_off = s.clone();
+        s_off[10] = 3e-12;
+        let kept = polish(&problem, &x_guess, &z, &s_off).expect("the chain is polished");
+        assert_eq!(kept.unfinished, (1, 3e-12));
         // No block polished: nothing to offer.
         let empty = ProjectionProblem::new(
             vec![0.0],
@@ -333,6 +360,17 @@ mod tests {
         assert_eq!(unfinished, (0, 0.0));
         assert!(pl.iter().filter(|l| **l == 0.0).count() > 300);
         assert_eq!(long_cap(m), 40 + 2008);
+    }
+
+    #[test]
+    fn an_iterate_is_off_by_its_largest_violation_or_slack_of_a_row_it_holds_tight() {
+        // (multiplier, slack): a violated row, a row the polish would not hold (its
+        // multiplier below its slack), a row it would, whose slack counts.
+        let rows = [(1.0, -2e-11), (1e-13, 0.29), (0.5, 3e-12)];
+        assert_eq!(iterate_off(rows.into_iter()), 2e-11);
+        assert_eq!(iterate_off(rows[1..].iter().copied()), 3e-12);
+        assert_eq!(iterate_off(rows[1..2].iter().copied()), 0.0);
+        assert_eq!(iterate_off([(0.5, 0.5)].into_iter()), 0.0);
     }
 
     #[test]
