@@ -523,10 +523,11 @@ impl Projector for ClarabelProjector {
             }
             // The interior-point iterate stands, unpolished (no block polished, or the
             // polished answer not kept): an answer the active-set method did not finish,
-            // which says so, as one.
-            if !polish_used && m > 0 {
-                let off =
-                    polish::iterate_off(solution.z.iter().copied().zip(solution.s.iter().copied()));
+            // which says so, as one (a problem without rows returned `y` above).
+            if !polish_used {
+                // Slacks of the point itself (Clarabel's cone slacks are never negative).
+                let slack = problem.shortfall(&x).into_iter().map(|r| -r);
+                let off = polish::iterate_off(multipliers.iter().copied().zip(slack));
                 unfinished = (1, off);
             }
         }

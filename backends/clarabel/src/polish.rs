@@ -144,7 +144,12 @@ pub(crate) fn polish(
             Err(_) => {
                 block.cols.iter().for_each(|&c| px[c] = x[c]);
                 rows.iter().for_each(|&i| pl[i] = z[i]);
-                let off = iterate_off(rows.iter().map(|&i| (z[i], s[i])));
+                // Slacks of the point itself: an interior point's cone slacks `s` are never
+                // negative, its rows may be violated.
+                let off = iterate_off(rows.iter().map(|&i| {
+                    let ax: f64 = problem.a().row(i).map(|(c, v)| v * x[c]).sum();
+                    (z[i], ax - problem.b()[i])
+                }));
                 unfinished = (unfinished.0.saturating_add(1), unfinished.1.max(off));
             }
         }
@@ -256,13 +261,9 @@ mod tests {
         // The empty block keeps the guess and its multipliers; unknown 6 is in no row: y.
         assert_eq!((x[6], x[7]), (0.0, x_guess[7]));
         assert_eq!(&lambda[10..], &[0.5, 0.5]);
-        // And says so: one block unfinished, off by its slacks (none here).
+        // And says so: one block unfinished, off by the guess's violation of −x₇ ≥ 0.
         let kept = polish(&problem, &x_guess, &z, &s).expect("the chain is polished");
-        assert_eq!(kept.unfinished, (1, 0.0));
-        let mut s_off = s.clone();
-        s_off[10] = 3e-12;
-        let kept = polish(&problem, &x_guess, &z, &s_off).expect("the chain is polished");
-        assert_eq!(kept.unfinished, (1, 3e-12));
+        assert_eq!(kept.unfinished, (1, 1.75));
         // No block polished: nothing to offer.
         let empty = ProjectionProblem::new(
             vec![0.0],
