@@ -288,6 +288,19 @@ fn answer_from(p: &ProjectionProblem, lambda: &[f64]) -> Vec<f64> {
     x
 }
 
+/// How far the run's two answers at a stop (`y + Aᵀλ` from the multipliers the run left) were
+/// from `x_star`: `(native, Clarabel)`.
+fn the_runs_answers(name: &str, s: &Sliver, x_star: &[f64]) -> (f64, f64) {
+    let p = &s.problem;
+    let native_run = max_gap(&answer_from(p, &s.native_lambda), x_star);
+    let clarabel_run = max_gap(&answer_from(p, &s.clarabel_lambda), x_star);
+    eprintln!(
+        "{name}: the run's native answer {native_run:.2e}, Clarabel's {clarabel_run:.2e} \
+         from the projection"
+    );
+    (native_run, clarabel_run)
+}
+
 /// The 10 000-person hall's stop under `cross-native` at t = 19.62 s, decided: of the two
 /// answers 2.3e-8 apart, the native backend's was the projection (5e-12 from the certified
 /// one) and Clarabel's was not (2.3e-8). Clarabel's polish left rows violated by 8.5e-13; its
@@ -300,12 +313,7 @@ fn hall_late_the_stop_was_clarabels_answer_and_the_native_backend_projects_the_b
     let s = sliver("hall_late_sliver");
     let p = &s.problem;
     let x_star = certified_projection(&s);
-    let native_run = max_gap(&answer_from(p, &s.native_lambda), &x_star);
-    let clarabel_run = max_gap(&answer_from(p, &s.clarabel_lambda), &x_star);
-    eprintln!(
-        "hall_late: the run's native answer {native_run:.2e}, Clarabel's {clarabel_run:.2e} \
-         from the projection"
-    );
+    let (native_run, clarabel_run) = the_runs_answers("hall_late", &s, &x_star);
     assert!(
         native_run <= 1e-11,
         "the run's native answer: {native_run:e}"
@@ -390,12 +398,7 @@ fn hall_t28_the_stop_was_the_native_answer_and_both_backends_project_the_block()
     let s = sliver("hall_t28_sliver");
     let p = &s.problem;
     let x_star = certified_projection(&s);
-    let native_run = max_gap(&answer_from(p, &s.native_lambda), &x_star);
-    let clarabel_run = max_gap(&answer_from(p, &s.clarabel_lambda), &x_star);
-    eprintln!(
-        "hall_t28: the run's native answer {native_run:.2e}, Clarabel's {clarabel_run:.2e} \
-         from the projection"
-    );
+    let (native_run, clarabel_run) = the_runs_answers("hall_t28", &s, &x_star);
     assert!(native_run > 1e-8, "the run's native answer: {native_run:e}");
     assert!(
         clarabel_run <= TOLERANCE,
@@ -419,14 +422,8 @@ fn hall_t28_the_stop_was_the_native_answer_and_both_backends_project_the_block()
 #[test]
 fn large_evacuation_h005_the_stop_was_clarabels_unpolished_answer() {
     let s = sliver("large_evacuation_h005");
-    let p = &s.problem;
     let x_star = certified_projection(&s);
-    let native_run = max_gap(&answer_from(p, &s.native_lambda), &x_star);
-    let clarabel_run = max_gap(&answer_from(p, &s.clarabel_lambda), &x_star);
-    eprintln!(
-        "large_evacuation_h005: the run's native answer {native_run:.2e}, Clarabel's \
-         {clarabel_run:.2e} from the projection"
-    );
+    let (native_run, clarabel_run) = the_runs_answers("large_evacuation_h005", &s, &x_star);
     assert!(
         native_run <= 1e-11,
         "the run's native answer: {native_run:e}"

@@ -7,20 +7,31 @@
 //! `target/decide-venv` when the system's Python lacks them (network, a minute). Run with
 //! `cargo test -p sweeping-cli --test decide_disagreement -- --ignored`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// The repository's root.
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// `scripts/decide-disagreement FILE`: whether a support certified (its exit status), and
+/// what it printed.
+fn decide(file: &Path) -> (bool, String) {
+    let out = Command::new(root().join("scripts/decide-disagreement"))
+        .arg(file)
+        .output()
+        .expect("the script runs");
+    let printed = String::from_utf8_lossy(&out.stdout).into_owned();
+    eprintln!("{printed}{}", String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), printed)
+}
 
 #[test]
 #[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
 fn the_paper_cross_stop_is_decided_for_clarabel() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let out = Command::new(root.join("scripts/decide-disagreement"))
-        .arg(root.join("tests/data/paper_cross_disagreement.json"))
-        .output()
-        .expect("the script runs");
-    let printed = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{printed}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "the certificate failed");
+    let (certified, printed) = decide(&root().join("tests/data/paper_cross_disagreement.json"));
+    assert!(certified, "the certificate failed");
     let distance = |name: &str| -> f64 {
         let line = printed
             .lines()
@@ -40,7 +51,6 @@ fn the_paper_cross_stop_is_decided_for_clarabel() {
 #[test]
 #[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
 fn a_cross_checked_runs_largest_gap_is_decided() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let dir = std::env::temp_dir().join(format!("sweep-largest-gap-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -64,13 +74,8 @@ fn a_cross_checked_runs_largest_gap_is_decided() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let out = Command::new(root.join("scripts/decide-disagreement"))
-        .arg(dir.join("out/largest-gap.json"))
-        .output()
-        .expect("the script runs");
-    let printed = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{printed}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "no support certified");
+    let (certified, printed) = decide(&dir.join("out/largest-gap.json"));
+    assert!(certified, "no support certified");
     assert!(printed.contains("certified: yes"), "{printed}");
     assert_eq!(printed.matches("(within 1e-09)").count(), 2, "{printed}");
     std::fs::remove_dir_all(&dir).unwrap();

@@ -1614,51 +1614,38 @@ fn second_pass(
     // The answer off by least so far: the first, or a later pass's best iterate or answer.
     let mut spent = first.iterations;
     let mut kept: (f64, Outcome) = (off, first);
+    let keep_if_less = |kept: &mut (f64, Outcome), candidate: Option<(f64, Outcome)>| {
+        if let Some(candidate) = candidate.filter(|(off, _)| *off < kept.0) {
+            *kept = candidate;
+        }
+    };
     // Up the ladder, each rung from the first answer, until a pass converges.
     let mut converged = None;
     for (rung, &tolerance) in FINISH_LADDER.iter().enumerate() {
-        let mut best: Best = None;
-        let pass = run_watched(
+        let held = if rung == 0 { held.take() } else { None };
+        let pass = finishing_pass(
             problem,
             start.clone(),
             cap,
-            finishing(tolerance),
+            tolerance,
             memory.as_deref_mut(),
-            if rung == 0 { held.take() } else { None },
-            Some(&mut best),
-            &mut |_| {},
+            held,
+            &mut spent,
         );
-        match (pass, best) {
-            (
-                Ok(Finished {
-                    outcome: second,
-                    off: second_off,
-                    ..
-                }),
-                _,
-            ) => {
-                spent = spent.saturating_add(second.iterations);
-                // Finished at the second pass's own tests.
-                if rung == 0 {
-                    return Outcome {
-                        iterations: spent,
-                        ..second
-                    };
+        match pass {
+            // Finished at the second pass's own tests.
+            Ok((_, second)) if rung == 0 => {
+                return Outcome {
+                    iterations: spent,
+                    ..second
                 }
-                if second_off < kept.0 {
-                    kept = (second_off, second);
-                }
+            }
+            Ok(second) => {
+                keep_if_less(&mut kept, Some(second));
                 converged = Some(rung);
                 break;
             }
-            (Err(Failure::Cap(n) | Failure::Cycling(n)), Some((best_off, best))) => {
-                spent = spent.saturating_add(n);
-                if best_off < kept.0 {
-                    kept = (best_off, best);
-                }
-            }
-            (Err(Failure::Cap(n) | Failure::Cycling(n)), None) => spent = spent.saturating_add(n),
-            (Err(_), _) => {}
+            Err(best) => keep_if_less(&mut kept, best),
         }
     }
     // Down again: the rungs below the one that converged, each from the answer kept so far,
@@ -1668,45 +1655,27 @@ fn second_pass(
     // projection) and the pass at `1e-13` converged (5.3e-9 from it); from there the pass at
     // `1e-14` converged as well.
     for rung in (0..converged.unwrap_or(0)).rev() {
-        let mut best: Best = None;
-        let pass = run_watched(
+        let pass = finishing_pass(
             problem,
             start_at_answer(&kept.1, None),
             cap,
-            finishing(FINISH_LADDER[rung]),
+            FINISH_LADDER[rung],
             memory.as_deref_mut(),
             None,
-            Some(&mut best),
-            &mut |_| {},
+            &mut spent,
         );
-        match (pass, best) {
-            (
-                Ok(Finished {
-                    outcome: lower,
-                    off: lower_off,
-                    ..
-                }),
-                _,
-            ) => {
-                spent = spent.saturating_add(lower.iterations);
-                if rung == 0 {
-                    return Outcome {
-                        iterations: spent,
-                        ..lower
-                    };
-                }
-                if lower_off < kept.0 {
-                    kept = (lower_off, lower);
+        match pass {
+            Ok((_, lower)) if rung == 0 => {
+                return Outcome {
+                    iterations: spent,
+                    ..lower
                 }
             }
-            (Err(Failure::Cap(n) | Failure::Cycling(n)), best) => {
-                spent = spent.saturating_add(n);
-                if let Some((best_off, best)) = best.filter(|(best_off, _)| *best_off < kept.0) {
-                    kept = (best_off, best);
-                }
+            Ok(lower) => keep_if_less(&mut kept, Some(lower)),
+            Err(best) => {
+                keep_if_less(&mut kept, best);
                 break;
             }
-            (Err(_), _) => break,
         }
     }
     Outcome {
@@ -1716,12 +1685,44 @@ fn second_pass(
     }
 }
 
-/// The tests of a second pass at `tolerance`, relative as [`ACTIVE_TOL`].
-fn finishing(tolerance: f64) -> Tolerances {
-    Tolerances {
-        active: tolerance,
-        refine: tolerance,
-        ..SECOND_PASS
+/// One pass of the finishing ladder at `tolerance` from `start` (see [`second_pass`]), its
+/// iterations added to `spent`: its answer and how far off it is when it converges, otherwise
+/// its best iterate ([`Best`]) when it ran out or cycled, `None` when it failed otherwise
+/// (whose iterations are not counted).
+fn finishing_pass(
+    problem: &ProjectionProblem,
+    start: Start,
+    cap: u32,
+    tolerance: f64,
+    memory: Option<&mut Remembered<'_>>,
+    held: Option<ActiveSystem>,
+    spent: &mut u32,
+) -> Result<(f64, Outcome), Best> {
+    let mut best: Best = None;
+    let pass = run_watched(
+        problem,
+        start,
+        cap,
+        Tolerances {
+            active: tolerance,
+            refine: tolerance,
+            ..SECOND_PASS
+        },
+        memory,
+        held,
+        Some(&mut best),
+        &mut |_| {},
+    );
+    match pass {
+        Ok(Finished { outcome, off, .. }) => {
+            *spent = spent.saturating_add(outcome.iterations);
+            Ok((off, outcome))
+        }
+        Err(Failure::Cap(n) | Failure::Cycling(n)) => {
+            *spent = spent.saturating_add(n);
+            Err(best)
+        }
+        Err(_) => Err(None),
     }
 }
 
@@ -1730,16 +1731,11 @@ fn finishing(tolerance: f64) -> Tolerances {
 /// most violated row joining alone, and every row's multiplier as it stands (or the smallest
 /// positive number) if it joins.
 fn start_at_answer(answer: &Outcome, order: Option<&[usize]>) -> Start {
-    let support: Vec<usize> = match order {
-        Some(order) => order
-            .iter()
-            .copied()
-            .filter(|&i| answer.lambda[i] > 0.0)
-            .collect(),
-        None => (0..answer.lambda.len())
-            .filter(|&i| answer.lambda[i] > 0.0)
-            .collect(),
-    };
+    let order = order.map_or_else(|| (0..answer.lambda.len()).collect(), <[usize]>::to_vec);
+    let support: Vec<usize> = order
+        .into_iter()
+        .filter(|&i| answer.lambda[i] > 0.0)
+        .collect();
     Start {
         lambda: support.iter().map(|&i| answer.lambda[i]).collect(),
         support,

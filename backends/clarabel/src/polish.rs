@@ -197,6 +197,26 @@ mod tests {
         (problem, z, s)
     }
 
+    /// A problem and the interior-point answer Clarabel gave on it, from a run, as JSON:
+    /// `(problem, x, z, s)`, the slacks those of `x` itself.
+    fn interior_point_guess(json: &str) -> (ProjectionProblem, Vec<f64>, Vec<f64>, Vec<f64>) {
+        #[derive(serde::Deserialize)]
+        struct Data {
+            problem: ProjectionProblem,
+            interior_point_x: Vec<f64>,
+            interior_point_z: Vec<f64>,
+        }
+        let data: Data = serde_json::from_str(json).unwrap();
+        let s = data.problem.shortfall(&data.interior_point_x);
+        let s = s.iter().map(|r| -r).collect();
+        (
+            data.problem,
+            data.interior_point_x,
+            data.interior_point_z,
+            s,
+        )
+    }
+
     #[test]
     fn each_block_is_polished_under_its_own_cap() {
         let (problem, z, s) = chains_with_decoys(20);
@@ -280,16 +300,8 @@ mod tests {
         // Clarabel gave there (see `tests/jam_polish.rs`): joining every violated row at once
         // runs out of the block's cap of 240 iterations, so the polish used to keep the
         // iterate (every multiplier positive, the point off by ~√gap).
-        #[derive(serde::Deserialize)]
-        struct Data {
-            problem: ProjectionProblem,
-            interior_point_x: Vec<f64>,
-            interior_point_z: Vec<f64>,
-        }
-        let data: Data =
-            serde_json::from_str(include_str!("../tests/data/jam_polish_guess.json")).unwrap();
-        let (problem, x, z) = (data.problem, data.interior_point_x, data.interior_point_z);
-        let s: Vec<f64> = problem.shortfall(&x).iter().map(|r| -r).collect();
+        let (problem, x, z, s) =
+            interior_point_guess(include_str!("../tests/data/jam_polish_guess.json"));
         let Polished {
             x: px, lambda: pl, ..
         } = polish(&problem, &x, &z, &s).expect("the block is polished");
@@ -316,18 +328,9 @@ mod tests {
         // (t = 44.6 s) and the interior-point answer Clarabel gave there, which stood
         // unpolished, 1.0e-7 from the projection (decided from the run's disagreement.json,
         // `docs/backends.md`): both tries under 40 + 1004/2 iterations run out.
-        #[derive(serde::Deserialize)]
-        struct Data {
-            problem: ProjectionProblem,
-            interior_point_x: Vec<f64>,
-            interior_point_z: Vec<f64>,
-        }
-        let data: Data = serde_json::from_str(include_str!(
+        let (problem, x, z, s) = interior_point_guess(include_str!(
             "../tests/data/evacuation_h005_polish_guess.json"
-        ))
-        .unwrap();
-        let (problem, x, z) = (data.problem, data.interior_point_x, data.interior_point_z);
-        let s: Vec<f64> = problem.shortfall(&x).iter().map(|r| -r).collect();
+        ));
         let m = problem.n_rows();
         let support: Vec<usize> = (0..m).filter(|&i| z[i] > s[i]).collect();
         let start = Start {
