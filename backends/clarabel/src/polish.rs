@@ -266,14 +266,8 @@ mod tests {
         // On the whole problem the chains' leaving rows queue behind each other (a chain
         // alone needs 7 iterations, the 20 together 59): the former cap of 40 runs out.
         let support: Vec<usize> = (0..z.len()).filter(|&i| z[i] > s[i]).collect();
-        let start = Start {
-            lambda: support.iter().map(|&i| z[i]).collect(),
-            support,
-            join: z.iter().map(|v| v.max(f64::MIN_POSITIVE)).collect(),
-            join_at_most: None,
-        };
         assert!(matches!(
-            active_set::solve(&problem, start, ITERATIONS),
+            active_set::solve(&problem, start_at(support, &z, None), ITERATIONS),
             Err(active_set::Failure::Cap(_))
         ));
         // Block by block, every chain is finished: x_j = j − 2.5, the copies inactive.
@@ -388,23 +382,13 @@ mod tests {
         ));
         let m = problem.n_rows();
         let support: Vec<usize> = (0..m).filter(|&i| z[i] > s[i]).collect();
-        let start = Start {
-            lambda: support
-                .iter()
-                .map(|&i| z[i].max(f64::MIN_POSITIVE))
-                .collect(),
-            support,
-            join: z.iter().map(|v| v.max(f64::MIN_POSITIVE)).collect(),
-            join_at_most: None,
-        };
-        let cap = short_cap(m);
         for join_at_most in [None, Some(1)] {
-            let attempt = Start {
-                join_at_most,
-                ..start.clone()
-            };
             assert!(matches!(
-                active_set::solve(&problem, attempt, cap),
+                active_set::solve(
+                    &problem,
+                    start_at(support.clone(), &z, join_at_most),
+                    short_cap(m)
+                ),
                 Err(active_set::Failure::Cap(_))
             ));
         }
