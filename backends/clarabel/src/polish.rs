@@ -78,7 +78,8 @@ fn start_at(support: Vec<usize>, z: &[f64], join_at_most: Option<usize>) -> Star
 }
 
 /// The rows of `guess` the interior point is surest are tight, at most `n` of them (the
-/// block's unknowns): the largest `z/s` first (a zero slack first of all), ties by row.
+/// block's unknowns): rows whose slack `s` is not positive (the point violates them or holds
+/// them exactly) first, then the largest `z/s`, ties by row.
 fn surest(guess: &[usize], z: &[f64], s: &[f64], n: usize) -> Vec<usize> {
     let confidence = |t: usize| {
         if s[t] > 0.0 {
@@ -99,7 +100,9 @@ fn surest(guess: &[usize], z: &[f64], s: &[f64], n: usize) -> Vec<usize> {
 /// from the rows with `z > s`, every violated row joining at once, under `ITERATIONS + m/2`;
 /// the same with the most violated row joining alone; that under [`long_cap`]; and, when
 /// those rows outnumber the block's unknowns (so some of them depend on the others), from the
-/// [`surest`] of them, the most violated row joining alone, under [`long_cap`].
+/// [`surest`] of them by the interior-point answer's own slacks `point_slack` (Clarabel's cone
+/// slacks `s` ranked them so that the try did not finish the block below), the most violated
+/// row joining alone, under [`long_cap`].
 fn polish_block(
     block: &ProjectionProblem,
     z: &[f64],
