@@ -14,12 +14,13 @@ by computing it independently and certifying it:
 1. The block of the coordinate where the answers differ most (or `--coordinate J`): the
    connected component of the rows sharing an unknown with it, which the projection
    separates from the rest.
-2. Candidate supports: first the least-distance program's, `min ‖z‖ s.t. A z ≥ b − A y`
-   solved as Lawson and Hanson's non-negative least-squares problem (SciPy's `nnls`, dense:
-   minutes for a few thousand rows); then each answer's own (its rows with positive
-   multipliers), since on a sliver the least-distance program in double precision can end
-   on a support that does not certify. A support whose projection violates rows by more
-   than rounding allows is tried again with them (up to three times).
+2. Candidate supports: first each answer's own (its rows with positive multipliers: seconds
+   to try), then, when none of them certifies, the least-distance program's, `min ‖z‖ s.t.
+   A z ≥ b − A y` solved as Lawson and Hanson's non-negative least-squares problem (SciPy's
+   `nnls`, dense: minutes for a few thousand rows). Where a support comes from does not
+   matter: the certificate is checked on the data alone. A support whose projection violates
+   rows by more than rounding allows is tried again with them (up to three times): a support
+   can miss rows that depend on it and are tight at the projection.
 3. For each, the projection onto the support's affine set (Cholesky of `A_S A_Sᵀ` on a
    linearly independent subset of the support, chosen by QR with column pivoting), refined
    with residuals in extended precision (`numpy.longdouble`).
@@ -113,6 +114,41 @@ def certify(A, y, b, support, label):
     return x, ok
 
 
+def least_distance_support(A, y, b):
+    """The support of the least-distance program `min ‖z‖ s.t. A z ≥ b − A y`, solved as
+    Lawson and Hanson's non-negative least-squares problem: u ≥ 0 minimizing ‖E u − e‖ with
+    E = [Aᵀ; (b − A y)ᵀ]. `None` when it says the block is infeasible."""
+    r = b - A @ y
+    E = np.vstack([A.T, r[None, :]])
+    e = np.zeros(A.shape[1] + 1)
+    e[-1] = 1.0
+    started = time.time()
+    u, _ = nnls(E, e, maxiter=50 * A.shape[0])
+    if not (E @ u - e)[-1] < 0:
+        return None
+    support = np.where(u > 0)[0]
+    print(f"least-distance program: {time.time() - started:.1f} s, support of {len(support)} rows")
+    return support
+
+
+def certify_with_joins(A, y, b, support, label):
+    """`certify`, and when the support's projection violates rows of the block by more than
+    rounding allows, again with them joined, up to three times: a support may miss rows that
+    depend on it and are tight at the projection (1.25e-14 at a door queue of the hall, where
+    the least-distance program's support missed such rows)."""
+    x, ok = certify(A, y, b, support, label)
+    for _ in range(3):
+        if ok:
+            break
+        slack = A.astype(np.longdouble) @ x - b.astype(np.longdouble)
+        violated = np.setdiff1d(np.where(slack < -1e-14)[0], support)
+        if not len(violated):
+            break
+        support = np.union1d(support, violated)
+        x, ok = certify(A, y, b, support, f"{label} (+{len(violated)} rows it violated)")
+    return x, ok
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("file")
@@ -149,48 +185,24 @@ def main():
     b = np.array([problem["b"][i] for i in rows])
     print(f"block of coordinate {coordinate}: {len(rows)} rows on {len(cols)} unknowns")
 
-    # 2. The least-distance program: u >= 0 minimizing ‖E u − e‖, E = [Aᵀ; (b − A y)ᵀ].
-    r = b - A @ y
-    E = np.vstack([A.T, r[None, :]])
-    e = np.zeros(len(cols) + 1)
-    e[-1] = 1.0
-    started = time.time()
-    u, _ = nnls(E, e, maxiter=50 * len(rows))
-    rho = E @ u - e
-    if not rho[-1] < 0:
-        print("the least-distance program says the block is infeasible")
-        return 1
-    candidates = [("the least-distance program's", np.where(u > 0)[0])]
-    print(
-        f"least-distance program: {time.time() - started:.1f} s, "
-        f"support of {len(candidates[0][1])} rows"
-    )
-    # On a sliver, double precision can leave that support wrong; the answers' own supports
-    # (rows with positive multipliers) are tried next. Where a support comes from does not
-    # matter: the certificate below is checked here, on the data alone.
+    # 2. The answers' own supports (rows with positive multipliers) first: trying one takes
+    # seconds, where the least-distance program takes minutes on a few thousand rows.
+    candidates = []
     for name, side in zip(names, ("first", "second")):
         multipliers = data[side].get("multipliers") or []
         if len(multipliers) == m_all:
             support = np.array([t for t, i in enumerate(rows) if multipliers[i] > 0.0], dtype=int)
             if len(support):
-                candidates.append((f"{name}'s", support))
+                candidates.append((f"{name}'s", lambda support=support: support))
+    candidates.append(("the least-distance program's", lambda: least_distance_support(A, y, b)))
 
     x, ok = None, False
-    for label, support in candidates:
-        x, ok = certify(A, y, b, support, label)
-        # A support may miss rows that depend on it and are tight at the projection: its
-        # projection then violates them by rounding (1.25e-14 at a door queue of the hall,
-        # where the least-distance program's support missed 4 such rows). They join, up
-        # to three times.
-        for _ in range(3):
-            if ok:
-                break
-            slack = A.astype(np.longdouble) @ x - b.astype(np.longdouble)
-            violated = np.setdiff1d(np.where(slack < -1e-14)[0], support)
-            if not len(violated):
-                break
-            support = np.union1d(support, violated)
-            x, ok = certify(A, y, b, support, f"{label} (+{len(violated)} rows it violated)")
+    for label, find in candidates:
+        support = find()
+        if support is None:
+            print("the least-distance program says the block is infeasible")
+            return 1
+        x, ok = certify_with_joins(A, y, b, support, label)
         if ok:
             break
     if not ok:

@@ -80,3 +80,49 @@ fn a_cross_checked_runs_largest_gap_is_decided() {
     assert_eq!(printed.matches("(within 1e-09)").count(), 2, "{printed}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A support can miss a row that depends on it and is tight at the projection (the hall's door
+/// queue at t = 14.8 s, where the least-distance program's support missed such rows by
+/// 1.25e-14). The miniature: `x₀ ≥ 1` and `x₀ + 10⁻³ x₁ ≥ 1 + 5·10⁻¹⁴` from `y = 0`, both
+/// tight at the projection `(1, 5·10⁻¹¹)`; the first answer's multipliers name only the first
+/// row, whose projection `(1, 0)` violates the second by 5e-14. The row joins and the support
+/// certifies, without the least-distance program. Without multipliers, the least-distance
+/// program finds both rows itself.
+#[test]
+#[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
+fn a_support_missing_a_tight_row_certifies_once_the_row_joins() {
+    let dir = std::env::temp_dir().join(format!("sweep-decide-sliver-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = |multipliers: &str| {
+        format!(
+            r#"{{"first_backend": "native", "second_backend": "clarabel", "gap": 5e-11,
+            "coordinate": 1,
+            "problem": {{"y": [0.0, 0.0], "b": [1.0, 1.00000000000005],
+              "a": {{"n_cols": 2, "row_ptr": [0, 1, 3], "col_idx": [0, 0, 1],
+                     "values": [1.0, 1.0, 0.001]}},
+              "keys": [[0, 0], [0, 1]]}},
+            "first": {{"x": [1.0, 5e-11]{multipliers}}},
+            "second": {{"x": [1.0, 0.0]}}}}"#
+        )
+    };
+    let with = dir.join("with-multipliers.json");
+    std::fs::write(&with, file(r#", "multipliers": [1.0, 0.0]"#)).unwrap();
+    let (certified, printed) = decide(&with);
+    assert!(certified, "{printed}");
+    let tries: Vec<&str> = printed.lines().filter(|l| l.contains("certified:")).collect();
+    assert_eq!(tries, ["  certified: NO", "  certified: yes"], "{printed}");
+    assert!(printed.contains("native's (+1 rows it violated) support, 2 rows"), "{printed}");
+    assert!(!printed.contains("least-distance program:"), "{printed}");
+    assert!(printed.contains("native: ") && printed.contains("clarabel: 4.99"), "{printed}");
+
+    let without = dir.join("without-multipliers.json");
+    std::fs::write(&without, file("")).unwrap();
+    let (certified, printed) = decide(&without);
+    assert!(certified, "{printed}");
+    assert!(
+        printed.contains("least-distance program: ") && printed.contains("support of 2 rows"),
+        "{printed}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
