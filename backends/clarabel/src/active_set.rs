@@ -746,7 +746,8 @@ impl ActiveSystem {
         Self::sparse_ordered(problem, active, None)
     }
 
-    /// [`Self::sparse`], ordered from `memory` when it can be (and the ordering remembered).
+    /// The sparse `LDLᵀ` of `K_δ` for the rows `active`, whatever their number, ordered from
+    /// `memory` when it can be (and the ordering remembered), else by AMD; see [`Self::new`].
     fn sparse_ordered(
         problem: &ProjectionProblem,
         active: &[usize],
@@ -1549,7 +1550,7 @@ fn solve_with(
     Ok(second_pass(problem, first, cap, memory.as_mut()))
 }
 
-/// What [`run`] converged to.
+/// What [`run_watched`] converged to.
 struct Finished {
     outcome: Outcome,
     /// The factorization of the last iteration.
@@ -1763,8 +1764,9 @@ fn run(
     run_watched(problem, start, cap, pass, memory, held, None, &mut |_| {})
 }
 
-/// [`run`], calling `before_iteration(k)` before each iteration `k`, and keeping in `best`,
-/// when given, the iterate off by least ([`Best`]).
+/// The method from `start`, for at most `cap` iterations, with the tests of `pass`, its first
+/// iteration bordering `held` when it can, calling `before_iteration(k)` before each
+/// iteration `k`, and keeping in `best`, when given, the iterate off by least ([`Best`]).
 #[allow(clippy::too_many_arguments)]
 fn run_watched(
     problem: &ProjectionProblem,

@@ -235,7 +235,7 @@ struct Newton<'a> {
     r_d: &'a [f64],
     r_p: &'a [f64],
     /// Whether the solve of the normal equations is refined once against `I + AᵀWA` itself
-    /// (see [`solve`]).
+    /// (see [`solve_unless`]).
     refine: bool,
 }
 
