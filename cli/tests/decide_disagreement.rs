@@ -110,11 +110,20 @@ fn a_support_missing_a_tight_row_certifies_once_the_row_joins() {
     std::fs::write(&with, file(r#", "multipliers": [1.0, 0.0]"#)).unwrap();
     let (certified, printed) = decide(&with);
     assert!(certified, "{printed}");
-    let tries: Vec<&str> = printed.lines().filter(|l| l.contains("certified:")).collect();
+    let tries: Vec<&str> = printed
+        .lines()
+        .filter(|l| l.contains("certified:"))
+        .collect();
     assert_eq!(tries, ["  certified: NO", "  certified: yes"], "{printed}");
-    assert!(printed.contains("native's (+1 rows it violated) support, 2 rows"), "{printed}");
+    assert!(
+        printed.contains("native's (+1 rows it violated) support, 2 rows"),
+        "{printed}"
+    );
     assert!(!printed.contains("least-distance program:"), "{printed}");
-    assert!(printed.contains("native: ") && printed.contains("clarabel: 4.99"), "{printed}");
+    assert!(
+        printed.contains("native: ") && printed.contains("clarabel: 4.99"),
+        "{printed}"
+    );
 
     let without = dir.join("without-multipliers.json");
     std::fs::write(&without, file("")).unwrap();
