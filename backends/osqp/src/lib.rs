@@ -47,9 +47,12 @@
 //! from the previous displacement and dual (and from the step `rho` adapted so far); otherwise
 //! it builds a new workspace, which starts from `d = 0`, i.e. `x = y`, unless both problems
 //! carry row keys ([`ProjectionProblem::with_row_keys`]): then the new workspace starts from
-//! the previous duals of the rows with the same key (`0` for new rows) and the displacement
+//! the last duals of the rows with the same key (`0` for new rows) and the displacement
 //! `d = Aᵀλ` they describe, so rows may appear, vanish or be reordered between steps. Keys
-//! also re-map the duals when the pattern is unchanged but the rows were reordered.
+//! also re-map the duals when the pattern is unchanged but the rows were reordered. The
+//! duals are remembered by key over the last two rounds of solves, not only the last solve's:
+//! handed a step block by block ([`sweeping_api::Blocked`]), each block starts from its own
+//! rows' duals of the step before, whatever blocks were solved in between.
 //! [`SolveStats::warm_started`] tells which happened. A failed solve discards the workspace, so
 //! that the next one starts afresh. Problems without rows, or whose `y` satisfies every row,
 //! are answered without calling OSQP ([`Projection::identity`]) and leave the workspace as it
@@ -290,22 +293,54 @@ struct Cache {
     keys: Option<Vec<RowKey>>,
 }
 
-/// OSQP's dual `−λ` for the rows of `problem`, taken from the previous problem's rows with the
-/// same key (`0` for rows without a match), and the displacement `d = Aᵀλ` it describes.
+/// The last converged OSQP dual (`−λ`) of every keyed row, over the last two rounds of solves.
+///
+/// A step handed over block by block solves each of its blocks after others, so the last
+/// solve's duals rarely hold the next block's rows; these do. Within one step the blocks'
+/// rows are disjoint, so a solve meeting a key already written in the current round starts
+/// a new round (a new step began): the current round becomes the older one, and the one
+/// before is forgotten. Memory is then about two steps' rows; a round is also closed at
+/// [`KeyedDuals::ROUND_CAP`] keys, for callers whose keys never repeat.
+#[derive(Debug, Default)]
+struct KeyedDuals {
+    current: FastMap<RowKey, f64>,
+    older: FastMap<RowKey, f64>,
+}
+
+impl KeyedDuals {
+    /// The most keys a round holds (24 bytes each and the map's overhead: about 100 MiB).
+    const ROUND_CAP: usize = 1 << 22;
+
+    /// The last dual of the row `key`, if it was solved in this round or the one before.
+    fn get(&self, key: &RowKey) -> Option<f64> {
+        self.current
+            .get(key)
+            .or_else(|| self.older.get(key))
+            .copied()
+    }
+
+    /// Remembers a converged solve's duals.
+    fn record(&mut self, keys: &[RowKey], y_osqp: &[f64]) {
+        if self.current.len() + keys.len() > Self::ROUND_CAP
+            || keys.iter().any(|k| self.current.contains_key(k))
+        {
+            self.older = std::mem::take(&mut self.current);
+        }
+        self.current
+            .extend(keys.iter().copied().zip(y_osqp.iter().copied()));
+    }
+}
+
+/// OSQP's dual `−λ` for the rows of `problem`, the last duals of the rows with the same key
+/// (`0` for rows without one), and the displacement `d = Aᵀλ` it describes.
 fn keyed_start(
     problem: &ProjectionProblem,
     keys: &[RowKey],
-    previous_keys: &[RowKey],
-    previous_y: &[f64],
+    duals: &KeyedDuals,
 ) -> (Vec<f64>, Vec<f64>) {
-    let by_key: FastMap<RowKey, f64> = previous_keys
-        .iter()
-        .copied()
-        .zip(previous_y.iter().copied())
-        .collect();
     let y_osqp: Vec<f64> = keys
         .iter()
-        .map(|k| by_key.get(k).copied().unwrap_or(0.0).min(0.0))
+        .map(|k| duals.get(k).unwrap_or(0.0).min(0.0))
         .collect();
     let lambda: Vec<f64> = y_osqp.iter().map(|v| -v).collect();
     let mut d = vec![0.0; problem.dim()];
@@ -346,6 +381,8 @@ enum Outcome {
 pub struct OsqpProjector {
     settings: OsqpSettings,
     cache: Option<Cache>,
+    /// The duals of keyed rows, for the keyed warm start of a new workspace.
+    duals: KeyedDuals,
 }
 
 impl Default for OsqpProjector {
@@ -371,6 +408,7 @@ impl OsqpProjector {
         Self {
             settings,
             cache: None,
+            duals: KeyedDuals::default(),
         }
     }
 
@@ -379,9 +417,11 @@ impl OsqpProjector {
         &self.settings
     }
 
-    /// Forgets the kept workspace: the next solve builds a new one and starts from `x = y`.
+    /// Forgets the kept workspace and the duals remembered by key: the next solve builds a new
+    /// workspace and starts from `x = y`.
     pub fn reset(&mut self) {
         self.cache = None;
+        self.duals = KeyedDuals::default();
     }
 
     fn backend_error(message: impl Into<String>) -> ProjectionError {
@@ -465,14 +505,13 @@ impl OsqpProjector {
                 .as_ref()
                 .is_some_and(|c| c.a.same_pattern(a) && c.d.len() == problem.dim());
         let keys = problem.row_keys();
-        // The previous problem's keys and duals, for a keyed warm start of a new workspace.
         let mut keyed_warm = false;
         let mut cache = if reusable {
             let mut cache = self.cache.take().expect("checked above");
             if let (Some(new), Some(old)) = (keys, cache.keys.as_deref()) {
                 if new != old {
                     // Same pattern, other rows (reordered): start from the duals by key.
-                    (cache.d, cache.y_osqp) = keyed_start(problem, new, old, &cache.y_osqp);
+                    (cache.d, cache.y_osqp) = keyed_start(problem, new, &self.duals);
                 }
             }
             let values_changed = cache.a.values() != a.values();
@@ -500,17 +539,13 @@ impl OsqpProjector {
             }
             cache
         } else {
-            let previous = self.cache.take();
+            self.cache = None;
             let mut cache = self.set_up(problem, (col_ptr, row_idx, values), &l, &u)?;
-            // The pattern changed (rows appeared, vanished or moved): with keys on both
-            // problems, start from the previous duals of the rows that are still there.
-            if let (true, Some(new), Some(old)) = (
-                settings.warm_start,
-                keys,
-                previous.as_ref().and_then(|c| c.keys.as_deref()),
-            ) {
-                let y_prev = &previous.as_ref().expect("has keys").y_osqp;
-                let (d0, y0) = keyed_start(problem, new, old, y_prev);
+            // The pattern changed (rows appeared, vanished or moved; on a step handed over
+            // block by block, another block): with keys, start from the last duals of the
+            // rows that were solved before.
+            if let (true, Some(new)) = (settings.warm_start, keys) {
+                let (d0, y0) = keyed_start(problem, new, &self.duals);
                 if y0.iter().any(|v| *v != 0.0) {
                     let started =
                         catch_unwind(AssertUnwindSafe(|| cache.problem.warm_start(&d0, &y0)));
@@ -568,6 +603,9 @@ impl OsqpProjector {
                             ),
                         });
                     }
+                }
+                if let (true, Some(keys)) = (self.settings.warm_start, keys) {
+                    self.duals.record(keys, &y_osqp);
                 }
                 cache.d = d;
                 cache.y_osqp = y_osqp;
