@@ -301,15 +301,32 @@ struct Cache {
 /// a new round (a new step began): the current round becomes the older one, and the one
 /// before is forgotten. Memory is then about two steps' rows; a round is also closed at
 /// [`KeyedDuals::ROUND_CAP`] keys, for callers whose keys never repeat.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct KeyedDuals {
     current: FastMap<RowKey, f64>,
     older: FastMap<RowKey, f64>,
+    /// The most keys a round holds.
+    round_cap: usize,
+}
+
+impl Default for KeyedDuals {
+    fn default() -> Self {
+        Self::with_round_cap(Self::ROUND_CAP)
+    }
 }
 
 impl KeyedDuals {
-    /// The most keys a round holds (24 bytes each and the map's overhead: about 100 MiB).
+    /// The most keys a round holds by default (24 bytes each and the map's overhead: about
+    /// 100 MiB).
     const ROUND_CAP: usize = 1 << 22;
+
+    fn with_round_cap(round_cap: usize) -> Self {
+        Self {
+            current: FastMap::default(),
+            older: FastMap::default(),
+            round_cap,
+        }
+    }
 
     /// The last dual of the row `key`, if it was solved in this round or the one before.
     fn get(&self, key: &RowKey) -> Option<f64> {
@@ -321,7 +338,7 @@ impl KeyedDuals {
 
     /// Remembers a converged solve's duals.
     fn record(&mut self, keys: &[RowKey], y_osqp: &[f64]) {
-        if self.current.len() + keys.len() > Self::ROUND_CAP
+        if self.current.len() + keys.len() > self.round_cap
             || keys.iter().any(|k| self.current.contains_key(k))
         {
             self.older = std::mem::take(&mut self.current);
@@ -752,5 +769,70 @@ impl Projector for OsqpProjector {
             )));
         }
         self.solve(problem, l)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(member: u64) -> RowKey {
+        RowKey { family: 0, member }
+    }
+
+    /// Records the rows `members`, each with the dual `−member`.
+    fn record(duals: &mut KeyedDuals, members: &[u64]) {
+        let keys: Vec<RowKey> = members.iter().map(|&m| key(m)).collect();
+        let y: Vec<f64> = members.iter().map(|&m| -(m as f64)).collect();
+        duals.record(&keys, &y);
+    }
+
+    fn known(duals: &KeyedDuals, members: &[u64]) -> Vec<bool> {
+        members
+            .iter()
+            .map(|&m| duals.get(&key(m)).is_some())
+            .collect()
+    }
+
+    /// A step's blocks are disjoint: they all stay in the round. A key met again starts a new
+    /// round, and the round before the last is forgotten.
+    #[test]
+    fn a_round_ends_when_a_key_comes_back() {
+        let mut duals = KeyedDuals::default();
+        record(&mut duals, &[1, 2]);
+        record(&mut duals, &[3]);
+        record(&mut duals, &[4, 5]);
+        assert_eq!(known(&duals, &[1, 2, 3, 4, 5]), [true; 5]);
+        // The next step: row 1 again. Rows 2–5 are in the round before.
+        record(&mut duals, &[1]);
+        assert_eq!(known(&duals, &[1, 2, 3, 4, 5]), [true; 5]);
+        record(&mut duals, &[3]);
+        assert_eq!(duals.get(&key(3)), Some(-3.0));
+        // A third step: rows 2, 4 and 5 were last solved two rounds ago.
+        record(&mut duals, &[1, 6]);
+        assert_eq!(
+            known(&duals, &[1, 2, 3, 4, 5, 6]),
+            [true, false, true, false, false, true]
+        );
+    }
+
+    /// Keys that never come back close a round at its cap.
+    #[test]
+    fn a_round_ends_at_its_cap() {
+        let mut duals = KeyedDuals::with_round_cap(3);
+        record(&mut duals, &[1, 2]);
+        // Three keys: the cap, not past it.
+        record(&mut duals, &[3]);
+        // Past it: the round {1, 2, 3} is the older one, {4} the current…
+        record(&mut duals, &[4]);
+        // …which reaches the cap again.
+        record(&mut duals, &[5, 6]);
+        assert_eq!(known(&duals, &[1, 2, 3, 4, 5, 6]), [true; 6]);
+        record(&mut duals, &[7]);
+        // {4, 5, 6} and 7 make four: {1, 2, 3} is forgotten.
+        assert_eq!(
+            known(&duals, &[1, 2, 3, 4, 5, 6, 7]),
+            [false, false, false, true, true, true, true]
+        );
     }
 }
