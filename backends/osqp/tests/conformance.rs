@@ -441,8 +441,10 @@ fn keyed_warm_start_reaches_back_past_another_block() {
     let block_b = random_instance(42, 12, 14);
     let mut osqp = OsqpProjector::default();
     // Step 1: A, then B.
-    osqp.project(&keyed(perturbed(&block_a, 0, false), 1)).unwrap();
-    osqp.project(&keyed(perturbed(&block_b, 0, false), 2)).unwrap();
+    osqp.project(&keyed(perturbed(&block_a, 0, false), 1))
+        .unwrap();
+    osqp.project(&keyed(perturbed(&block_b, 0, false), 2))
+        .unwrap();
     // Step 2: A moved a little (its pattern differs from B's, so a new workspace).
     let moved = |k| {
         let p = perturbed(&block_a, 0, false);
@@ -466,7 +468,8 @@ fn keyed_warm_start_reaches_back_past_another_block() {
     assert!(max_gap(&warm.x, &cold.x) <= 1e-6);
     assert!(kkt(&p, &warm) <= osqp.tolerance());
     // `reset` forgets the duals as well as the workspace.
-    osqp.project(&keyed(perturbed(&block_b, 1, false), 2)).unwrap();
+    osqp.project(&keyed(perturbed(&block_b, 1, false), 2))
+        .unwrap();
     osqp.reset();
     assert!(!osqp.project(&moved(2)).unwrap().stats.warm_started);
 }
