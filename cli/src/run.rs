@@ -47,11 +47,44 @@ pub struct RunArgs {
     pub formats: Vec<TrajectoryFormat>,
 }
 
-/// A progress bar on stderr, hidden when stderr is not a terminal.
+/// A progress bar on stderr when stderr is a terminal; otherwise (a run under `nohup`, in a
+/// batch job or a pipe) plain lines, so that a run of an hour says how far it got.
 struct Progress {
     bar: ProgressBar,
     people: usize,
     population: std::sync::Arc<sweeping::crowd::Population>,
+    lines: Option<ProgressLines>,
+}
+
+/// When [`Progress`] writes a plain line: at every tenth of the run's steps, and at least
+/// every [`ProgressLines::EVERY`] of wall time in between.
+struct ProgressLines {
+    n_steps: usize,
+    started: std::time::Instant,
+    last: std::time::Instant,
+}
+
+impl ProgressLines {
+    const EVERY: std::time::Duration = std::time::Duration::from_secs(60);
+
+    fn new(n_steps: usize) -> Self {
+        let now = std::time::Instant::now();
+        Self {
+            n_steps: n_steps.max(1),
+            started: now,
+            last: now,
+        }
+    }
+
+    /// Whether step `done` (counted from 1) gets a line.
+    fn due(&mut self, done: usize) -> bool {
+        let tenth = |k: usize| k.saturating_mul(10) / self.n_steps;
+        let due = tenth(done) > tenth(done - 1) || self.last.elapsed() >= Self::EVERY;
+        if due {
+            self.last = std::time::Instant::now();
+        }
+        due
+    }
 }
 
 impl Observer for Progress {
@@ -60,6 +93,19 @@ impl Observer for Progress {
     }
     fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         self.bar.set_position((r.step + 1) as u64);
+        if let Some(lines) = self.lines.as_mut() {
+            if lines.due(r.step + 1) {
+                eprintln!(
+                    "t = {:.2} s, step {}/{}, in the room {}/{}, {:.0} s elapsed",
+                    r.t,
+                    r.step + 1,
+                    lines.n_steps,
+                    self.population.present_count(q),
+                    self.people,
+                    lines.started.elapsed().as_secs_f64()
+                );
+            }
+        }
         if r.step.is_multiple_of(10) {
             self.bar.set_message(format!(
                 "t = {:.2} s, in the room {}/{}",
@@ -300,10 +346,12 @@ pub fn main(args: RunArgs) -> Result<()> {
         built.output.animation_frames,
     );
     let n_steps = sweeping::stepper::step_count(t_end, h) as u64;
-    let bar = if std::io::stderr().is_terminal() {
-        ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr())
+    let (bar, lines) = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr());
+        (bar, None)
     } else {
-        ProgressBar::hidden()
+        let lines = ProgressLines::new(usize::try_from(n_steps).unwrap_or(usize::MAX));
+        (ProgressBar::hidden(), Some(lines))
     };
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} steps [{elapsed} < {eta}] {msg}")
@@ -313,6 +361,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         bar,
         people: built.population.len(),
         population: built.population.clone(),
+        lines,
     };
     eprintln!(
         "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name}{} → {}",

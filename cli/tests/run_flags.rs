@@ -261,3 +261,28 @@ fn a_run_into_an_earlier_runs_directory_leaves_none_of_its_stale_files() {
         "{names:?}"
     );
 }
+
+/// A run whose stderr is not a terminal (this test's pipe, a batch job, `nohup`) writes a plain
+/// line at every tenth of its steps instead of the progress bar it cannot draw.
+#[test]
+fn a_run_without_a_terminal_says_how_far_it_got_in_plain_lines() {
+    let run = sweep_run("progress-lines", JAM, &["--threads", "1"]);
+    assert!(run.success, "{}", run.output);
+    let lines: Vec<&str> = run
+        .output
+        .lines()
+        .filter(|l| l.starts_with("t = ") && l.contains(" s elapsed"))
+        .collect();
+    // 30 steps of h = 0.05: a line at steps 3, 6, …, 30.
+    assert_eq!(lines.len(), 10, "{}", run.output);
+    assert!(
+        lines[0].starts_with("t = 0.15 s, step 3/30, in the room 120/120, "),
+        "{}",
+        lines[0]
+    );
+    assert!(
+        lines[9].starts_with("t = 1.50 s, step 30/30, "),
+        "{}",
+        lines[9]
+    );
+}
