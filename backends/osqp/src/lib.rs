@@ -54,7 +54,8 @@
 //! handed a step block by block ([`sweeping_api::Blocked`]), each block starts from its own
 //! rows' duals of the step before, whatever blocks were solved in between.
 //! [`SolveStats::warm_started`] tells which happened. A failed solve discards the workspace, so
-//! that the next one starts afresh. Problems without rows, or whose `y` satisfies every row,
+//! that the next one does not start from its iterates (the duals remembered by key come from
+//! converged solves only). Problems without rows, or whose `y` satisfies every row,
 //! are answered without calling OSQP ([`Projection::identity`]) and leave the workspace as it
 //! was.
 //!
