@@ -27,6 +27,14 @@ fn decide(file: &Path) -> (bool, String) {
     (out.status.success(), printed)
 }
 
+/// An empty directory of this process's own under the system's temporary one.
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 #[test]
 #[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
 fn the_paper_cross_stop_is_decided_for_clarabel() {
@@ -51,9 +59,7 @@ fn the_paper_cross_stop_is_decided_for_clarabel() {
 #[test]
 #[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
 fn a_cross_checked_runs_largest_gap_is_decided() {
-    let dir = std::env::temp_dir().join(format!("sweep-largest-gap-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("sweep-largest-gap");
     let scene = dir.join("jam.toml");
     std::fs::write(
         &scene,
@@ -91,9 +97,7 @@ fn a_cross_checked_runs_largest_gap_is_decided() {
 #[test]
 #[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
 fn a_support_missing_a_tight_row_certifies_once_the_row_joins() {
-    let dir = std::env::temp_dir().join(format!("sweep-decide-sliver-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("sweep-decide-sliver");
     let file = |multipliers: &str| {
         format!(
             r#"{{"first_backend": "native", "second_backend": "clarabel", "gap": 5e-11,
