@@ -186,6 +186,18 @@ impl Problem {
         self
     }
 
+    /// Starts the problem at `q0` at time `t0` instead (a run resumed from a state an
+    /// earlier run reached).
+    ///
+    /// # Panics
+    /// When `q0` is not of the problem's dimension (a caller's mistake: the dimension comes
+    /// from the problem).
+    pub fn set_start(&mut self, t0: f64, q0: Vec<f64>) {
+        assert_eq!(q0.len(), self.q0.len(), "a start of another dimension");
+        self.t0 = t0;
+        self.q0 = q0;
+    }
+
     /// Dimension of the configuration space.
     pub fn dim(&self) -> usize {
         self.q0.len()

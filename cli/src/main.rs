@@ -8,6 +8,7 @@ mod bench;
 mod check;
 mod converge;
 mod heap;
+mod resume;
 mod run;
 mod scene_loader;
 mod stdout;

@@ -1,6 +1,7 @@
 //! `sweep run`: run a scene and write its trajectory (CSV and/or JuPedSim's SQLite format),
 //! summary, snapshots and animation.
 
+use crate::resume;
 use crate::stdout::outln;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -45,6 +46,11 @@ pub struct RunArgs {
     /// JuPedSim's format, read by PedPy). Default: the scene's `[output] formats`, else csv.
     #[arg(long = "format", value_delimiter = ',')]
     pub formats: Vec<TrajectoryFormat>,
+    /// Go on from where an earlier run of this scene stopped: the output directory it wrote
+    /// (the last frame of its trajectory.csv: the time, every position, who had left), up to
+    /// the same horizon. The outputs go to a new directory (default DIR-from-t<time>).
+    #[arg(long, value_name = "DIR")]
+    pub resume: Option<PathBuf>,
 }
 
 /// A progress bar on stderr when stderr is a terminal; otherwise (a run under `nohup`, in a
@@ -269,13 +275,47 @@ pub fn main(args: RunArgs) -> Result<()> {
         backend: args.backend,
         threads: args.threads,
     };
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    // The state to resume from, read before any work (a missing or malformed file is an
+    // error now), and the run's directory, which must not be the one it resumes.
+    let resume = match &args.resume {
+        Some(dir) => {
+            let path = dir.join(resume::TRAJECTORY);
+            let state = resume::last_frame(&path).with_context(|| {
+                format!("--resume {}: reading the run's last state", dir.display())
+            })?;
+            Some((dir.clone(), path, state))
+        }
+        None => None,
+    };
+    let out = match (&args.out, &resume) {
+        (Some(out), _) => out.clone(),
+        (None, Some((dir, _, state))) => resume::default_out(dir, state.t),
+        (None, None) => PathBuf::from("out").join(&scene.name),
+    };
+    if let Some((dir, _, _)) = &resume {
+        if resume::same_dir(dir, &out) {
+            anyhow::bail!(
+                "--resume {} --out {}: a resumed run writes to another directory than the \
+                 run it resumes (whose trajectory it would overwrite)",
+                dir.display(),
+                out.display()
+            );
+        }
+    }
     // Before any work: a directory that cannot be written is an error now, not after the run.
     prepare_output_dir(&out)?;
-    let built = scene.build(&overrides)?;
+    let mut built = scene.build(&overrides)?;
+    let resumed_at = match resume {
+        Some((dir, path, state)) => {
+            let t = state.t;
+            built.resume_at(state).map_err(|e| {
+                anyhow::anyhow!("--resume {}: {}: {e}", dir.display(), path.display())
+            })?;
+            Some((dir, t))
+        }
+        None => None,
+    };
+    let built = built;
     let mut formats = if args.formats.is_empty() {
         built.output.formats.clone()
     } else {
@@ -314,6 +354,9 @@ pub fn main(args: RunArgs) -> Result<()> {
         h,
         t_end,
     );
+    if let Some((dir, t)) = &resumed_at {
+        summary.record_resumed_from(dir, *t);
+    }
     let summary_path = out.join("summary.json");
     let options = ProjectorOptions {
         threads: built.threads,
@@ -335,17 +378,19 @@ pub fn main(args: RunArgs) -> Result<()> {
         &built.name,
         built.output.snapshot_every,
     );
+    // A resumed run covers [t₀, T]: its frames are spread over that span.
+    let t_start = built.problem.t0();
     let mut animation = AnimationWriter::new(
         out.join("animation.html"),
         built.geometry.clone(),
         built.population.clone(),
         built.group_of.clone(),
         &built.name,
-        t_end,
+        t_end - t_start,
         h,
         built.output.animation_frames,
     );
-    let n_steps = sweeping::stepper::step_count(t_end, h) as u64;
+    let n_steps = sweeping::stepper::step_count(t_end - t_start, h) as u64;
     let (bar, lines) = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr());
         (bar, None)
@@ -364,10 +409,18 @@ pub fn main(args: RunArgs) -> Result<()> {
         lines,
     };
     eprintln!(
-        "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name}{} → {}",
+        "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name}{}{} → {}",
         built.name,
         built.population.len(),
         threads_phrase(built.threads),
+        resumed_at
+            .as_ref()
+            .map(|(dir, t)| format!(
+                ", resuming {} from t = {}",
+                dir.display(),
+                sweeping::stepper::display_number(*t)
+            ))
+            .unwrap_or_default(),
         out.display()
     );
     let mut observers: Vec<&mut dyn Observer> = Vec::new();
@@ -442,6 +495,13 @@ fn sqlite_writer(_: &sweeping::scene::BuiltScene, _: &std::path::Path) -> Result
 
 fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFormat]) {
     outln!("scene `{}` ({}, backend {})", s.scene, s.status, s.backend);
+    if let Some(r) = &s.resumed_from {
+        outln!(
+            "  resumed {} from its state at t = {} (the counts below are this run's)",
+            r.run,
+            sweeping::stepper::display_number(r.t)
+        );
+    }
     outln!(
         "  people: {}, left: {}, remaining: {}",
         s.people,

@@ -252,6 +252,13 @@ impl Population {
         }
     }
 
+    /// Latches person `i` as departed: a run resumed from a state in which they had left
+    /// (see [`crate::scene::BuiltScene::resume_at`]) starts with them gone, as the run that
+    /// reached that state had them.
+    pub fn set_departed(&self, i: usize) {
+        self.departed.set(i);
+    }
+
     /// How many people are still in the room.
     pub fn present_count(&self, q: &[f64]) -> usize {
         (0..self.len()).filter(|&i| self.is_present(q, i)).count()

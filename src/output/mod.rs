@@ -339,6 +339,20 @@ pub struct RunSummary {
     /// run's last gap included) and the seconds each spent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cross_check: Option<sweeping_api::CrossCheckStats>,
+    /// The run this one resumed (`sweep run --resume`), `None` for a run from the scene's
+    /// start. Everything above counts this run's steps alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resumed_from: Option<ResumedFrom>,
+}
+
+/// Where a resumed run started: the earlier run's output directory and the time of the state
+/// (the last frame of its trajectory) it went on from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResumedFrom {
+    /// The earlier run's output directory, as given.
+    pub run: String,
+    /// The time of the state.
+    pub t: f64,
 }
 
 /// Collects a [`RunSummary`] as the run goes.
@@ -386,6 +400,14 @@ impl<'a> SummaryCollector<'a> {
     /// Records what a cross-checking backend saw over the run (`None` for other backends).
     pub fn record_cross_check(&mut self, stats: Option<&sweeping_api::CrossCheckStats>) {
         self.summary.cross_check = stats.cloned();
+    }
+
+    /// Records that the run resumed the one in `run` from its state at `t`.
+    pub fn record_resumed_from(&mut self, run: &Path, t: f64) {
+        self.summary.resumed_from = Some(ResumedFrom {
+            run: run.display().to_string(),
+            t,
+        });
     }
 
     /// Marks the summary as failed with `message` (for errors the stepper never saw, such as

@@ -193,6 +193,22 @@ pub struct BuiltScene {
     pub effects: Vec<Effect>,
     /// The geodesic field, when some people head for the exits.
     pub distance_field: Option<Arc<DistanceField>>,
+    /// The people who had left at the start: nobody, unless the run was resumed from a
+    /// state of an earlier one ([`BuiltScene::resume_at`]).
+    pub departed_at_start: Vec<bool>,
+}
+
+/// A state an earlier run of a scene reached, to resume the scene from
+/// ([`BuiltScene::resume_at`]): what `sweep run --resume` reads from the last frame of a
+/// run's `trajectory.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResumeState {
+    /// The time of the state.
+    pub t: f64,
+    /// Every person's centre, `[x₀, y₀, x₁, y₁, …]`.
+    pub q: Vec<f64>,
+    /// Whether each person had left.
+    pub departed: Vec<bool>,
 }
 
 /// Where person `i` came from, for error messages.
@@ -384,6 +400,7 @@ impl Scene {
         let settings = build::stepper_settings(run.h, run.t_end, &obstacles);
         let (bx0, by0, bx1, by1) = room.bbox;
         let margin = 2.0 * population.max_radius() + 0.05 * room.scale;
+        let departed_at_start = vec![false; population.len()];
         Ok(BuiltScene {
             name: self.name.clone(),
             problem,
@@ -405,6 +422,7 @@ impl Scene {
             },
             effects,
             distance_field,
+            departed_at_start,
         })
     }
 }
@@ -700,6 +718,64 @@ impl SpatialHash {
 }
 
 impl BuiltScene {
+    /// Makes the run start from `state`, a state an earlier run of this scene reached,
+    /// instead of the scene's own start: the time, every person's position and who had left
+    /// (latched, as the earlier run had them). The horizon stays the scene's (or the
+    /// override's): a run resumed at `t` goes on to the same `T`.
+    ///
+    /// The state is checked as a scene's start is (no two people present overlapping, nobody
+    /// present through a wall, to `1e-9`).
+    ///
+    /// # Errors
+    /// A message saying what does not fit: another number of people, a position that is not
+    /// finite, a time at or past the horizon, people overlapping.
+    pub fn resume_at(&mut self, state: ResumeState) -> Result<(), String> {
+        let n = self.population.len();
+        if state.q.len() != 2 * n || state.departed.len() != n {
+            return Err(format!(
+                "the state has {} people, the scene {n}",
+                state.departed.len()
+            ));
+        }
+        if let Some(k) = state.q.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "person {}'s {} coordinate is {}",
+                k / 2,
+                ["x", "y"][k % 2],
+                state.q[k]
+            ));
+        }
+        if !state.t.is_finite() || state.t >= self.settings.t_end {
+            return Err(format!(
+                "the state is at t = {}, not before the horizon T = {}",
+                crate::stepper::display_number(state.t),
+                crate::stepper::display_number(self.settings.t_end)
+            ));
+        }
+        let (t0, q0) = (self.problem.t0(), self.problem.q0().to_vec());
+        self.problem.set_start(state.t, state.q);
+        self.departed_at_start = state.departed;
+        // Checked as a start is, with the departures latched (people who left are in no
+        // constraint).
+        self.population.reset_departures();
+        for (i, _) in self
+            .departed_at_start
+            .iter()
+            .enumerate()
+            .filter(|(_, &d)| d)
+        {
+            self.population.set_departed(i);
+        }
+        let checked = self.problem.validate(1e-9);
+        self.population.reset_departures();
+        if let Err(e) = checked {
+            self.problem.set_start(t0, q0);
+            self.departed_at_start = vec![false; n];
+            return Err(e.to_string());
+        }
+        Ok(())
+    }
+
     /// Runs the scene to its horizon (or until everybody has left, when the scene says
     /// `stop_when_empty`), calling the observers after each step.
     ///
@@ -712,8 +788,16 @@ impl BuiltScene {
         observers: &mut [&mut dyn crate::stepper::Observer],
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
-        // A new run from q₀: nobody has left yet.
+        // A new run from q₀: nobody has left yet, unless it resumes an earlier run.
         self.population.reset_departures();
+        for (i, _) in self
+            .departed_at_start
+            .iter()
+            .enumerate()
+            .filter(|(_, &d)| d)
+        {
+            self.population.set_departed(i);
+        }
         let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(error) => {

@@ -1,0 +1,217 @@
+//! `sweep run --resume DIR`: a run that goes on from the last frame an earlier run of the
+//! same scene wrote, read back from its `trajectory.csv`, agrees with the run that never
+//! stopped, and what does not fit is refused by name.
+
+#[path = "../../tests/common/mod.rs"]
+mod common;
+
+use common::checker::scratch;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Twelve people leaving a 4 m room by a door in its right wall: the first of them are out
+/// by t = 2 s, the rest still queueing at t = 3 s.
+const ROOM: &str = r#"
+name = "resume"
+[room]
+rectangle = [0.0, 0.0, 4.0, 4.0]
+[[exits]]
+from = [4.0, 1.6]
+to = [4.0, 2.4]
+[[crowds]]
+count = 12
+region = [2.0, 0.5, 3.8, 3.5]
+radius = 0.2
+speed = 1.0
+seed = 7
+[desired]
+kind = "exit"
+[geodesic]
+cell = 0.05
+[run]
+h = 0.01
+t_end = 3.0
+backend = "clarabel"
+[output]
+trajectory_every = 0.1
+"#;
+
+/// `sweep run` on `scene`, written to a fresh scratch directory `name`, with `args` as they
+/// are (no `--out` added): whether it succeeded, what it printed, and the directory.
+fn sweep(name: &str, scene: &str, args: &[&str]) -> (bool, String, PathBuf) {
+    let dir = scratch(name);
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .arg("run")
+        .arg(&path)
+        .args(args)
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let printed = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    (o.status.success(), printed, dir)
+}
+
+/// A frame: person → (x, y, present).
+type Frame = BTreeMap<usize, (f64, f64, bool)>;
+
+/// The frames of a run's `trajectory.csv`, by time rounded to 1e-6 (a resumed run's times
+/// are `t₀ + k h`, the other's `k h`: equal but for the last bits).
+fn frames(out: &Path) -> BTreeMap<i64, Frame> {
+    let text = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let mut frames: BTreeMap<i64, Frame> = BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let t: f64 = f[0].parse().unwrap();
+        frames.entry((t * 1e6).round() as i64).or_default().insert(
+            f[1].parse().unwrap(),
+            (f[2].parse().unwrap(), f[3].parse().unwrap(), f[4] == "1"),
+        );
+    }
+    frames
+}
+
+fn gap(a: &Frame, b: &Frame) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .map(|(i, p)| (p.0 - b[i].0).abs().max((p.1 - b[i].1).abs()))
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn a_resumed_run_goes_on_as_the_run_that_never_stopped() {
+    let (ok, printed, whole) = sweep("resume-whole", ROOM, &["--out", "whole"]);
+    assert!(ok, "{printed}");
+    let (ok, printed, dir) = sweep("resume-first", ROOM, &["--t-end", "2", "--out", "first"]);
+    assert!(ok, "{printed}");
+    let first_out = dir.join("first");
+    // Without --out, beside the run it resumes.
+    let (ok, printed, _) = sweep(
+        "resume-second",
+        ROOM,
+        &["--resume", first_out.to_str().unwrap()],
+    );
+    assert!(ok, "{printed}");
+    assert!(
+        printed.contains("resuming")
+            && printed.contains("from t = 2")
+            && printed.contains("resumed "),
+        "{printed}"
+    );
+    let resumed_out = dir.join("first-from-t2");
+    let dir = first_out.to_str().unwrap();
+
+    let (whole, first, second) = (
+        frames(&whole.join("whole")),
+        frames(&first_out),
+        frames(&resumed_out),
+    );
+    let t2 = 2_000_000;
+    // The resumed run starts at the first run's last frame, to the bit, with whoever had left
+    // gone: somebody had, so the latches are what is tested.
+    assert_eq!(second.keys().next(), Some(&t2));
+    assert_eq!(second[&t2], first[&t2]);
+    let gone: Vec<usize> = first[&t2]
+        .iter()
+        .filter(|(_, p)| !p.2)
+        .map(|(&i, _)| i)
+        .collect();
+    assert!(!gone.is_empty(), "nobody left by t = 2 s");
+    assert!(gone.len() < 12, "everybody left by t = 2 s");
+    for frame in second.values() {
+        assert!(
+            gone.iter().all(|i| !frame[i].2),
+            "a person who had left came back"
+        );
+    }
+    // From there on both runs make the same projections (Clarabel keeps nothing from one to
+    // the next), but for the last bits of the times: the gap stays at rounding.
+    assert_eq!(second.keys().last(), whole.keys().last());
+    for (t, frame) in &second {
+        let g = gap(frame, &whole[t]);
+        assert!(
+            g < 1e-9,
+            "t = {}: {g:e} from the run that never stopped",
+            *t as f64 * 1e-6
+        );
+        assert!(
+            frame.iter().all(|(i, p)| p.2 == whole[t][i].2),
+            "t = {}: another set of people present",
+            *t as f64 * 1e-6
+        );
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(resumed_out.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["resumed_from"]["run"], dir);
+    assert_eq!(summary["resumed_from"]["t"], 2.0);
+    assert_eq!(summary["steps"], 100);
+}
+
+#[test]
+fn a_resume_that_does_not_fit_is_refused_by_name() {
+    let (ok, printed, scratch_dir) = sweep(
+        "resume-refused",
+        ROOM,
+        &["--t-end", "0.5", "--out", "first"],
+    );
+    assert!(ok, "{printed}");
+    let first = scratch_dir.join("first");
+    let dir = first.to_str().unwrap();
+    let refused = |name: &str, scene: &str, args: &[&str], says: &str| {
+        let (ok, printed, _) = sweep(name, scene, args);
+        assert!(!ok && printed.contains(says), "{name}: {printed}");
+    };
+
+    // Into its own directory: its trajectory would be overwritten.
+    refused(
+        "resume-own",
+        ROOM,
+        &["--resume", dir, "--out", dir],
+        "another directory",
+    );
+
+    // A directory without a trajectory.
+    let empty = scratch_dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let empty = empty.to_str().unwrap();
+    refused(
+        "resume-none",
+        ROOM,
+        &["--resume", empty],
+        "empty/trajectory.csv",
+    );
+
+    // Another crowd: the scene with two people fewer.
+    let fewer = ROOM.replace("count = 12", "count = 10");
+    let says = "the state has 12 people, the scene 10";
+    refused("resume-other", &fewer, &["--resume", dir], says);
+
+    // A state at the horizon: nothing left to run.
+    let args = ["--resume", dir, "--t-end", "0.5"];
+    refused("resume-late", ROOM, &args, "not before the horizon");
+
+    // A frame whose person is not where a scene could start: inside a wall.
+    let csv = first.join("trajectory.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let last = lines.len() - 1;
+    let f: Vec<String> = lines[last].split(',').map(str::to_string).collect();
+    lines[last] = format!("{},{},-0.05,2,1", f[0], f[1]);
+    let broken = scratch_dir.join("broken");
+    std::fs::create_dir_all(&broken).unwrap();
+    std::fs::write(broken.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
+    let broken = broken.to_str().unwrap();
+    refused(
+        "resume-wall",
+        ROOM,
+        &["--resume", broken],
+        "broken/trajectory.csv",
+    );
+}
