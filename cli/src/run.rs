@@ -48,7 +48,7 @@ pub struct RunArgs {
     pub formats: Vec<TrajectoryFormat>,
     /// Go on from where an earlier run of this scene stopped: the output directory it wrote
     /// (the last frame of its trajectory.csv: the time, every position, who had left), up to
-    /// the same horizon. The outputs go to a new directory (default DIR-from-t<time>).
+    /// the same horizon. The outputs go to a new directory (default: DIR-from-t followed by the time resumed at).
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
 }
