@@ -1,6 +1,6 @@
 //! `sweep check`: validate a scene, and measure the constants of assumptions A0–A5 on it.
 
-use crate::stdout::{out, outln};
+use crate::stdout::{errln, out, outln};
 use anyhow::{Context, Result};
 use sweeping::assumptions::{estimate_problem, samples_from_trajectory, EstimateSettings};
 use sweeping::backends::make_projector;
@@ -65,7 +65,7 @@ pub fn main(args: CheckArgs) -> Result<()> {
             Err(failure) => {
                 // What was computed before the failure is still worth measuring (the failure
                 // is often an assumption failing), and the failure is part of the verdict.
-                eprintln!("the sampling run failed: {failure}");
+                errln!("the sampling run failed: {failure}");
                 samples = samples_from_trajectory(&failure.partial.trajectory);
                 sampling_failure = Some(failure.to_string());
             }

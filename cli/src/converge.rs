@@ -2,7 +2,7 @@
 //! fitted order), or the true error on the built-in exact solutions.
 
 use crate::scene_loader::load_scene;
-use crate::stdout::outln;
+use crate::stdout::{errln, outln};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 use sweeping::backends::{make_projector_with, BackendChoice, ProjectorOptions};
@@ -155,7 +155,7 @@ pub fn main(args: ConvergeArgs) -> anyhow::Result<()> {
         "{} ({backend}, T = {t_end})",
         scene.file_stem().unwrap_or_default().to_string_lossy()
     );
-    eprintln!(
+    errln!(
         "{label}: reference h = {} and {} step sizes{}",
         settings.h_min,
         settings.hs.len(),

@@ -12,6 +12,7 @@ mod resume;
 mod run;
 mod scene_loader;
 mod stdout;
+use stdout::errln;
 mod work_precision;
 
 /// Perturbed sweeping processes and crowd motion by the Bernicot–Venel scheme.
@@ -48,12 +49,12 @@ fn main() {
         Command::Bench(a) => bench::main(a),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        errln!("error: {e:#}");
         std::process::exit(1);
     }
     // The command's files are written; what it could not print is said here.
     if let Some(e) = stdout::finish() {
-        eprintln!("error: could not write to standard output: {e}");
+        errln!("error: could not write to standard output: {e}");
         std::process::exit(1);
     }
 }

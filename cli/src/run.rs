@@ -2,7 +2,7 @@
 //! summary, snapshots and animation.
 
 use crate::resume;
-use crate::stdout::outln;
+use crate::stdout::{errln, outln};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
@@ -101,7 +101,7 @@ impl Observer for Progress {
         self.bar.set_position((r.step + 1) as u64);
         if let Some(lines) = self.lines.as_mut() {
             if lines.due(r.step + 1) {
-                eprintln!(
+                errln!(
                     "t = {:.2} s, step {}/{}, in the room {}/{}, {:.0} s elapsed",
                     r.t,
                     r.step + 1,
@@ -147,12 +147,12 @@ impl Interrupt {
             if flag.swap(true, Ordering::SeqCst) {
                 std::process::exit(130);
             }
-            eprintln!("\ninterrupted: finishing the step and writing what was computed (Ctrl-C again to stop at once)");
+            errln!("\ninterrupted: finishing the step and writing what was computed (Ctrl-C again to stop at once)");
         });
         match installed {
             Ok(()) => Some(Self { requested }),
             Err(e) => {
-                eprintln!("note: Ctrl-C will not stop the run cleanly: {e}");
+                errln!("note: Ctrl-C will not stop the run cleanly: {e}");
                 None
             }
         }
@@ -408,7 +408,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         population: built.population.clone(),
         lines,
     };
-    eprintln!(
+    errln!(
         "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name}{}{} → {}",
         built.name,
         built.population.len(),
@@ -477,7 +477,7 @@ fn sqlite_writer(
 ) -> Result<sweeping::output::SqliteTrajectoryWriter> {
     let walkable = sweeping::output::WalkableArea::of_scene(&built.geometry, &built.population)?;
     for note in &walkable.notes {
-        eprintln!("note: trajectory.sqlite: {note}");
+        errln!("note: trajectory.sqlite: {note}");
     }
     Ok(sweeping::output::SqliteTrajectoryWriter::for_scene(
         out.join(TrajectoryFormat::Sqlite.file_name()),

@@ -35,6 +35,22 @@ pub fn finish() -> Option<String> {
     failed.clone().flatten()
 }
 
+/// Writes `args` to standard error; a write that fails is dropped. `eprintln!` panics there
+/// as `println!` does on standard output: `sweep run SCENE 2>&1 | head -1` ended at its first
+/// progress line with a panic, exit code 101, no `summary.json` and a trajectory cut short.
+/// Standard error is where a failure would be told, so there is nowhere left to tell this
+/// one; the run goes on and writes its files, and the exit status still says how it ended.
+pub fn write_err(args: std::fmt::Arguments<'_>) {
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(args).and_then(|()| err.flush());
+}
+
+/// `eprintln!` to [`write_err()`].
+macro_rules! errln {
+    () => { $crate::stdout::write_err(format_args!("\n")) };
+    ($($arg:tt)*) => { $crate::stdout::write_err(format_args!("{}\n", format_args!($($arg)*))) };
+}
+
 /// `println!` to [`write()`].
 macro_rules! outln {
     () => { $crate::stdout::write(format_args!("\n")) };
@@ -46,4 +62,4 @@ macro_rules! out {
     ($($arg:tt)*) => { $crate::stdout::write(format_args!($($arg)*)) };
 }
 
-pub(crate) use {out, outln};
+pub(crate) use {errln, out, outln};

@@ -1,5 +1,6 @@
-//! `sweep` with its standard output closed or full: the run's files are written, and the
-//! process says so without a panic (it panicked in `println!`, exit code 101).
+//! `sweep` with its standard output or error closed, or its output full: the run's files are
+//! written, and the process says so without a panic (it panicked in `println!`, and in
+//! `eprintln!` at its first progress line, exit code 101).
 
 #[path = "../../tests/common/mod.rs"]
 mod common;
@@ -55,6 +56,38 @@ fn a_closed_pipe_on_standard_output_is_not_an_error() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(code, Some(0), "{stderr}");
     assert!(written);
+}
+
+/// `sweep run` on [`SMALL`] with its standard error closed at once (as `2>&1 | head -1`
+/// leaves it after the first line): whether it succeeded, its standard output, and whether
+/// its files were written.
+fn run_with_stderr_closed(name: &str) -> (Option<i32>, String, bool) {
+    let (mut command, out) = sweep_run_command(name, SMALL, &["--threads", "1"]);
+    let mut child = command
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("running sweep");
+    drop(child.stderr.take());
+    let output = child.wait_with_output().unwrap();
+    let written = out.join("trajectory.csv").is_file() && out.join("summary.json").is_file();
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        written,
+    )
+}
+
+#[test]
+fn a_closed_pipe_on_standard_error_does_not_stop_the_run() {
+    let (code, stdout, written) = run_with_stderr_closed("stderr-closed");
+    assert_eq!(code, Some(0), "{stdout}");
+    assert!(written, "the run's files are written");
+    // The run went to its end: the summary on standard output says so.
+    assert!(
+        stdout.contains("(completed") && stdout.contains("t = 1.00 s"),
+        "{stdout}"
+    );
 }
 
 #[test]
