@@ -25,6 +25,7 @@ use crate::error::SweepError;
 use crate::problem::Problem;
 use crate::stepper::{Observer, ObserverError, StepReport};
 use serde::{Deserialize, Serialize};
+use std::io::Write as _;
 
 /// `true` unless `a ≤ b` (so a NaN is never within a bound).
 pub(crate) fn not_within(a: f64, b: f64) -> bool {
@@ -573,7 +574,9 @@ impl<'p> BoundsMonitor<'p> {
                             .printed
                             .insert((v.assumption.clone(), v.constraint.clone()))
                     {
-                        eprintln!("warning: {v}");
+                        // Not `eprintln!`, which panics when standard error is a closed
+                        // pipe: the warning is also kept below.
+                        let _ = writeln!(std::io::stderr(), "warning: {v}");
                     }
                     self.warnings.push(v);
                 }
