@@ -308,6 +308,17 @@ pub fn main(args: RunArgs) -> Result<()> {
     let resumed_at = match resume {
         Some((dir, path, state)) => {
             let t = state.t;
+            let (listed, people) = (state.departed.len(), built.population.len());
+            if listed != people {
+                anyhow::bail!(
+                    "--resume {}: {}: its last frame (t = {}) lists {listed} people, the scene \
+                     has {people}: a frame cut short (a run killed while writing it) or a run \
+                     of another scene",
+                    dir.display(),
+                    path.display(),
+                    sweeping::stepper::display_number(t)
+                );
+            }
             built.resume_at(state).map_err(|e| {
                 anyhow::anyhow!("--resume {}: {}: {e}", dir.display(), path.display())
             })?;

@@ -190,8 +190,37 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
 
     // Another crowd: the scene with two people fewer.
     let fewer = ROOM.replace("count = 12", "count = 10");
-    let says = "the state has 12 people, the scene 10";
+    let says = "lists 12 people, the scene has 10: a frame cut short";
     refused("resume-other", &fewer, &["--resume", dir], says);
+
+    // A last frame cut short, as a run killed while writing it leaves it.
+    let csv = first.join("trajectory.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let cut = scratch_dir.join("cut");
+    std::fs::create_dir_all(&cut).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    std::fs::write(
+        cut.join("trajectory.csv"),
+        lines[..lines.len() - 3].join("\n"),
+    )
+    .unwrap();
+    let cut = cut.to_str().unwrap();
+    refused(
+        "resume-cut",
+        ROOM,
+        &["--resume", cut],
+        "lists 9 people, the scene has 12",
+    );
+    // Cut inside a line: a line of four fields is refused by its number.
+    let inside = scratch_dir.join("inside");
+    std::fs::create_dir_all(&inside).unwrap();
+    let mut short = lines[..lines.len() - 1].join("\n");
+    short.push('\n');
+    short.push_str(&lines[lines.len() - 1][..lines[lines.len() - 1].rfind(',').unwrap()]);
+    std::fs::write(inside.join("trajectory.csv"), short).unwrap();
+    let inside = inside.to_str().unwrap();
+    let says = format!("trajectory.csv:{}", lines.len());
+    refused("resume-inside", ROOM, &["--resume", inside], &says);
 
     // A state at the horizon: nothing left to run.
     let args = ["--resume", dir, "--t-end", "0.5"];
