@@ -28,26 +28,50 @@ h = 0.01
 t_end = 1.0
 "#;
 
-/// `sweep run` on [`SMALL`] in the scratch directory `name`, its standard output `stdout`:
-/// the exit code, standard error, and whether `trajectory.csv` and `summary.json` exist.
-fn run_with_stdout(name: &str, stdout: Stdio, close_at_once: bool) -> (Option<i32>, String, bool) {
+/// Which of `sweep run`'s pipes the test closes before the run writes to it.
+#[derive(Clone, Copy, PartialEq)]
+enum Closed {
+    None,
+    Stdout,
+    Stderr,
+}
+
+/// `sweep run` on [`SMALL`] in the scratch directory `name`, its standard output `stdout`,
+/// the pipe `closed` closed at once: the exit code, standard error and standard output (as
+/// far as they were read), and whether `trajectory.csv` and `summary.json` exist.
+fn run_closing(name: &str, stdout: Stdio, closed: Closed) -> (Option<i32>, String, String, bool) {
     let (mut command, out) = sweep_run_command(name, SMALL, &["--threads", "1"]);
     let mut child = command
         .stdout(stdout)
         .stderr(Stdio::piped())
         .spawn()
         .expect("running sweep");
-    if close_at_once {
-        // The reader goes away before the run prints its summary: the pipe is closed.
-        drop(child.stdout.take());
+    // The reader goes away before the run writes: the pipe is closed.
+    match closed {
+        Closed::Stdout => drop(child.stdout.take()),
+        Closed::Stderr => drop(child.stderr.take()),
+        Closed::None => {}
     }
     let output = child.wait_with_output().unwrap();
     let written = out.join("trajectory.csv").is_file() && out.join("summary.json").is_file();
     (
         output.status.code(),
         String::from_utf8_lossy(&output.stderr).into_owned(),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
         written,
     )
+}
+
+/// As [`run_closing`], without standard output: the exit code, standard error, and whether
+/// the files exist.
+fn run_with_stdout(name: &str, stdout: Stdio, close_at_once: bool) -> (Option<i32>, String, bool) {
+    let closed = if close_at_once {
+        Closed::Stdout
+    } else {
+        Closed::None
+    };
+    let (code, stderr, _, written) = run_closing(name, stdout, closed);
+    (code, stderr, written)
 }
 
 #[test]
@@ -58,29 +82,10 @@ fn a_closed_pipe_on_standard_output_is_not_an_error() {
     assert!(written);
 }
 
-/// `sweep run` on [`SMALL`] with its standard error closed at once (as `2>&1 | head -1`
-/// leaves it after the first line): whether it succeeded, its standard output, and whether
-/// its files were written.
-fn run_with_stderr_closed(name: &str) -> (Option<i32>, String, bool) {
-    let (mut command, out) = sweep_run_command(name, SMALL, &["--threads", "1"]);
-    let mut child = command
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("running sweep");
-    drop(child.stderr.take());
-    let output = child.wait_with_output().unwrap();
-    let written = out.join("trajectory.csv").is_file() && out.join("summary.json").is_file();
-    (
-        output.status.code(),
-        String::from_utf8_lossy(&output.stdout).into_owned(),
-        written,
-    )
-}
-
 #[test]
 fn a_closed_pipe_on_standard_error_does_not_stop_the_run() {
-    let (code, stdout, written) = run_with_stderr_closed("stderr-closed");
+    // As `2>&1 | head -1` leaves it after the first line.
+    let (code, _, stdout, written) = run_closing("stderr-closed", Stdio::piped(), Closed::Stderr);
     assert_eq!(code, Some(0), "{stdout}");
     assert!(written, "the run's files are written");
     // The run went to its end: the summary on standard output says so.

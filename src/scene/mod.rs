@@ -757,6 +757,20 @@ impl BuiltScene {
         self.departed_at_start = state.departed;
         // Checked as a start is, with the departures latched (people who left are in no
         // constraint).
+        self.latch_departures_at_start();
+        let checked = self.problem.validate(1e-9);
+        self.population.reset_departures();
+        if let Err(e) = checked {
+            self.problem.set_start(t0, q0);
+            self.departed_at_start = vec![false; n];
+            return Err(e.to_string());
+        }
+        Ok(())
+    }
+
+    /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]: the
+    /// population as the run starts.
+    fn latch_departures_at_start(&self) {
         self.population.reset_departures();
         for (i, _) in self
             .departed_at_start
@@ -766,14 +780,6 @@ impl BuiltScene {
         {
             self.population.set_departed(i);
         }
-        let checked = self.problem.validate(1e-9);
-        self.population.reset_departures();
-        if let Err(e) = checked {
-            self.problem.set_start(t0, q0);
-            self.departed_at_start = vec![false; n];
-            return Err(e.to_string());
-        }
-        Ok(())
     }
 
     /// Runs the scene to its horizon (or until everybody has left, when the scene says
@@ -789,15 +795,7 @@ impl BuiltScene {
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
         // A new run from q₀: nobody has left yet, unless it resumes an earlier run.
-        self.population.reset_departures();
-        for (i, _) in self
-            .departed_at_start
-            .iter()
-            .enumerate()
-            .filter(|(_, &d)| d)
-        {
-            self.population.set_departed(i);
-        }
+        self.latch_departures_at_start();
         let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(error) => {
