@@ -1107,8 +1107,9 @@ impl<'p> Stepper<'p> {
     }
 
     /// Like [`run`](Self::run), but stops early, after the step at the end of which
-    /// `stop(t, q)` is true (a crowd stops when everybody has left). The last configuration is
-    /// always recorded.
+    /// `stop(t, q)` is true (a crowd stops when everybody has left), or without a step when it
+    /// is true of the start already (a run resumed from the last state of one that ended so).
+    /// The last configuration is always recorded.
     ///
     /// # Errors
     /// A [`RunFailure`]: the [`SweepError`] and the partial [`Run`].
@@ -1142,7 +1143,10 @@ impl<'p> Stepper<'p> {
                 return Err(fail(run, e, observers));
             }
         }
-        while self.k < self.n_steps {
+        // A start that already meets `stop` is where the run ends: the step a run resumed from
+        // a finished one took anyway went on past the end it had reached.
+        let mut stopping = stop(self.t, &self.q);
+        while self.k < self.n_steps && !stopping {
             let report = match self.step(projector) {
                 Ok(r) => r,
                 Err(e) => return Err(fail(run, e, observers)),
@@ -1150,7 +1154,7 @@ impl<'p> Stepper<'p> {
             run.stats.absorb(&report);
             run.q_final.clone_from(&self.q);
             run.t_final = self.t;
-            let stopping = stop(self.t, &self.q);
+            stopping = stop(self.t, &self.q);
             let every = self.settings.record_every;
             if (every > 0 && self.k.is_multiple_of(every)) || self.k == self.n_steps || stopping {
                 run.trajectory.times.push(self.t);
@@ -1161,9 +1165,6 @@ impl<'p> Stepper<'p> {
                     let e = e.into_sweep_error(o.name(), report.step, report.t);
                     return Err(fail(run, e, observers));
                 }
-            }
-            if stopping {
-                break;
             }
         }
         for o in observers.iter_mut() {

@@ -244,3 +244,35 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
         "broken/trajectory.csv",
     );
 }
+
+#[test]
+fn a_run_resumed_after_everybody_left_takes_no_step() {
+    // The same room, run until it empties: resumed from its last frame, where nobody is
+    // left, the run ends where it starts. It used to take one step past the end the first
+    // run had reached, and report it.
+    let until_empty = ROOM.replace("t_end = 3.0", "t_end = 30.0\nstop_when_empty = true");
+    let (ok, printed, dir) = sweep("resume-empty", &until_empty, &["--out", "first"]);
+    assert!(ok && printed.contains("everybody left"), "{printed}");
+    let first_out = dir.join("first");
+    let first = frames(&first_out);
+    let (&t_last, last) = first.last_key_value().unwrap();
+    assert!(last.values().all(|p| !p.2), "somebody is still inside");
+    let (ok, printed, again_dir) = sweep(
+        "resume-empty-again",
+        &until_empty,
+        &["--resume", first_out.to_str().unwrap(), "--out", "again"],
+    );
+    assert!(ok, "{printed}");
+    let again_out = again_dir.join("again");
+    let again = frames(&again_out);
+    // One frame, the first run's last, to the bit.
+    assert_eq!(again.len(), 1, "{:?}", again.keys());
+    assert_eq!(again[&t_last], *last);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(again_out.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["steps"], 0, "{summary}");
+    assert_eq!(summary["status"], "everybody left", "{summary}");
+    let t_final = summary["t_final"].as_f64().unwrap();
+    assert!((t_final - t_last as f64 * 1e-6).abs() < 1e-9, "{summary}");
+}
