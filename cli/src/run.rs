@@ -280,6 +280,18 @@ pub fn main(args: RunArgs) -> Result<()> {
     let resume = match &args.resume {
         Some(dir) => {
             let path = dir.join(resume::TRAJECTORY);
+            if !path.exists() && dir.join("trajectory.sqlite").exists() {
+                // The SQLite trajectory leaves out who had left and rounds the time to its
+                // frame: not a state to go on from to the bit.
+                anyhow::bail!(
+                    "--resume {}: the run wrote no {} but a trajectory.sqlite, which keeps only \
+                     the people still inside; --resume reads the CSV (every position to the \
+                     bit, and who had left): run with --format csv or --format csv,sqlite to be \
+                     able to resume",
+                    dir.display(),
+                    resume::TRAJECTORY
+                );
+            }
             let state = resume::last_frame(&path).with_context(|| {
                 format!("--resume {}: reading the run's last state", dir.display())
             })?;

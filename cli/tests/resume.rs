@@ -188,6 +188,23 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
         "empty/trajectory.csv",
     );
 
+    // A run that wrote its trajectory in SQLite only: the file that can be resumed from is
+    // named, and how to get it.
+    let (ok, printed, sqlite_dir) = sweep(
+        "resume-sqlite",
+        ROOM,
+        &["--t-end", "0.5", "--format", "sqlite", "--out", "first"],
+    );
+    assert!(ok, "{printed}");
+    let sqlite_only = sqlite_dir.join("first");
+    assert!(sqlite_only.join("trajectory.sqlite").exists());
+    refused(
+        "resume-sqlite-again",
+        ROOM,
+        &["--resume", sqlite_only.to_str().unwrap()],
+        "no trajectory.csv but a trajectory.sqlite",
+    );
+
     // Another crowd: the scene with two people fewer.
     let fewer = ROOM.replace("count = 12", "count = 10");
     let says = "lists 12 people, the scene has 10: a frame cut short";
