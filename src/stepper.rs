@@ -54,9 +54,15 @@ pub fn display_number(v: f64) -> String {
 
 /// The number of steps of length `h` that cover `span = T − t₀`: `⌈span/h⌉`, the last one
 /// shortened to land on `T` (a ratio within `1e-9` above an integer counts as that integer,
-/// so that rounding in `T/h` adds no sliver of a step).
+/// so that rounding in `T/h` adds no sliver of a step), and at least one when `span > 0`: a
+/// step longer than the horizon by more than 10⁹ times is still one step to `T` (its ratio,
+/// within `1e-9` of zero, counted none, and such a run "completed" at `t₀`).
 pub fn step_count(span: f64, h: f64) -> usize {
-    ((span / h) - 1e-9).ceil().max(0.0) as usize
+    if span > 0.0 {
+        ((span / h) - 1e-9).ceil().max(1.0) as usize
+    } else {
+        0
+    }
 }
 
 /// How the prediction uses `f`.
@@ -1211,7 +1217,20 @@ fn gauss_legendre(points: usize) -> (Vec<f64>, Vec<f64>) {
 
 #[cfg(test)]
 mod tests {
-    use super::gauss_legendre;
+    use super::{gauss_legendre, step_count};
+
+    #[test]
+    fn a_positive_span_takes_at_least_one_step_however_long_the_step() {
+        assert_eq!(step_count(40.0, 0.01), 4000);
+        // A ratio within 1e-9 above an integer counts as that integer.
+        assert_eq!(step_count(0.3, 0.1), 3);
+        assert_eq!(step_count(40.0, 100.0), 1);
+        // 4e-299 steps is within 1e-9 of none: it was none, and the run ended at t₀.
+        assert_eq!(step_count(40.0, 1e300), 1);
+        assert_eq!(step_count(1e-12, 1.0), 1);
+        assert_eq!(step_count(0.0, 0.01), 0);
+        assert_eq!(step_count(-1.0, 0.01), 0);
+    }
 
     #[test]
     fn gauss_legendre_integrates_polynomials_exactly() {

@@ -432,7 +432,7 @@ pub fn main(args: RunArgs) -> Result<()> {
         lines,
     };
     errln!(
-        "running `{}`: {} people, h = {h}, T = {t_end}, backend {backend_name}{}{} → {}",
+        "running `{}`: {} people, h = {h:?}, T = {t_end:?}, backend {backend_name}{}{} → {}",
         built.name,
         built.population.len(),
         threads_phrase(built.threads),
@@ -539,7 +539,12 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         ),
     }
     let m = &s.ms_per_step;
-    outln!("  steps: {} (h = {}, t = {:.2} s)", s.steps, s.h, s.t_final);
+    outln!(
+        "  steps: {} (h = {:?}, t = {:.2} s)",
+        s.steps,
+        s.h,
+        s.t_final
+    );
     outln!(
         "  ms per step: {:.3} total = effects {:.3} + broad phase {:.3} + assembly {:.3} + projection {:.3} + check {:.3}",
         m.total, m.effects, m.broad_phase, m.assembly, m.projection, m.check

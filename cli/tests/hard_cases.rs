@@ -672,3 +672,30 @@ fn peak_memory_is_the_runs_own_not_the_forking_processs() {
     assert!(mib > 0.0 && mib < 256.0, "peak memory {mib} MiB");
     drop(ballast);
 }
+
+/// Regression: a step longer than the horizon by more than 10⁹ times counted as no step, and
+/// the run "completed" at t = 0 having computed nothing. It is one step, shortened to land
+/// on the horizon, as any step longer than the horizon is.
+#[test]
+fn a_step_far_longer_than_the_horizon_is_one_step_to_the_horizon() {
+    let scene = shipped_scene("paper-evacuation");
+    for h in ["1e300", "100"] {
+        let run = sweep_run(
+            &format!("huge-step-{h}"),
+            &scene,
+            &["--h", h, "--t-end", "2"],
+        );
+        assert!(run.success, "{}", run.output);
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(run.out.join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(summary["steps"], 1, "h = {h}: {summary}");
+        assert_eq!(summary["t_final"].as_f64(), Some(2.0), "h = {h}: {summary}");
+        let csv = std::fs::read_to_string(run.out.join("trajectory.csv")).unwrap();
+        let last = csv.lines().last().unwrap();
+        assert!(
+            last.starts_with("2,"),
+            "h = {h}: the last frame is {last:?}"
+        );
+    }
+}

@@ -483,7 +483,7 @@ impl BuiltScene {
         );
         let _ = writeln!(
             s,
-            "  h = {}, T = {}{}, backend {}{}",
+            "  h = {:?}, T = {:?}{}, backend {}{}",
             self.settings.h,
             self.settings.t_end,
             if self.stop_when_empty {
