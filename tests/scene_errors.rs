@@ -199,6 +199,27 @@ fn nan_radius() {
 }
 
 #[test]
+fn a_crowds_bad_radius_is_quoted_as_written() {
+    // The message used to print the parser's own form, `got Fixed(0.0)`.
+    let crowd = "[[crowds]]\ncount = 3\nregion = [0.0, 0.0, 4.0, 4.0]\n";
+    let text = format!("{ROOM}{crowd}radius = 0.0\n");
+    assert_message(
+        &error_of(&text),
+        3,
+        &[
+            "[[crowds]] #1",
+            "must be positive and finite, got radius = 0.0",
+        ],
+    );
+    let text = format!("{ROOM}{crowd}radius = [0.3, 0.2]\n");
+    assert_message(
+        &error_of(&text),
+        3,
+        &["[[crowds]] #1", "0 < min ≤ max", "got radius = [0.3, 0.2]"],
+    );
+}
+
+#[test]
 fn infinite_room() {
     let e = error_of("[room]\nrectangle = [0.0, 0.0, inf, 4.0]\n");
     assert_message(&e, 1, &["[room]", "non-finite"]);

@@ -627,10 +627,14 @@ pub(super) fn place_crowd(
         return Err(cx.err(
             line,
             item,
-            format!(
-                "the radius must be positive and finite (a range needs 0 < min ≤ max), got {:?}",
-                cs.radius
-            ),
+            match cs.radius {
+                RadiusSpec::Fixed(r) => {
+                    format!("the radius must be positive and finite, got radius = {r:?}")
+                }
+                RadiusSpec::Range([a, b]) => format!(
+                    "a range of radii needs 0 < min ≤ max, both finite, got radius = [{a:?}, {b:?}]"
+                ),
+            },
         ));
     }
     let speed = check_speed(cx, line, &item, cs.speed)?;
