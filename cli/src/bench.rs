@@ -155,9 +155,24 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
     );
     outln!("ms per step (mean), by stage; rows and active constraints per step (mean)");
     outln!("{header}");
-    let mut csv = String::from(
-        "start,n,backend,steps,effects_ms,broad_phase_ms,assembly_ms,projection_ms,check_ms,total_ms,rows,active,solves,peak_mib,failure\n",
-    );
+    // The CSV is created before the first measurement (a path that cannot be written fails
+    // now, not after minutes of benching) and each row is written as it is measured, so an
+    // interrupted or failed bench keeps the rows it finished.
+    let mut csv = match &args.csv {
+        Some(path) => {
+            let mut file = std::io::BufWriter::new(
+                std::fs::File::create(path)
+                    .with_context(|| format!("--csv: creating {}", path.display()))?,
+            );
+            file.write_all(
+                b"start,n,backend,steps,effects_ms,broad_phase_ms,assembly_ms,projection_ms,check_ms,total_ms,rows,active,solves,peak_mib,failure\n",
+            )
+            .and_then(|()| file.flush())
+            .with_context(|| format!("--csv: writing {}", path.display()))?;
+            Some((path, file))
+        }
+        None => None,
+    };
     for &start in &args.start {
         for &n in &args.n {
             for &backend in &args.backends {
@@ -200,23 +215,25 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
                 }
                 outln!();
                 std::io::stdout().flush().ok();
-                let ms: Vec<String> = ms.iter().map(f64::to_string).collect();
-                csv.push_str(&format!(
-                    "{},{},{},{},{},{rows},{active},{},{},{}\n",
-                    row.start,
-                    row.n,
-                    row.backend,
-                    row.steps,
-                    ms.join(","),
-                    row.solves,
-                    row.peak_mib.map(|m| m.to_string()).unwrap_or_default(),
-                    failure.replace([',', '\n'], ";")
-                ));
+                if let Some((path, file)) = csv.as_mut() {
+                    let ms: Vec<String> = ms.iter().map(f64::to_string).collect();
+                    writeln!(
+                        file,
+                        "{},{},{},{},{},{rows},{active},{},{},{}",
+                        row.start,
+                        row.n,
+                        row.backend,
+                        row.steps,
+                        ms.join(","),
+                        row.solves,
+                        row.peak_mib.map(|m| m.to_string()).unwrap_or_default(),
+                        failure.replace([',', '\n'], ";")
+                    )
+                    .and_then(|()| file.flush())
+                    .with_context(|| format!("--csv: writing {}", path.display()))?;
+                }
             }
         }
-    }
-    if let Some(path) = &args.csv {
-        std::fs::write(path, csv).with_context(|| format!("writing {}", path.display()))?;
     }
     outln!(
         "peak MiB is the process's resident peak so far (VmHWM), so it only grows down the table"

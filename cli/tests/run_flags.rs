@@ -108,6 +108,46 @@ fn bench_runs_on_one_thread_and_refuses_an_empty_crowd_by_its_flag() {
 }
 
 #[test]
+fn bench_writes_its_csv_row_by_row_and_refuses_a_path_it_cannot_write_before_measuring() {
+    // It used to measure everything and fail at the end, writing the file at once.
+    let (ok, text) = sweep_bench(&[
+        "--n",
+        "150",
+        "--steps",
+        "1",
+        "--csv",
+        "/nonexistent-directory/bench.csv",
+    ]);
+    assert!(!ok);
+    assert!(
+        text.contains("--csv: creating /nonexistent-directory/bench.csv"),
+        "{text}"
+    );
+    assert!(!text.contains(" 150 "), "a row was measured first: {text}");
+    let dir = common::checker::scratch("bench-csv");
+    let path = dir.join("bench.csv");
+    let (ok, text) = sweep_bench(&[
+        "--n",
+        "150",
+        "--start",
+        "spread",
+        "--steps",
+        "1",
+        "--backends",
+        "native,clarabel",
+        "--csv",
+        path.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let csv = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(lines[0].starts_with("start,n,backend,steps,"), "{csv}");
+    assert!(lines[1].starts_with("spread,150,native,1,"), "{csv}");
+    assert!(lines[2].starts_with("spread,150,clarabel,1,"), "{csv}");
+}
+
+#[test]
 fn a_cross_checked_run_reports_the_gaps_it_saw_and_another_run_reports_none() {
     let run = sweep_run(
         "cross-report",
