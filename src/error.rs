@@ -157,6 +157,15 @@ pub enum SweepError {
         /// Solves made.
         solves: usize,
     },
+    /// The user asked the run to stop (Ctrl-C in `sweep run`): not a failure of the run,
+    /// which stops after the step it was taking.
+    #[error("step {step}, t = {}: interrupted by the user (Ctrl-C)", display_number(*t))]
+    Interrupted {
+        /// The last step taken.
+        step: usize,
+        /// Its time.
+        t: f64,
+    },
     /// An observer failed (for instance, writing a file).
     #[error("step {step}, t = {}: observer {observer} failed: {message}", display_number(*t))]
     Observer {

@@ -163,9 +163,12 @@ impl Observer for Interrupt {
     fn name(&self) -> &str {
         "interrupt"
     }
-    fn on_step(&mut self, _: &StepReport, _: &[f64]) -> Result<(), ObserverError> {
+    fn on_step(&mut self, report: &StepReport, _: &[f64]) -> Result<(), ObserverError> {
         if self.requested.load(std::sync::atomic::Ordering::SeqCst) {
-            return Err(ObserverError::Failed("interrupted (Ctrl-C)".into()));
+            return Err(ObserverError::from(SweepError::Interrupted {
+                step: report.step,
+                t: report.t,
+            }));
         }
         Ok(())
     }

@@ -1,5 +1,6 @@
-//! Ctrl-C (SIGINT) during `sweep run`: the run stops after the step it came in, as a failure,
-//! with every file finished. Killed outright, it left `trajectory.csv` cut in the middle of a
+//! Ctrl-C (SIGINT) during `sweep run`: the run stops after the step it came in, exiting
+//! non-zero, with every file finished and its summary's status `"interrupted"` (it was
+//! `"failed"`, with an error naming an observer). Killed outright, it left `trajectory.csv` cut in the middle of a
 //! row and no `summary.json`.
 
 #![cfg(unix)]
@@ -58,9 +59,19 @@ fn ctrl_c_stops_the_run_with_its_files_finished() {
     let output = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("interrupted (Ctrl-C)"), "{stderr}");
-    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
-    assert!(summary.contains("interrupted (Ctrl-C)"), "{summary}");
+    assert!(
+        stderr.contains("interrupted by the user (Ctrl-C)"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("observer"), "{stderr}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "interrupted", "{summary}");
+    let error = summary["error"].as_str().unwrap();
+    assert!(
+        error.contains("interrupted by the user (Ctrl-C)"),
+        "{error}"
+    );
     // Whole rows only, the last state's 100 people included.
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.ends_with('\n'));

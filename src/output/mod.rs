@@ -238,7 +238,7 @@ pub struct MsPerStep {
 }
 
 /// Where a run stands, written to `summary.json` as `"running"`, `"completed"`,
-/// `"everybody left"` or `"failed"`.
+/// `"everybody left"`, `"interrupted"` or `"failed"`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum RunStatus {
     /// Not finished yet.
@@ -251,6 +251,10 @@ pub enum RunStatus {
     /// Stopped early: everybody has left.
     #[serde(rename = "everybody left")]
     EverybodyLeft,
+    /// Stopped by the user ([`SweepError::Interrupted`], Ctrl-C in `sweep run`); what was
+    /// computed up to then is right, and can be resumed from.
+    #[serde(rename = "interrupted")]
+    Interrupted,
     /// Stopped by an error (see [`RunSummary::error`]).
     #[serde(rename = "failed")]
     Failed,
@@ -262,6 +266,7 @@ impl std::fmt::Display for RunStatus {
             Self::Running => "running",
             Self::Completed => "completed",
             Self::EverybodyLeft => "everybody left",
+            Self::Interrupted => "interrupted",
             Self::Failed => "failed",
         })
     }
@@ -535,7 +540,10 @@ impl Observer for SummaryCollector<'_> {
         };
         match error {
             Some(e) => {
-                s.status = RunStatus::Failed;
+                s.status = match e {
+                    SweepError::Interrupted { .. } => RunStatus::Interrupted,
+                    _ => RunStatus::Failed,
+                };
                 s.error = Some(e.to_string());
             }
             None => {
@@ -591,6 +599,7 @@ mod status_tests {
             (RunStatus::Running, "running"),
             (RunStatus::Completed, "completed"),
             (RunStatus::EverybodyLeft, "everybody left"),
+            (RunStatus::Interrupted, "interrupted"),
             (RunStatus::Failed, "failed"),
         ] {
             assert_eq!(
