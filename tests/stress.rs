@@ -283,13 +283,21 @@ fn stress(cases: u32, backends: &[BackendChoice]) {
 
 #[test]
 fn random_scenes_run_clean_or_fail_typed() {
-    stress(24, &[BackendChoice::Clarabel]);
+    // The native backend (the default) and Clarabel (its fallback).
+    stress(24, &[BackendChoice::Native, BackendChoice::Clarabel]);
 }
 
 #[test]
 #[ignore = "long: scripts/stress"]
 fn random_scenes_run_clean_or_fail_typed_long() {
-    stress(300, &[BackendChoice::Clarabel, BackendChoice::Osqp]);
+    stress(
+        300,
+        &[
+            BackendChoice::Native,
+            BackendChoice::Clarabel,
+            BackendChoice::Osqp,
+        ],
+    );
 }
 
 /// Mutations of a scene file: byte edits with TOML-significant tokens, line deletions and
