@@ -5,10 +5,11 @@
 use anyhow::{bail, Context, Result};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
+use sweeping::output::TrajectoryFormat;
 use sweeping::scene::ResumeState;
 
-/// The trajectory file a resumed run reads.
-pub const TRAJECTORY: &str = "trajectory.csv";
+/// The trajectory file a resumed run reads: the one `sweep run` writes as CSV.
+pub const TRAJECTORY: &str = TrajectoryFormat::Csv.file_name();
 
 /// The last frame of the CSV trajectory `path` (`t,id,x,y,present`, frames in time order, each
 /// with every person in id order). Whether it has the scene's number of people is checked

@@ -283,13 +283,14 @@ pub fn main(args: RunArgs) -> Result<()> {
     let resume = match &args.resume {
         Some(dir) => {
             let path = dir.join(resume::TRAJECTORY);
-            if !path.exists() && dir.join("trajectory.sqlite").exists() {
+            let sqlite = TrajectoryFormat::Sqlite.file_name();
+            if !path.exists() && dir.join(sqlite).exists() {
                 // The SQLite trajectory leaves out who had left and rounds the time to its
                 // frame: not a state to go on from to the bit.
                 anyhow::bail!(
-                    "--resume {}: the run wrote no {} but a trajectory.sqlite, which keeps only \
-                     the people still inside; --resume reads the CSV (every position to the \
-                     bit, and who had left): run with --format csv or --format csv,sqlite to be \
+                    "--resume {}: the run wrote no {} but a {sqlite}, which keeps only the \
+                     people still inside; --resume reads the CSV (every position to the bit, \
+                     and who had left): run with --format csv or --format csv,sqlite to be \
                      able to resume",
                     dir.display(),
                     resume::TRAJECTORY

@@ -84,7 +84,7 @@ pub enum TrajectoryFormat {
 
 impl TrajectoryFormat {
     /// The file name it writes in the output directory.
-    pub fn file_name(self) -> &'static str {
+    pub const fn file_name(self) -> &'static str {
         match self {
             TrajectoryFormat::Csv => "trajectory.csv",
             TrajectoryFormat::Sqlite => "trajectory.sqlite",
