@@ -267,7 +267,7 @@ pub fn make_projector_with(
         (BackendChoice::Native, tol) => {
             let mut native = native_projector_on_threads(threads);
             if let Some(tol) = tol {
-                native.settings.kkt_tolerance = tol;
+                native.settings_mut().kkt_tolerance = tol;
             }
             Ok(Box::new(native))
         }

@@ -27,7 +27,7 @@ use serde::Deserialize;
 use sweeping::api::conformance::max_gap;
 use sweeping::api::{ProjectionProblem, Projector};
 use sweeping::backends::{native_projector, ClarabelProjector};
-use sweeping_clarabel::active_set::{self, Start};
+use sweeping_qp::active_set::{self, Start};
 
 /// How far an answer may be from the certified projection, and from the other backend's.
 /// The answers at the stops were 1.3e-9 to 3.2e-8 from it.
@@ -193,8 +193,14 @@ fn both_backends_project_the_block(name: &str) {
     let x_star = certified_projection(&s);
     let native = native_projector().project(&s.problem).unwrap();
     let clarabel = ClarabelProjector::default().project(&s.problem).unwrap();
-    // Both finished by their second passes.
-    assert_eq!((native.stats.unfinished, clarabel.stats.unfinished), (0, 0));
+    // Clarabel finished by its polish's second pass; the native answer, when it is an
+    // interior point's short of its tolerance, says by how much, within the tolerance here.
+    assert_eq!(clarabel.stats.unfinished, 0);
+    assert!(
+        native.stats.unfinished_off <= TOLERANCE,
+        "{:?}",
+        native.stats
+    );
     let (native, clarabel) = (native.x, clarabel.x);
     let (dn, dc) = (max_gap(&native, &x_star), max_gap(&clarabel, &x_star));
     eprintln!("{name}: native {dn:.2e}, Clarabel {dc:.2e} from the projection");
@@ -247,9 +253,13 @@ fn the_native_backend_projects_the_block(name: &str, p: &ProjectionProblem, x_st
     let off = max_gap(&native.x, x_star);
     eprintln!("{name}: native on the block alone {off:.2e} from the projection");
     assert!(off <= TOLERANCE, "native {off:e}");
-    // Its answer is finished, or stands as a second pass's best iterate within a few times
-    // that pass's 1e-15 (the hall's late block: 2.7e-15).
-    assert!(native.stats.unfinished_off <= 1e-14, "{:?}", native.stats);
+    // Its answer is exact, or an interior point's whose estimated error is within the
+    // tolerance.
+    assert!(
+        native.stats.unfinished_off <= TOLERANCE,
+        "{:?}",
+        native.stats
+    );
 }
 
 /// Clarabel on the block alone ends within [`TOLERANCE`] of `x_star`, finished: its second

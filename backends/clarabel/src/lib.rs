@@ -60,8 +60,6 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
-pub mod active_set;
-pub mod ldl;
 mod polish;
 
 use clarabel::algebra::CscMatrix;

@@ -6,7 +6,7 @@
 //! the duality gap (`1e-5` for a gap of `1e-10`) however small the KKT residuals are.
 //! Polishing guesses the active set from the iterate — the rows whose multiplier exceeds their
 //! slack (`zᵢ > sᵢ`), starting from their multipliers — and finishes the job exactly with the
-//! dual Lawson–Hanson method of [`crate::active_set`], robust to the linearly dependent rows of
+//! dual Lawson–Hanson method of [`sweeping_qp::active_set`], robust to the linearly dependent rows of
 //! contact loops. The caller keeps the answer only when its KKT residuals say so.
 //!
 //! The polish runs block by block ([`Blocks`]): after its first pass the method drops one row
@@ -18,8 +18,8 @@
 //! round for good when every violated row joined at once; such a block is polished again with
 //! the most violated row joining alone, as the native backend finishes its interior points.
 
-use crate::active_set::{self, Start};
 use sweeping_api::{Blocks, ProjectionProblem};
+use sweeping_qp::active_set::{self, Start};
 
 /// Most active-set iterations on a block of `m` rows: `ITERATIONS + m/2`.
 const ITERATIONS: u32 = 40;

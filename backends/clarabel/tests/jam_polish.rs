@@ -14,7 +14,7 @@
 mod certified;
 use certified::assert_is_the_projection;
 use sweeping_api::ProjectionProblem;
-use sweeping_clarabel::active_set::{self, Failure, Start};
+use sweeping_qp::active_set::{self, Failure, Start};
 
 /// The block, the interior point's `x` and `z`, and the slacks `s = A x − b`.
 fn jam() -> (ProjectionProblem, Vec<f64>, Vec<f64>, Vec<f64>) {

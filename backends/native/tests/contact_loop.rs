@@ -55,20 +55,22 @@ fn contact_loop_is_solved_exactly_without_fallback() {
     assert_is_the_projection(&problem, &second.x, "warm");
 }
 
-/// The interior-point rescue on the contact loop: its guess holds every row of the loop, and
-/// the active-set finish must still reach the exact projection.
+/// The interior point on the contact loop: its support holds every row of the loop, and the
+/// finish from it must still reach the exact projection.
 #[test]
-fn contact_loop_is_solved_exactly_by_the_interior_point_rescue() {
+fn contact_loop_is_solved_exactly_by_the_interior_point() {
     let problem = contact_loop_qp();
-    let mut rescue = NativeProjector::new(NativeSettings {
-        max_iterations: 1,
+    let mut interior = NativeProjector::new(NativeSettings {
+        active_set_iterations: 0,
         ..NativeSettings::default()
     });
-    let sol = rescue
+    let sol = interior
         .project(&problem)
-        .expect("the rescue solves the loop");
-    assert_eq!((sol.stats.rescues, sol.stats.fallbacks), (1, 0));
+        .expect("the interior point solves the loop");
+    // Every block (the loop's, and the pairs and small clusters beside it) went there.
+    assert!(sol.stats.rescues >= 1);
+    assert_eq!(sol.stats.fallbacks, 0);
     let kkt = problem.kkt_residuals(&sol.x, &sol.multipliers).max();
     assert!(kkt <= 1e-10, "KKT residual {kkt:.3e}");
-    assert_is_the_projection(&problem, &sol.x, "rescued");
+    assert_is_the_projection(&problem, &sol.x, "interior point");
 }

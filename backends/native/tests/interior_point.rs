@@ -1,6 +1,6 @@
-//! The interior-point rescue as crowds use it: on the rows its screen keeps first, when a
-//! push through a chain makes rows it left out tight; and straight away, without the
-//! active-set attempt, when a block is rescued solve after solve.
+//! The interior point as crowds use it: a push through a chain, answered exactly by the finish
+//! from the interior point's support; and straight away, without the support method's
+//! attempt, when a block goes to the interior point solve after solve.
 
 use sweeping_api::conformance::max_gap;
 use sweeping_api::{ProjectionProblem, Projector, RowKey, SparseRows};
@@ -8,8 +8,8 @@ use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::{NativeProjector, NativeSettings};
 
 /// `k ≥ 7` points on a line, `xᵢ₊₁ − xᵢ ≥ 1`, the first held by a wall `x₀ ≥ 0`. `y` puts the
-/// first two on top of each other, the third 0.6 beyond its place (more than half the first
-/// row's violation: the screen leaves that row out) and the others 0.15 apart from theirs.
+/// first two on top of each other, the third 0.6 beyond its place (a row that holds at `y`
+/// but not at the answer) and the others 0.15 apart from theirs.
 /// The push of 1 runs down the chain, 0.15 less at each row after the left-out one:
 /// `x = (0, 1, 2, 3, 4, y₅, …)`.
 fn chain(k: usize, from_the_right: bool) -> ProjectionProblem {
@@ -39,26 +39,25 @@ fn chain(k: usize, from_the_right: bool) -> ProjectionProblem {
         .unwrap()
 }
 
-fn rescuing() -> NativeProjector {
-    // One active-set iteration: every block that needs more is rescued.
+fn interior(active_set_iterations: u32) -> NativeProjector {
     NativeProjector::new(NativeSettings {
-        max_iterations: 1,
+        active_set_iterations,
         ..NativeSettings::default()
     })
 }
 
 #[test]
-fn a_push_through_a_chain_reaches_the_rows_the_screen_left_out() {
+fn a_push_through_a_chain_is_answered_exactly_from_the_interior_point() {
     let p = chain(12, false);
-    let sol = rescuing().project(&p).unwrap();
+    let sol = interior(0).project(&p).unwrap();
     assert_eq!((sol.stats.rescues, sol.stats.fallbacks), (1, 0));
     let exact: Vec<f64> = (0..12)
         .map(|i| if i < 5 { i as f64 } else { p.y()[i] })
         .collect();
     let gap = max_gap(&sol.x, &exact);
     assert!(gap <= 1e-10, "{:?}", sol.x);
-    // The wall and the chain's first four rows hold the push (the left-out row among them),
-    // the rest are slack.
+    // The wall and the chain's first four rows hold the push (the row that held at `y` among
+    // them), the rest are slack: exactly zero, the finish's multipliers.
     for (i, &l) in sol.multipliers.iter().enumerate() {
         assert_eq!(l > 0.0, i < 5, "row {i}: {:?}", sol.multipliers);
     }
@@ -66,11 +65,12 @@ fn a_push_through_a_chain_reaches_the_rows_the_screen_left_out() {
 }
 
 #[test]
-fn a_block_rescued_solve_after_solve_is_rescued_at_once_and_stays_exact() {
+fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_stays_exact() {
     // The chain pushed from the left and from the right in turn: each solve's warm start (the
-    // other side's active rows) is wrong by every row, so every solve is rescued.
+    // other side's support) is wrong by every row, and one guess of the support method cannot
+    // mend it, so every solve goes to the interior point.
     let (left, right) = (chain(12, false), chain(12, true));
-    let mut native = rescuing();
+    let mut native = interior(1);
     let mut clarabel = ClarabelProjector::default();
     let mut iterations = Vec::new();
     for solve in 0..9 {
@@ -87,9 +87,9 @@ fn a_block_rescued_solve_after_solve_is_rescued_at_once_and_stays_exact() {
         assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
         iterations.push(sol.stats.iterations);
     }
-    // The rescue itself does not depend on the warm start, so a solve that went straight to
+    // The interior point does not depend on the warm start, so a solve that went straight to
     // it (the 4th, 6th, 7th and 8th: streaks 3, 5, 6, 7) reports one iteration fewer, the
-    // active-set attempt's, than the same problem solved with the attempt.
+    // support method's one guess, than the same problem solved with the attempt.
     for (straight, attempted) in [(3, 1), (5, 1), (6, 0), (7, 1)] {
         assert_eq!(
             iterations[straight] + 1,

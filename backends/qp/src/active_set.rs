@@ -59,7 +59,7 @@
 //! (`sweeping-native`, started from the previous step's active set or from the rows violated
 //! at `y`): one implementation, two starts.
 
-use clarabel::algebra::CscMatrix;
+use crate::csc::CscMatrix;
 use sweeping_api::{max_or_nan, FastMap, ProjectionProblem, RowKey};
 
 use crate::ldl::{Ldl, NotFactored};
@@ -534,7 +534,7 @@ const STALE_FILL: f64 = 1.25;
 ///
 /// ```
 /// use sweeping_api::{ProjectionProblem, RowKey, SparseRows};
-/// use sweeping_clarabel::active_set::{solve_remembering, Orderings, Start};
+/// use sweeping_qp::active_set::{solve_remembering, Orderings, Start};
 ///
 /// // A chain of 40 unknowns pushed together: x_{j+1} − x_j ≥ 1, y = 0.
 /// let n = 40;
@@ -1161,7 +1161,7 @@ impl Bordered {
 
 /// The upper triangle of `K_δ` for the support's `rows` (columns sorted) on `unknowns`, by
 /// columns.
-fn kkt_matrix(rows: &MergedRows, unknowns: &Unknowns) -> CscMatrix<f64> {
+fn kkt_matrix(rows: &MergedRows, unknowns: &Unknowns) -> CscMatrix {
     let u = unknowns.base;
     let k = rows.len();
     let nnz = u + k + rows.entries.len();
@@ -1491,7 +1491,7 @@ fn farkas(problem: &ProjectionProblem, support: &[usize], e: &[f64], r: &[f64]) 
 /// Runs the method from `start` for at most `cap` iterations. See the module
 /// documentation.
 pub fn solve(problem: &ProjectionProblem, start: Start, cap: u32) -> Result<Outcome, Failure> {
-    solve_with(problem, start, cap, None, &mut |_| {})
+    solve_with(problem, start, cap, None)
 }
 
 /// [`solve`], its sparse factorizations ordered from (and remembered in) `orderings` when
@@ -1505,52 +1505,44 @@ pub fn solve_remembering(
     orderings: &mut Orderings,
     unknowns: &[usize],
 ) -> Result<Outcome, Failure> {
-    solve_remembering_watched(problem, start, cap, orderings, unknowns, &mut |_| {})
+    let memory = (unknowns.len() == problem.dim()).then_some(Remembered {
+        orderings,
+        unknowns,
+    });
+    solve_with(problem, start, cap, memory)
 }
 
-/// [`solve_remembering`], calling `before_iteration(k)` before each iteration `k` (from 1) of
-/// the method's first pass: a caller can start work that only an attempt running that long
-/// will need (the native backend speculates on the rescue of an attempt that is still
-/// iterating). It cannot change the answer.
-pub fn solve_remembering_watched(
+/// [`solve_remembering`] without the second pass: the answer of the tests at `1e-12`, which
+/// on a sliver of a feasible set can lie `1e-8` from the projection (the engine checks such
+/// answers against its interior point's before it keeps them).
+pub fn first_pass_remembering(
     problem: &ProjectionProblem,
     start: Start,
     cap: u32,
     orderings: &mut Orderings,
     unknowns: &[usize],
-    before_iteration: &mut dyn FnMut(u32),
 ) -> Result<Outcome, Failure> {
-    let memory = (unknowns.len() == problem.dim()).then_some(Remembered {
+    let mut memory = (unknowns.len() == problem.dim()).then_some(Remembered {
         orderings,
         unknowns,
     });
-    solve_with(problem, start, cap, memory, before_iteration)
+    let first = run_pass(problem, start, cap, FIRST_PASS, memory.as_mut(), None, None)?;
+    Ok(first.outcome)
 }
 
 /// The method at [`ACTIVE_TOL`], then, when its answer leaves a row violated or the support's
 /// equations unsolved by more than [`SECOND_PASS_TOL`], a second pass (see [`second_pass`]).
-/// `before_iteration` is called before each iteration of the first.
 fn solve_with(
     problem: &ProjectionProblem,
     start: Start,
     cap: u32,
     mut memory: Option<Remembered<'_>>,
-    before_iteration: &mut dyn FnMut(u32),
 ) -> Result<Outcome, Failure> {
-    let first = run_watched(
-        problem,
-        start,
-        cap,
-        FIRST_PASS,
-        memory.as_mut(),
-        None,
-        None,
-        before_iteration,
-    )?;
+    let first = run_pass(problem, start, cap, FIRST_PASS, memory.as_mut(), None, None)?;
     Ok(second_pass(problem, first, cap, memory.as_mut()))
 }
 
-/// What [`run_watched`] converged to.
+/// What [`run_pass`] converged to.
 struct Finished {
     outcome: Outcome,
     /// The factorization of the last iteration.
@@ -1700,7 +1692,7 @@ fn finishing_pass(
     spent: &mut u32,
 ) -> Result<(f64, Outcome), Best> {
     let mut best: Best = None;
-    let pass = run_watched(
+    let pass = run_pass(
         problem,
         start,
         cap,
@@ -1712,7 +1704,6 @@ fn finishing_pass(
         memory,
         held,
         Some(&mut best),
-        &mut |_| {},
     );
     match pass {
         Ok(Finished { outcome, off, .. }) => {
@@ -1761,14 +1752,13 @@ fn run(
     memory: Option<&mut Remembered<'_>>,
     held: Option<ActiveSystem>,
 ) -> Result<Finished, Failure> {
-    run_watched(problem, start, cap, pass, memory, held, None, &mut |_| {})
+    run_pass(problem, start, cap, pass, memory, held, None)
 }
 
 /// The method from `start`, for at most `cap` iterations, with the tests of `pass`, its first
-/// iteration bordering `held` when it can, calling `before_iteration(k)` before each
-/// iteration `k`, and keeping in `best`, when given, the iterate off by least ([`Best`]).
-#[allow(clippy::too_many_arguments)]
-fn run_watched(
+/// iteration bordering `held` when it can, and keeping in `best`, when given, the iterate off
+/// by least ([`Best`]).
+fn run_pass(
     problem: &ProjectionProblem,
     start: Start,
     cap: u32,
@@ -1776,7 +1766,6 @@ fn run_watched(
     mut memory: Option<&mut Remembered<'_>>,
     mut held: Option<ActiveSystem>,
     mut best: Option<&mut Best>,
-    before_iteration: &mut dyn FnMut(u32),
 ) -> Result<Finished, Failure> {
     let (m, n) = (problem.n_rows(), problem.dim());
     let r = problem.shortfall(problem.y());
@@ -1819,7 +1808,6 @@ fn run_watched(
     // The system of the previous iteration (`held`), carried to the next support by
     // bordering.
     for iterations in 1..=cap {
-        before_iteration(iterations);
         if visits.count(&support) >= REPEATS {
             if proper || bland {
                 return Err(Failure::Cycling(iterations));
@@ -2197,44 +2185,6 @@ mod tests {
             needs_second_pass: off > SECOND_PASS_TOL * scale,
             off,
         }
-    }
-
-    #[test]
-    fn the_watcher_sees_each_iteration_of_the_first_pass_in_order() {
-        // A chain x_{j+1} − x_j ≥ 1 at spacing 1 but for its first pair (0.5): rows join one
-        // per iteration.
-        let m = 8;
-        let rows: Vec<Vec<(usize, f64)>> = (0..m).map(|j| vec![(j, -1.0), (j + 1, 1.0)]).collect();
-        let y = (0..=m)
-            .map(|j| if j == 0 { 0.5 } else { j as f64 })
-            .collect();
-        let p =
-            ProjectionProblem::new(y, SparseRows::from_rows(m + 1, &rows), vec![1.0; m]).unwrap();
-        let unknowns: Vec<usize> = (0..=m).collect();
-        let watched = |cap| {
-            let mut seen = Vec::new();
-            let mut orderings = Orderings::default();
-            let start = start_from(vec![0], m);
-            let outcome =
-                solve_remembering_watched(&p, start, cap, &mut orderings, &unknowns, &mut |k| {
-                    seen.push(k)
-                });
-            (outcome, seen)
-        };
-        let (outcome, seen) = watched(100);
-        let outcome = outcome.unwrap();
-        assert!(seen.len() >= 3, "{seen:?}");
-        assert_eq!(seen, (1..=seen.len() as u32).collect::<Vec<_>>());
-        assert!(seen.len() as u32 <= outcome.iterations);
-        // The same answer as unwatched.
-        let mut orderings = Orderings::default();
-        let plain =
-            solve_remembering(&p, start_from(vec![0], m), 100, &mut orderings, &unknowns).unwrap();
-        assert_eq!(plain.x, outcome.x);
-        // Out of iterations: every one of them seen.
-        let (outcome, seen) = watched(2);
-        assert!(matches!(outcome, Err(Failure::Cap(2))), "{outcome:?}");
-        assert_eq!(seen, vec![1, 2]);
     }
 
     /// The start from the rows `support`, each at multiplier 1/2, any row joining at 1.

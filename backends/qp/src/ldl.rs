@@ -1,6 +1,5 @@
-//! The sparse `LDLᵀ` factorization the active-set method (and the native backend's interior
-//! point) solves with: QDLDL's arithmetic, run by this crate so that a factorization permutes
-//! and analyses its matrix once.
+//! The sparse `LDLᵀ` factorization the active-set method solves with: QDLDL's arithmetic, run
+//! by this crate so that a factorization permutes and analyses its matrix once.
 //!
 //! A fresh factorization is ordered by AMD (as QDLDL orders it, [`Ldl::amd`]) or by an
 //! ordering remembered from earlier factorizations (most of them on a queue at a door,
@@ -13,13 +12,8 @@
 //! up-looking elimination with the same regularization of pivots of the wrong sign. The
 //! factor and its solves are QDLDL's to the bit (property tests against QDLDL assert it), so
 //! nothing downstream sees the difference but the time.
-//!
-//! [`Refactor`] refactors a factor numerically when only the matrix's values change (the
-//! native backend's interior point, at every iteration). It eliminates each row of `L` with
-//! the same code as the fresh factorization, on row patterns recorded once, so both are
-//! QDLDL's arithmetic written once.
 
-use clarabel::algebra::CscMatrix;
+use crate::csc::CscMatrix;
 
 /// QDLDL's default `regularize_eps`: a pivot `D[k]` with `D[k]·sign[k]` below it is replaced
 /// by `sign[k]·`[`REGULARIZE_DELTA`].
@@ -32,25 +26,12 @@ const NONE: usize = usize::MAX;
 /// An `LDLᵀ` factorization `P K Pᵀ = L D Lᵀ` of a symmetric matrix `K`, `L` unit lower
 /// triangular (its diagonal implied), solved as QDLDL solves.
 ///
-/// ```
-/// use clarabel::algebra::CscMatrix;
-/// use sweeping_clarabel::ldl::Ldl;
-///
-/// // [[4, 1], [1, 3]] by its upper triangle, both pivots positive.
-/// let upper = CscMatrix::new(2, 2, vec![0, 1, 3], vec![0, 0, 1], vec![4.0, 1.0, 3.0]);
-/// let mut ldl = Ldl::amd(&upper, &[1, 1]).unwrap();
-/// let mut b = vec![5.0, 4.0]; // the matrix times [1, 1]
-/// ldl.solve(&mut b);
-/// assert!((b[0] - 1.0).abs() < 1e-12 && (b[1] - 1.0).abs() < 1e-12);
-/// ```
 #[derive(Debug)]
 pub struct Ldl {
     /// The ordering: `perm[p]` is the node eliminated at position `p`.
     perm: Vec<usize>,
-    /// The expected sign of each pivot, in elimination order.
-    signs: Vec<i8>,
     /// `L` below its diagonal, by columns.
-    l: CscMatrix<f64>,
+    l: CscMatrix,
     /// `D⁻¹`.
     d_inv: Vec<f64>,
     /// The permuted right-hand side of a solve.
@@ -69,7 +50,7 @@ pub enum NotFactored {
 impl Ldl {
     /// [`Self::ordered`] by the AMD ordering QDLDL finds for `upper` (its default controls),
     /// with no budget: what `QDLDLFactorisation::new` gives without an ordering, to the bit.
-    pub fn amd(upper: &CscMatrix<f64>, signs: &[i8]) -> Result<Self, NotFactored> {
+    pub fn amd(upper: &CscMatrix, signs: &[i8]) -> Result<Self, NotFactored> {
         Self::ordered(upper, amd_ordering(upper)?, signs, f64::INFINITY)
     }
 
@@ -79,34 +60,20 @@ impl Ldl {
     /// ordering and those `Dsigns`, to the bit, unless the factor would have more than
     /// `max_entries` entries below its diagonal (counted before any arithmetic).
     pub fn ordered(
-        upper: &CscMatrix<f64>,
+        upper: &CscMatrix,
         perm: Vec<usize>,
         signs: &[i8],
         max_entries: f64,
     ) -> Result<Self, NotFactored> {
-        Self::factorize(upper, perm, signs, max_entries, None)
+        Self::factorize(upper, perm, signs, max_entries)
     }
 
-    /// [`Self::amd`], with what a [`Refactor`] of the factor needs recorded on the way (the
-    /// permuted matrix, where each entry of `upper` went, and the pattern of each row of `L`):
-    /// for a matrix whose values change and whose pattern does not.
-    pub fn amd_refactorable(
-        upper: &CscMatrix<f64>,
-        signs: &[i8],
-    ) -> Result<(Self, Refactor), NotFactored> {
-        let perm = amd_ordering(upper)?;
-        let mut refactor = Refactor::default();
-        let ldl = Self::factorize(upper, perm, signs, f64::INFINITY, Some(&mut refactor))?;
-        Ok((ldl, refactor))
-    }
-
-    /// [`Self::ordered`], filling `refactor` (when given) as it goes.
+    /// [`Self::ordered`].
     fn factorize(
-        upper: &CscMatrix<f64>,
+        upper: &CscMatrix,
         perm: Vec<usize>,
         signs: &[i8],
         max_entries: f64,
-        refactor: Option<&mut Refactor>,
     ) -> Result<Self, NotFactored> {
         let n = upper.n;
         if perm.len() != n || signs.len() != n {
@@ -119,10 +86,7 @@ impl Ldl {
             }
             position[node] = p;
         }
-        let mut place = refactor
-            .as_ref()
-            .map(|_| Vec::with_capacity(upper.rowval.len()));
-        let permuted = permute_symmetric(upper, &position, place.as_mut());
+        let permuted = permute_symmetric(upper, &position);
         let (parent, column_counts) = elimination_tree(&permuted, max_entries)?;
         let mut column_start = Vec::with_capacity(n + 1);
         column_start.push(0);
@@ -132,23 +96,9 @@ impl Ldl {
         let entries = column_start[n];
         let mut l = CscMatrix::new(n, n, column_start, vec![0; entries], vec![0.0; entries]);
         let signs: Vec<i8> = perm.iter().map(|&node| signs[node]).collect();
-        let mut rows = refactor.as_ref().map(|_| RowPatterns::default());
-        let d_inv =
-            factor(&permuted, &parent, &signs, &mut l, rows.as_mut()).ok_or(NotFactored::Failed)?;
-        if let (Some(refactor), Some(rows), Some(place)) = (refactor, rows, place) {
-            *refactor = Refactor {
-                values: vec![0.0; permuted.nzval.len()],
-                place,
-                column_start: permuted.colptr,
-                row: permuted.rowval,
-                row_start: rows.start,
-                row_pattern: rows.entries,
-                work: vec![0.0; n],
-            };
-        }
+        let d_inv = factor(&permuted, &parent, &signs, &mut l).ok_or(NotFactored::Failed)?;
         Ok(Self {
             perm,
-            signs,
             l,
             d_inv,
             work: vec![0.0; n],
@@ -201,7 +151,7 @@ impl Ldl {
 }
 
 /// The AMD ordering QDLDL finds for `upper` (its default controls; position → node).
-fn amd_ordering(upper: &CscMatrix<f64>) -> Result<Vec<usize>, NotFactored> {
+fn amd_ordering(upper: &CscMatrix) -> Result<Vec<usize>, NotFactored> {
     let (perm, _, _) = amd::order(
         upper.n,
         &upper.colptr,
@@ -215,14 +165,9 @@ fn amd_ordering(upper: &CscMatrix<f64>) -> Result<Vec<usize>, NotFactored> {
 /// `P K Pᵀ`'s upper triangle from `K`'s (`upper`), `position[node]` the position of a node:
 /// entry `(i, j)`, `i ≤ j`, goes to column `max(pᵢ, pⱼ)`, row `min(pᵢ, pⱼ)`, each column's
 /// entries in the order they are met column by column of `upper` (QDLDL's order, which fixes
-/// the order the factorization eliminates in, and so its rounding). Where each entry of
-/// `upper` went is pushed onto `place`, when given ([`NONE`] for one below the diagonal,
-/// which is left out).
-fn permute_symmetric(
-    upper: &CscMatrix<f64>,
-    position: &[usize],
-    mut place: Option<&mut Vec<usize>>,
-) -> CscMatrix<f64> {
+/// the order the factorization eliminates in, and so its rounding). Entries below the
+/// diagonal are left out.
+fn permute_symmetric(upper: &CscMatrix, position: &[usize]) -> CscMatrix {
     let n = upper.n;
     let mut start = vec![0usize; n + 1];
     for j in 0..n {
@@ -241,31 +186,16 @@ fn permute_symmetric(
     for j in 0..n {
         for e in upper.colptr[j]..upper.colptr[j + 1] {
             let i = upper.rowval[e];
-            let destination = if i > j {
-                NONE
-            } else {
+            if i <= j {
                 let (pi, pj) = (position[i], position[j]);
                 let column = pi.max(pj);
                 rows[next[column]] = pi.min(pj);
                 values[next[column]] = upper.nzval[e];
                 next[column] += 1;
-                next[column] - 1
-            };
-            if let Some(place) = place.as_deref_mut() {
-                place.push(destination);
             }
         }
     }
     CscMatrix::new(n, n, start, rows, values)
-}
-
-/// The pattern of each row of `L`, as the factorization eliminates with it.
-#[derive(Debug, Default)]
-struct RowPatterns {
-    /// Where each row starts in [`Self::entries`] (one more than the rows).
-    start: Vec<usize>,
-    /// Row by row: `(c, p)` for each entry `L[k, c]`, `p` its place in `L`'s columns.
-    entries: Vec<(usize, usize)>,
 }
 
 /// The elimination tree of the upper triangle `upper` (each node's parent, [`NONE`] for a
@@ -273,7 +203,7 @@ struct RowPatterns {
 /// symbolic analysis counts them; [`NotFactored::TooMuchFill`] as soon as their sum passes
 /// `max_entries`.
 fn elimination_tree(
-    upper: &CscMatrix<f64>,
+    upper: &CscMatrix,
     max_entries: f64,
 ) -> Result<(Vec<usize>, Vec<usize>), NotFactored> {
     let n = upper.n;
@@ -308,11 +238,10 @@ fn elimination_tree(
 /// elimination tree and `signs` the expected signs of the pivots (in elimination order).
 /// Returns `D⁻¹`, or `None` when a pivot is zero.
 fn factor(
-    upper: &CscMatrix<f64>,
+    upper: &CscMatrix,
     parent: &[usize],
     signs: &[i8],
-    l: &mut CscMatrix<f64>,
-    mut record: Option<&mut RowPatterns>,
+    l: &mut CscMatrix,
 ) -> Option<Vec<f64>> {
     let n = upper.n;
     let (ap, ai, ax) = (&upper.colptr, &upper.rowval, &upper.nzval);
@@ -325,14 +254,7 @@ fn factor(
     let mut next_in_column = l.colptr[..n].to_vec();
     let mut row_of_l = Vec::with_capacity(n);
     let pivot = |k: usize, value: f64| regularized_pivot(value, signs[k]);
-    if let Some(rows) = record.as_deref_mut() {
-        // Row 0 has no entries.
-        rows.start.extend([0, 0]);
-    }
     if n == 0 {
-        if let Some(rows) = record {
-            rows.start.truncate(1);
-        }
         return Some(d_inv);
     }
     // QDLDL takes the first entry of the first column as its diagonal.
@@ -377,10 +299,6 @@ fn factor(
             row_of_l.push((c, place));
         }
         d[k] = eliminate_row(&row_of_l, d[k], &mut y, l, &d_inv);
-        if let Some(rows) = record.as_deref_mut() {
-            rows.entries.extend_from_slice(&row_of_l);
-            rows.start.push(rows.entries.len());
-        }
         d[k] = pivot(k, d[k])?;
         d_inv[k] = d[k].recip();
     }
@@ -410,7 +328,7 @@ fn eliminate_row(
     row: &[(usize, usize)],
     mut pivot: f64,
     y: &mut [f64],
-    l: &mut CscMatrix<f64>,
+    l: &mut CscMatrix,
     d_inv: &[f64],
 ) -> f64 {
     for &(c, place) in row {
@@ -428,100 +346,6 @@ fn eliminate_row(
     pivot
 }
 
-/// Numeric refactorization of an [`Ldl`] whose matrix keeps its pattern and changes its
-/// values, with the pattern of each row of `L` worked out once (by the first factorization,
-/// [`Ldl::amd_refactorable`]).
-///
-/// The interior point refactors `I + AᵀWA` at every iteration with the same pattern and new
-/// values. A fresh factorization works out, for every row `k` of `L`, which columns it
-/// reaches (a walk up the elimination tree from each entry of column `k` of the matrix,
-/// with markers) before it does any arithmetic; on the normal matrices of jams (10 000
-/// unknowns, 2–4 entries of `L` per column) that walk, not the arithmetic, was most of the
-/// time. [`Refactor`] keeps those row patterns, and where each entry of `L` lives, as the
-/// first factorization found them, and then runs only the arithmetic: the same row
-/// elimination as the fresh factorization, in the same order and with the same pivot rule,
-/// so the factor is
-/// QDLDL's refactorization to the bit (near an interior point's answer the normal matrix's
-/// weights span twenty orders of magnitude, and another, equally valid, order changed which
-/// iterations broke down).
-///
-/// ```
-/// use clarabel::algebra::CscMatrix;
-/// use sweeping_clarabel::ldl::{Ldl, Refactor};
-///
-/// let upper = CscMatrix::new(2, 2, vec![0, 1, 3], vec![0, 0, 1], vec![4.0, 1.0, 3.0]);
-/// let (mut ldl, mut refactor) = Ldl::amd_refactorable(&upper, &[1, 1]).unwrap();
-/// // New values on the same pattern: [[2, 1], [1, 2]].
-/// assert!(refactor.refactor(&[2.0, 1.0, 2.0], &mut ldl));
-/// let mut b = vec![3.0, 3.0];
-/// ldl.solve(&mut b);
-/// assert!((b[0] - 1.0).abs() < 1e-12 && (b[1] - 1.0).abs() < 1e-12);
-/// ```
-#[derive(Debug, Default)]
-pub struct Refactor {
-    /// For each entry of the caller's upper triangle, its place in [`Self::values`] ([`NONE`]
-    /// for an entry below the diagonal, left out as the factorization leaves it out).
-    place: Vec<usize>,
-    /// The permuted upper triangle `P A Pᵀ` by columns: where each column starts…
-    column_start: Vec<usize>,
-    /// …the row of each entry…
-    row: Vec<usize>,
-    /// …and its value.
-    values: Vec<f64>,
-    /// Where the pattern of each row of `L` starts in [`Self::row_pattern`].
-    row_start: Vec<usize>,
-    /// Row by row, in the order the factorization eliminates with them: `(c, p)` for each
-    /// entry `L[k, c]`, `p` its place in `L`'s columns.
-    row_pattern: Vec<(usize, usize)>,
-    /// The row of `L` being computed, scattered (all zeros between rows).
-    work: Vec<f64>,
-}
-
-impl Refactor {
-    /// Refactors `ldl` for `values`, the entries of the upper triangle it was made from, in
-    /// that triangle's order. `false` when a pivot is not finite, or zero (the factor is then
-    /// not usable), and, leaving `ldl` as it was, when `values` or `ldl` is not the size this
-    /// refactorization was recorded for (a default `Refactor` fits no factor).
-    pub fn refactor(&mut self, values: &[f64], ldl: &mut Ldl) -> bool {
-        if values.len() != self.place.len()
-            || ldl.d_inv.len() != self.work.len()
-            || ldl.l.rowval.len() != self.row_pattern.len()
-        {
-            return false;
-        }
-        for (&v, &place) in values.iter().zip(&self.place) {
-            if place != NONE {
-                self.values[place] = v;
-            }
-        }
-        let y = &mut self.work;
-        for k in 0..y.len() {
-            // Row k of L solves L[..k, ..k] D y = A[..k, k]: scatter the column above the
-            // diagonal, then eliminate with the columns it reaches.
-            let mut pivot = 0.0;
-            for e in self.column_start[k]..self.column_start[k + 1] {
-                let i = self.row[e];
-                if i == k {
-                    pivot = self.values[e];
-                } else {
-                    y[i] = self.values[e];
-                }
-            }
-            let row = &self.row_pattern[self.row_start[k]..self.row_start[k + 1]];
-            let pivot = eliminate_row(row, pivot, y, &mut ldl.l, &ldl.d_inv);
-            // Stricter than QDLDL, which would regularize −∞ and carry NaN on.
-            if !pivot.is_finite() {
-                return false;
-            }
-            match regularized_pivot(pivot, ldl.signs[k]) {
-                Some(pivot) => ldl.d_inv[k] = pivot.recip(),
-                None => return false,
-            }
-        }
-        true
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -530,7 +354,7 @@ mod tests {
 
     /// The upper triangle of `[I Aᵀ; A −δI]` for `rows` of `A` on `n` unknowns, and the
     /// signs of its pivots.
-    fn kkt(n: usize, rows: &[Vec<(usize, f64)>], delta: f64) -> (CscMatrix<f64>, Vec<i8>) {
+    fn kkt(n: usize, rows: &[Vec<(usize, f64)>], delta: f64) -> (CscMatrix, Vec<i8>) {
         let k = rows.len();
         let mut colptr = vec![0];
         let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
@@ -560,11 +384,22 @@ mod tests {
         (CscMatrix::new(n + k, n + k, colptr, rowval, nzval), signs)
     }
 
-    fn qdldl(upper: &CscMatrix<f64>, perm: &[usize], signs: &[i8]) -> QDLDLFactorisation<f64> {
+    /// `upper` as Clarabel's matrix type, which QDLDL takes.
+    fn theirs(upper: &CscMatrix) -> clarabel::algebra::CscMatrix<f64> {
+        clarabel::algebra::CscMatrix::new(
+            upper.m,
+            upper.n,
+            upper.colptr.clone(),
+            upper.rowval.clone(),
+            upper.nzval.clone(),
+        )
+    }
+
+    fn qdldl(upper: &CscMatrix, perm: &[usize], signs: &[i8]) -> QDLDLFactorisation<f64> {
         let mut builder = QDLDLSettingsBuilder::default();
         builder.Dsigns(signs.to_vec());
         builder.perm(perm.to_vec());
-        QDLDLFactorisation::new(upper, Some(builder.build().unwrap())).unwrap()
+        QDLDLFactorisation::new(&theirs(upper), Some(builder.build().unwrap())).unwrap()
     }
 
     /// Rows of two or four entries on `n` unknowns (people's contacts and walls), some
@@ -718,194 +553,16 @@ mod tests {
         let one = CscMatrix::new(1, 1, vec![0, 1], vec![0], vec![1.0]);
         let mut builder = QDLDLSettingsBuilder::default();
         builder.Dsigns(vec![0]);
-        assert!(QDLDLFactorisation::new(&one, Some(builder.build().unwrap())).is_err());
+        assert!(QDLDLFactorisation::new(&theirs(&one), Some(builder.build().unwrap())).is_err());
         assert_eq!(
             Ldl::ordered(&one, vec![0], &[0], f64::INFINITY).err(),
             Some(NotFactored::Failed)
         );
     }
 
-    /// `I + Aᵀ W A` for a sparse `A` (rows of up to four entries, as a contact's) and
-    /// weights `w`, dense.
-    fn normal(n: usize, rows: &[Vec<(usize, f64)>], w: &[f64]) -> Vec<Vec<f64>> {
-        let mut m = vec![vec![0.0; n]; n];
-        (0..n).for_each(|i| m[i][i] = 1.0);
-        for (row, wi) in rows.iter().zip(w) {
-            for &(p, a) in row {
-                for &(q, b) in row {
-                    m[p][q] += wi * a * b;
-                }
-            }
-        }
-        m
-    }
-
-    /// The upper triangle of a dense symmetric matrix, by columns, without its zeros.
-    fn upper_of(dense: &[Vec<f64>]) -> CscMatrix<f64> {
-        let n = dense.len();
-        let (mut colptr, mut rowval, mut nzval) = (vec![0], vec![], vec![]);
-        for j in 0..n {
-            for (i, row) in dense.iter().enumerate().take(j + 1) {
-                if row[j] != 0.0 || i == j {
-                    rowval.push(i);
-                    nzval.push(row[j]);
-                }
-            }
-            colptr.push(rowval.len());
-        }
-        CscMatrix::new(n, n, colptr, rowval, nzval)
-    }
-
-    /// QDLDL's factorization of `upper` with pivots of the signs `signs`, ordered by its AMD
-    /// (no ordering given).
-    fn qdldl_amd(upper: &CscMatrix<f64>, signs: &[i8]) -> QDLDLFactorisation<f64> {
+    fn qdldl_amd(upper: &CscMatrix, signs: &[i8]) -> QDLDLFactorisation<f64> {
         let mut builder = QDLDLSettingsBuilder::default();
         builder.Dsigns(signs.to_vec());
-        QDLDLFactorisation::new(upper, Some(builder.build().unwrap())).unwrap()
-    }
-
-    /// [`qdldl_amd`] of a positive definite `upper`.
-    fn qdldl_positive(upper: &CscMatrix<f64>) -> QDLDLFactorisation<f64> {
-        qdldl_amd(upper, &vec![1; upper.n])
-    }
-
-    /// QDLDL's own refactorization of `theirs` for every value of `values`.
-    fn qdldl_refactor(theirs: &mut QDLDLFactorisation<f64>, values: &[f64]) {
-        let every: Vec<usize> = (0..values.len()).collect();
-        theirs.update_values(&every, values);
-        theirs.refactor().unwrap();
-    }
-
-    fn normal_rows() -> impl Strategy<Value = (usize, Vec<Vec<(usize, f64)>>)> {
-        (4usize..24).prop_flat_map(|n| {
-            let row = proptest::collection::btree_map(0..n, -1.0f64..1.0, 1..=4)
-                .prop_map(|m| m.into_iter().collect::<Vec<_>>());
-            (Just(n), proptest::collection::vec(row, 1..30))
-        })
-    }
-
-    proptest! {
-        /// Refactored for new weights spanning twelve orders of magnitude (as an interior
-        /// point's near the answer), the factor is QDLDL's own refactorization of the same
-        /// values, to the bit, and it solves the new matrix.
-        #[test]
-        fn refactoring_gives_qdldls_factor_for_the_new_values(
-            (n, rows) in normal_rows(),
-            exponents in proptest::collection::vec(-6.0f64..6.0, 30),
-        ) {
-            let first = upper_of(&normal(n, &rows, &vec![1.0; rows.len()]));
-            let w: Vec<f64> = exponents.iter().take(rows.len()).map(|e| 10f64.powf(*e)).collect();
-            let dense = normal(n, &rows, &w);
-            let second = upper_of(&dense);
-            prop_assert_eq!(&first.rowval, &second.rowval);
-
-            let (mut ours, mut refactor) = Ldl::amd_refactorable(&first, &vec![1; n]).unwrap();
-            // Recording what the refactorization needs changes nothing in the factor.
-            let plain = Ldl::amd(&first, &vec![1; n]).unwrap();
-            prop_assert_eq!(&ours.perm, &plain.perm);
-            prop_assert_eq!(&ours.l.rowval, &plain.l.rowval);
-            prop_assert_eq!(bits(&ours.l.nzval), bits(&plain.l.nzval));
-            prop_assert_eq!(bits(&ours.d_inv), bits(&plain.d_inv));
-            prop_assert!(refactor.refactor(&second.nzval, &mut ours));
-            let mut theirs = qdldl_positive(&first);
-            qdldl_refactor(&mut theirs, &second.nzval);
-            let rhs: Vec<f64> = dense.iter().map(|r| r.iter().sum()).collect();
-            let mut x = rhs.clone();
-            ours.solve(&mut x);
-            same_bits(ours, &mut theirs, rhs)?;
-            // And the factor solves the matrix: M x = b for b = M·1.
-            for v in &x {
-                prop_assert!((v - 1.0).abs() <= 1e-6, "x = {v}, not 1");
-            }
-        }
-    }
-
-    #[test]
-    fn a_vanishing_pivot_is_regularized_when_refactoring_as_qdldl_does() {
-        // [[1, 1], [1, 1]]: the second pivot is 1 − 1 = 0.
-        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
-        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
-        assert!(refactor.refactor(&[1.0, 1.0, 1.0], &mut ldl));
-        assert_eq!(ldl.d_inv, vec![1.0, 1.0 / REGULARIZE_DELTA]);
-        // QDLDL's refactor of the same values gives the same.
-        let mut theirs = qdldl_positive(&first);
-        qdldl_refactor(&mut theirs, &[1.0, 1.0, 1.0]);
-        assert_eq!(theirs.Dinv, ldl.d_inv);
-        // A pivot of exactly the threshold is kept, as QDLDL keeps it.
-        assert!(refactor.refactor(&[1.0, 0.0, REGULARIZE_EPS], &mut ldl));
-        qdldl_refactor(&mut theirs, &[1.0, 0.0, REGULARIZE_EPS]);
-        assert_eq!(theirs.Dinv, ldl.d_inv);
-        assert!(ldl.d_inv.contains(&REGULARIZE_EPS.recip()));
-    }
-
-    #[test]
-    fn entries_below_the_diagonal_are_left_out_of_the_refactorization_too() {
-        // [[4, 1], [1, 3]] given with both triangles: the factorization reads the upper one.
-        let full = CscMatrix::new(
-            2,
-            2,
-            vec![0, 2, 4],
-            vec![0, 1, 0, 1],
-            vec![4.0, 1.0, 1.0, 3.0],
-        );
-        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&full, &[1, 1]).unwrap();
-        let mut b = vec![5.0, 4.0];
-        ldl.solve(&mut b);
-        assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15);
-        // New values [[2, 1], [1, 2]], the one below the diagonal a decoy.
-        assert!(refactor.refactor(&[2.0, 99.0, 1.0, 2.0], &mut ldl));
-        let mut b = vec![3.0, 3.0];
-        ldl.solve(&mut b);
-        assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15);
-    }
-
-    #[test]
-    fn a_refactorization_of_another_size_is_refused() {
-        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
-        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
-        let before = ldl.d_inv.clone();
-        // Values of another matrix, too few or too many.
-        assert!(!refactor.refactor(&[1.0, 1.0], &mut ldl));
-        assert!(!refactor.refactor(&[1.0, 1.0, 1.0, 1.0], &mut ldl));
-        // A default refactorization fits no factor, and one of a 3 × 3 not this 2 × 2.
-        assert!(!Refactor::default().refactor(&[2.0, 1.0, 2.0], &mut ldl));
-        let three = upper_of(&[
-            vec![2.0, 1.0, 0.0],
-            vec![1.0, 2.0, 1.0],
-            vec![0.0, 1.0, 2.0],
-        ]);
-        let (_, mut other) = Ldl::amd_refactorable(&three, &[1, 1, 1]).unwrap();
-        assert!(!other.refactor(&three.nzval, &mut ldl));
-        // Nor one of a diagonal 2 × 2, whose factor has no entry below its diagonal.
-        let diagonal = upper_of(&[vec![2.0, 0.0], vec![0.0, 2.0]]);
-        let (_, mut other) = Ldl::amd_refactorable(&diagonal, &[1, 1]).unwrap();
-        assert!(!other.refactor(&[2.0, 2.0], &mut ldl));
-        assert_eq!(ldl.d_inv, before);
-        assert!(refactor.refactor(&first.nzval, &mut ldl));
-    }
-
-    #[test]
-    fn a_pivot_that_is_not_finite_fails_the_refactorization() {
-        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
-        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
-        assert!(!refactor.refactor(&[1.0, f64::INFINITY, 1.0], &mut ldl));
-        assert!(!refactor.refactor(&[f64::NAN, 0.0, 1.0], &mut ldl));
-        // −∞ would be a pivot of the wrong sign, which QDLDL regularizes; it fails here.
-        assert!(!refactor.refactor(&[1.0, 0.0, f64::NEG_INFINITY], &mut ldl));
-        // A failed row leaves the work row clean: the next refactorization is QDLDL's.
-        assert!(refactor.refactor(&[4.0, 2.0, 5.0], &mut ldl));
-        let mut theirs = qdldl_positive(&first);
-        qdldl_refactor(&mut theirs, &[4.0, 2.0, 5.0]);
-        assert_eq!(ldl.d_inv, theirs.Dinv);
-        assert_eq!(ldl.l.nzval, theirs.L.nzval);
-    }
-
-    #[test]
-    fn a_pivot_without_a_sign_fails_the_refactorization() {
-        // Signs of 0, as in `a_zero_pivot_fails`: every pivot is zeroed, as QDLDL's is.
-        let first = upper_of(&[vec![2.0, 1.0], vec![1.0, 2.0]]);
-        let (mut ldl, mut refactor) = Ldl::amd_refactorable(&first, &[1, 1]).unwrap();
-        ldl.signs = vec![0, 0];
-        assert!(!refactor.refactor(&[2.0, 1.0, 2.0], &mut ldl));
+        QDLDLFactorisation::new(&theirs(upper), Some(builder.build().unwrap())).unwrap()
     }
 }

@@ -1,0 +1,675 @@
+//! The engine: a projection split into blocks; each block solved by the active set from the
+//! previous step's support, or by the interior point (and finished from its support when
+//! that is cheap); every answer certified.
+
+use crate::active_set::{self, Failure, Orderings, Start};
+use crate::ipm::{self, Tolerance};
+use crate::normal::NormalMatrix;
+use std::time::Instant;
+use sweeping_api::{
+    Block, Blocks, FastMap, Projection, ProjectionError, ProjectionProblem, Projector, RowKey,
+    SolveStats, SolveStatus,
+};
+
+/// Settings of an [`Engine`]. Every field has a documented default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EngineSettings {
+    /// The certificate: largest KKT residual of an answer, relative to `max(1, ‖y‖∞, ‖b‖∞)`.
+    /// Default `1e-10`.
+    pub kkt_tolerance: f64,
+    /// When the interior point stops (its accuracy contract). Default
+    /// [`Tolerance::default`].
+    pub interior_point: Tolerance,
+    /// Most interior-point iterations per block. Default `100`.
+    pub interior_point_iterations: u32,
+    /// Most active-set iterations per block from the warm start before the interior point
+    /// takes the block; `0` sends every block to the interior point. Default `16`.
+    ///
+    /// The active set pays an iteration for each row that joins or leaves: it wins while the
+    /// support changes by a few rows a step (a crowd walking, a queue moving) and loses to
+    /// the interior point when it changes by hundreds (a jam).
+    pub active_set_iterations: u32,
+    /// Most active-set iterations when it finishes an interior point's answer from the
+    /// interior point's support (rows whose multiplier exceeds their slack), the most violated
+    /// row joining alone; `0` keeps the interior point's answer as it is. Default `16`.
+    pub finish_iterations: u32,
+    /// Start the active set from the previous projection's support, matched by row keys.
+    /// Default `true`.
+    pub warm_start: bool,
+    /// Most threads a projection runs on, the caller's included: `1` keeps it on the caller's
+    /// thread; `0` means as many as the cores the process may run on. The answers do not
+    /// depend on it. Default `0`.
+    pub threads: usize,
+    /// Blocks of at least this many rows go to threads of their own when a projection has
+    /// two or more of them (a queue at each door). Default `400`.
+    pub parallel_rows: usize,
+}
+
+impl Default for EngineSettings {
+    fn default() -> Self {
+        Self {
+            kkt_tolerance: 1e-10,
+            interior_point: Tolerance::default(),
+            interior_point_iterations: 100,
+            active_set_iterations: 16,
+            finish_iterations: 16,
+            warm_start: true,
+            threads: 0,
+            parallel_rows: 400,
+        }
+    }
+}
+
+/// Which method answered a block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// The active set, from the warm start (exact to its tests).
+    ActiveSet,
+    /// The interior point, finished by the active set or answered as it stood.
+    InteriorPoint,
+}
+
+/// A block's answer, in the block's local numbering.
+#[derive(Debug, Clone)]
+struct BlockAnswer {
+    x: Vec<f64>,
+    lambda: Vec<f64>,
+    method: Method,
+    iterations: u32,
+    /// Whether the block started from remembered multipliers.
+    warm: bool,
+    /// For an interior point accepted short of its tolerance, how far its tests were from it,
+    /// as a length ([`ipm::Iterate::accuracy`] times the block's length scale).
+    short_of: Option<f64>,
+}
+
+/// Why a block has no answer.
+#[derive(Debug, Clone, PartialEq)]
+enum BlockFailure {
+    /// A non-negative combination of these local rows reads `0 ≥ positive`.
+    Infeasible(Vec<usize>),
+    /// Neither method certified an answer.
+    Unsolved { iterations: u32, reason: String },
+}
+
+type BlockResult = Result<BlockAnswer, BlockFailure>;
+
+/// What a remembered row carries to the next projection.
+#[derive(Debug, Clone, Copy)]
+struct Remembered {
+    multiplier: f64,
+    /// How many projections in a row this row's block went to the interior point.
+    interior_streak: u32,
+}
+
+/// The projection engine; see the [crate documentation](crate).
+#[derive(Debug)]
+pub struct Engine {
+    /// The settings used for every solve.
+    pub settings: EngineSettings,
+    memory: FastMap<RowKey, Remembered>,
+    orderings: Orderings,
+    pool: Option<(usize, rayon::ThreadPool)>,
+}
+
+impl Default for Engine {
+    fn default() -> Self {
+        Self::new(EngineSettings::default())
+    }
+}
+
+/// What solving a block needs besides the block and its orderings.
+struct Context<'a> {
+    settings: &'a EngineSettings,
+    memory: &'a FastMap<RowKey, Remembered>,
+    tol: f64,
+}
+
+impl Engine {
+    /// An engine with empty memory.
+    pub fn new(settings: EngineSettings) -> Self {
+        Self {
+            settings,
+            memory: FastMap::default(),
+            orderings: Orderings::default(),
+            pool: None,
+        }
+    }
+
+    /// The orderings of recent sparse factorizations of the active set, with how many were
+    /// made by AMD and how many reused from memory ([`Orderings::stats`]).
+    pub fn orderings(&self) -> &Orderings {
+        &self.orderings
+    }
+
+    /// Projects `problem`, block by block; the blocks neither method certifies go to
+    /// `fallback` (counted in [`SolveStats::fallbacks`]), or fail without one. `name` is the
+    /// backend's name in statistics and errors.
+    ///
+    /// # Errors
+    /// [`ProjectionError::Infeasible`] with a checked Farkas certificate,
+    /// [`ProjectionError::NotConverged`] for a block that neither method certified when there
+    /// is no fallback, or the fallback's own error.
+    pub fn project(
+        &mut self,
+        problem: &ProjectionProblem,
+        name: &str,
+        mut fallback: Option<&mut (dyn Projector + '_)>,
+    ) -> Result<Projection, ProjectionError> {
+        let setup_start = Instant::now();
+        let scale = problem
+            .y()
+            .iter()
+            .chain(problem.b())
+            .fold(1.0, |acc: f64, v| acc.max(v.abs()));
+        let tol = self.settings.kkt_tolerance * scale;
+        // Nothing violated at y (most steps of a sparse crowd): x = y, λ = 0 is exact, and the
+        // split is skipped. An empty row with bᵢ > 0 is violated too, so it is still caught.
+        let mut ay = vec![0.0; problem.n_rows()];
+        problem.a().mul_vec(problem.y(), &mut ay);
+        if ay.iter().zip(problem.b()).all(|(ayi, bi)| ayi >= bi) {
+            if problem.row_keys().is_some() {
+                self.memory.clear();
+            }
+            return Ok(Projection::identity(problem, name));
+        }
+        let blocks = Blocks::split_violated(problem);
+        if let Some(r) = blocks.infeasible_empty_row(problem) {
+            return Err(ProjectionError::Infeasible {
+                backend: name.to_string(),
+                detail: format!(
+                    "row {r} has no non-zero entry and b[{r}] = {} > 0",
+                    problem.b()[r]
+                ),
+            });
+        }
+        self.orderings.forget_older();
+        let setup_seconds = setup_start.elapsed().as_secs_f64();
+        let solve_start = Instant::now();
+        let results = self.solve_blocks(&blocks, tol);
+        let mut answers = Vec::with_capacity(results.len());
+        let mut methods = Vec::with_capacity(results.len());
+        for (index, (block, result)) in blocks.blocks().iter().zip(results).enumerate() {
+            match result {
+                Ok(answer) => {
+                    methods.push(Some(answer.method));
+                    answers.push(Projection {
+                        x: answer.x,
+                        multipliers: answer.lambda,
+                        stats: SolveStats {
+                            status: SolveStatus::Solved,
+                            iterations: answer.iterations,
+                            rescues: u32::from(answer.method == Method::InteriorPoint),
+                            warm_started: answer.warm,
+                            unfinished: u32::from(answer.short_of.is_some()),
+                            unfinished_off: answer.short_of.unwrap_or(0.0),
+                            ..SolveStats::trivial(name)
+                        },
+                    });
+                }
+                Err(BlockFailure::Infeasible(rows)) => {
+                    let global: Vec<usize> = rows.iter().map(|&t| block.rows[t]).collect();
+                    return Err(ProjectionError::Infeasible {
+                        backend: name.to_string(),
+                        detail: format!(
+                            "Farkas certificate on rows {global:?} (block {index}): a \
+                             non-negative combination of them reads 0 ≥ positive"
+                        ),
+                    });
+                }
+                Err(BlockFailure::Unsolved { iterations, reason }) => match fallback.as_mut() {
+                    Some(fallback) => {
+                        let mut answer = fallback.project(&block.problem)?;
+                        answer.stats.fallbacks = answer.stats.fallbacks.saturating_add(1);
+                        methods.push(None);
+                        answers.push(answer);
+                    }
+                    None => {
+                        return Err(ProjectionError::NotConverged {
+                            backend: name.to_string(),
+                            iterations,
+                            status: format!(
+                                "{reason} on block {index} ({} rows, {} unknowns), no fallback",
+                                block.rows.len(),
+                                block.cols.len()
+                            ),
+                        })
+                    }
+                },
+            }
+        }
+        let mut answer = blocks.stitch(problem, answers, name);
+        // The stitched answer is checked once more as a whole (blocks are independent, so this
+        // only guards the stitching itself); fallback answers are held to their backend's own
+        // tolerance.
+        let whole = problem.kkt_residuals(&answer.x, &answer.multipliers).max();
+        let allowed = if answer.stats.fallbacks > 0 {
+            tol.max(fallback.map_or(0.0, |f| f.tolerance()))
+        } else {
+            tol
+        };
+        if whole.is_nan() || whole > allowed {
+            return Err(ProjectionError::Backend {
+                backend: name.to_string(),
+                message: format!("stitched answer has KKT residual {whole:.3e} > {allowed:.1e}"),
+            });
+        }
+        self.remember(problem, &blocks, &methods, &answer);
+        answer.stats.setup_seconds = setup_seconds;
+        answer.stats.solve_seconds = solve_start.elapsed().as_secs_f64();
+        Ok(answer)
+    }
+
+    /// Every block's answer, in order: on the caller's thread, or, when two blocks or more
+    /// reach [`EngineSettings::parallel_rows`] and there are threads to spare, the large
+    /// blocks each on a thread of its own and the rest together. Each group orders its
+    /// factorizations from the memory as it stood before any of them, so the answers do not
+    /// depend on the threads.
+    fn solve_blocks(&mut self, blocks: &Blocks, tol: f64) -> Vec<BlockResult> {
+        let all = blocks.blocks();
+        let context = Context {
+            settings: &self.settings,
+            memory: &self.memory,
+            tol,
+        };
+        let threads = match self.settings.threads {
+            0 => std::thread::available_parallelism().map_or(1, usize::from),
+            t => t,
+        };
+        let groups = parallel_groups(all, self.settings.parallel_rows);
+        if threads < 2 || groups.len() < 2 {
+            return all
+                .iter()
+                .map(|block| solve_block(&context, &mut self.orderings, block))
+                .collect();
+        }
+        if self.pool.as_ref().is_none_or(|(size, _)| *size != threads) {
+            self.pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .ok()
+                .map(|pool| (threads, pool));
+        }
+        let solve_group = |group: &Vec<usize>, orderings: &Orderings| {
+            let mut fork = orderings.fork();
+            let results: Vec<BlockResult> = group
+                .iter()
+                .map(|&b| solve_block(&context, &mut fork, &all[b]))
+                .collect();
+            (results, fork)
+        };
+        let orderings = &self.orderings;
+        let done: Vec<(Vec<BlockResult>, Orderings)> = match &self.pool {
+            Some((_, pool)) => {
+                use rayon::prelude::*;
+                pool.install(|| {
+                    groups
+                        .par_iter()
+                        .map(|g| solve_group(g, orderings))
+                        .collect()
+                })
+            }
+            None => groups.iter().map(|g| solve_group(g, orderings)).collect(),
+        };
+        let mut results: Vec<Option<BlockResult>> = (0..all.len()).map(|_| None).collect();
+        for (group, (group_results, fork)) in groups.iter().zip(done) {
+            self.orderings.join(fork);
+            for (&b, result) in group.iter().zip(group_results) {
+                results[b] = Some(result);
+            }
+        }
+        results
+            .into_iter()
+            .map(|result| result.expect("every block is in exactly one group"))
+            .collect()
+    }
+
+    /// Keeps the support of the answer by row key for the next projection.
+    fn remember(
+        &mut self,
+        problem: &ProjectionProblem,
+        blocks: &Blocks,
+        methods: &[Option<Method>],
+        answer: &Projection,
+    ) {
+        let Some(keys) = problem.row_keys() else {
+            return;
+        };
+        let previous = std::mem::take(&mut self.memory);
+        for (block, method) in blocks.blocks().iter().zip(methods) {
+            let interior = *method == Some(Method::InteriorPoint);
+            let streak = if interior {
+                1 + block
+                    .rows
+                    .iter()
+                    .filter_map(|&i| previous.get(&keys[i]))
+                    .map(|r| r.interior_streak)
+                    .max()
+                    .unwrap_or(0)
+            } else {
+                0
+            };
+            for &i in &block.rows {
+                let lambda = answer.multipliers[i];
+                if lambda <= 0.0 {
+                    continue;
+                }
+                // An interior point's multipliers are all positive: a row counts as in the
+                // support when its multiplier exceeds its slack.
+                if interior {
+                    let ax: f64 = problem.a().row(i).map(|(c, v)| v * answer.x[c]).sum();
+                    if lambda <= ax - problem.b()[i] {
+                        continue;
+                    }
+                }
+                self.memory.insert(
+                    keys[i],
+                    Remembered {
+                        multiplier: lambda,
+                        interior_streak: streak,
+                    },
+                );
+            }
+        }
+    }
+}
+
+/// The blocks (by index) grouped for threads: every block of at least `parallel_rows` rows
+/// on its own, then the rest together. A single group when fewer than two blocks are that
+/// large (or `parallel_rows` is `0`): nothing to share out.
+fn parallel_groups(blocks: &[Block], parallel_rows: usize) -> Vec<Vec<usize>> {
+    let large = |b: &Block| parallel_rows > 0 && b.rows.len() >= parallel_rows;
+    if blocks.iter().filter(|b| large(b)).count() < 2 {
+        return vec![(0..blocks.len()).collect()];
+    }
+    let mut groups: Vec<Vec<usize>> = (0..blocks.len())
+        .filter(|&b| large(&blocks[b]))
+        .map(|b| vec![b])
+        .collect();
+    let rest: Vec<usize> = (0..blocks.len()).filter(|&b| !large(&blocks[b])).collect();
+    if !rest.is_empty() {
+        groups.push(rest);
+    }
+    groups
+}
+
+/// An interior point that stops short of its tolerance is still the answer within this many
+/// times the tolerance (counted in [`SolveStats::unfinished`], with its estimated error): on
+/// a jam the directions' rounding stops some runs at `1e-9`–`1e-6` of the block's length
+/// scale, where the iterate lies nearer the projection than that measure says (`docs/lab/`).
+const STALL_ALLOWANCE: f64 = 1e4;
+
+/// A finish is kept when it lies within this many times the interior point's accuracy (its
+/// measure times the block's length scale) of the interior point's answer.
+const AGREEMENT: f64 = 100.0;
+
+/// The interior point runs until its residuals and products are within this fraction of the
+/// certificate's tolerance, so that its answer passes the check with room to spare.
+const CERTIFIABLE: f64 = 0.5;
+
+/// How far from `y`, in the block's length scales, a Farkas certificate must rule out every
+/// point before the block is declared infeasible.
+const FARKAS_REACH: f64 = 1e6;
+
+/// Solves one block: the active set from the remembered support (unless its rows went to the
+/// interior point at the last projections, see [`skips_active_set`]), else the interior
+/// point, finished by the active set from its support when that converges within
+/// [`EngineSettings::finish_iterations`]. Every answer is certified by its KKT residuals.
+fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) -> BlockResult {
+    let p = &block.problem;
+    let settings = context.settings;
+    let m = p.n_rows();
+    let r = p.shortfall(p.y());
+    let (start, streak, warm) = warm_start(context, p, &r);
+    let mut iterations = 0;
+    let certified = |x: &[f64], lambda: &[f64]| {
+        let k = p.kkt_residuals(x, lambda).max();
+        k.is_finite() && k <= context.tol
+    };
+    if settings.active_set_iterations > 0 && !skips_active_set(streak) {
+        let res = active_set::solve_remembering(
+            p,
+            start,
+            settings.active_set_iterations,
+            orderings,
+            &block.cols,
+        );
+        match res {
+            Ok(outcome) if certified(&outcome.x, &outcome.lambda) => {
+                return Ok(BlockAnswer {
+                    x: outcome.x,
+                    lambda: outcome.lambda,
+                    method: Method::ActiveSet,
+                    iterations: outcome.iterations,
+                    warm,
+                    short_of: None,
+                });
+            }
+            Ok(outcome) => iterations += outcome.iterations,
+            Err(Failure::Infeasible { rows }) => return Err(BlockFailure::Infeasible(rows)),
+            Err(Failure::Cap(n) | Failure::Cycling(n)) => iterations += n,
+            Err(Failure::Numerical(_)) => {}
+        }
+    }
+    let unsolved = |iterations: u32, reason: &str| BlockFailure::Unsolved {
+        iterations,
+        reason: reason.to_string(),
+    };
+    let mut normal = NormalMatrix::new(p.a())
+        .map_err(|_| unsolved(iterations, "the normal matrix could not be analysed"))?;
+    let Some(it) = ipm::solve(
+        p.a(),
+        &r,
+        &mut normal,
+        settings.interior_point,
+        CERTIFIABLE * context.tol,
+        settings.interior_point_iterations,
+    ) else {
+        return Err(unsolved(iterations, "the interior point could not start"));
+    };
+    iterations = iterations.saturating_add(it.iterations);
+    if settings.finish_iterations > 0 {
+        // The interior point's support, finished exactly when the active set gets there
+        // within its cap: rows reached only like `√μ` are then where they belong. On a jam
+        // (more tight rows than unknowns) it runs out, and the interior point's answer stands.
+        // The finish's tests are at `1e-12`, and on a sliver of a feasible set an answer that
+        // passes them can lie `1e-8` from the projection, farther than the interior point: it
+        // is kept only where it agrees with the interior point's answer.
+        let res = active_set::first_pass_remembering(
+            p,
+            finish_start(&it, &r, p),
+            settings.finish_iterations,
+            orderings,
+            &block.cols,
+        );
+        let agrees = |x: &[f64]| {
+            let apart = x
+                .iter()
+                .zip(p.y().iter().zip(&it.d))
+                .map(|(a, (y, d))| (a - (y + d)).abs())
+                .fold(0.0, f64::max);
+            apart <= AGREEMENT * it.accuracy.max(settings.interior_point.accuracy) * it.length
+        };
+        match res {
+            Ok(outcome) if certified(&outcome.x, &outcome.lambda) && agrees(&outcome.x) => {
+                return Ok(BlockAnswer {
+                    x: outcome.x,
+                    lambda: outcome.lambda,
+                    method: Method::InteriorPoint,
+                    iterations: iterations.saturating_add(outcome.iterations),
+                    warm,
+                    short_of: None,
+                });
+            }
+            Ok(outcome) => iterations = iterations.saturating_add(outcome.iterations),
+            // A converged interior point says the set has points: a certificate of the
+            // finish's tests would be rounding of a set of zero width.
+            Err(Failure::Infeasible { rows }) if !it.converged => {
+                return Err(BlockFailure::Infeasible(rows))
+            }
+            Err(Failure::Cap(n) | Failure::Cycling(n)) => iterations = iterations.saturating_add(n),
+            Err(Failure::Infeasible { .. } | Failure::Numerical(_)) => {}
+        }
+    }
+    // An interior point that stalled near its tolerance (the directions' rounding, with
+    // weights spanning twenty orders of magnitude, sets a floor) is answered as it is,
+    // counted as short of the tolerance.
+    let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
+    let acceptable =
+        it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy;
+    if acceptable && certified(&x, &it.lambda) {
+        return Ok(BlockAnswer {
+            x,
+            lambda: it.lambda,
+            method: Method::InteriorPoint,
+            iterations,
+            warm,
+            short_of: (!it.converged).then_some(it.accuracy * it.length),
+        });
+    }
+    if !it.converged {
+        if let Some(rows) = farkas(p, &r, &it.lambda) {
+            return Err(BlockFailure::Infeasible(rows));
+        }
+    }
+    debug_assert_eq!(r.len(), m);
+    Err(unsolved(
+        iterations,
+        &if it.converged {
+            "the interior point's answer failed the KKT check".to_string()
+        } else {
+            format!(
+                "the interior point did not converge (accuracy {:.1e})",
+                it.accuracy
+            )
+        },
+    ))
+}
+
+/// The active set's start: the remembered multipliers by row key, or, without any, the rows
+/// violated at `y` with their own half-space multipliers. Also the longest streak of interior
+/// points among the remembered rows, and whether any row was remembered.
+fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start, u32, bool) {
+    let m = p.n_rows();
+    let remembered: Vec<Option<Remembered>> = match (context.settings.warm_start, p.row_keys()) {
+        (true, Some(keys)) => keys
+            .iter()
+            .map(|k| context.memory.get(k).copied())
+            .collect(),
+        _ => vec![None; m],
+    };
+    let join: Vec<f64> = (0..m)
+        .map(|i| remembered[i].map_or_else(|| own_multiplier(p, i, r[i]), |rem| rem.multiplier))
+        .collect();
+    // With remembered rows, start from them alone: the rows violated at y join after the
+    // first solve if the point still violates them (starting from every violated row too cost
+    // 1.8 times the iterations on the paper's evacuation, most of them dropping rows).
+    let warm = remembered.iter().any(Option::is_some);
+    let support: Vec<usize> = (0..m)
+        .filter(|&i| remembered[i].is_some() || (!warm && r[i] > 0.0))
+        .collect();
+    let streak = remembered
+        .iter()
+        .flatten()
+        .map(|rem| rem.interior_streak)
+        .max()
+        .unwrap_or(0);
+    let start = Start {
+        lambda: support.iter().map(|&i| join[i]).collect(),
+        support,
+        join,
+        join_at_most: None,
+    };
+    (start, streak, warm)
+}
+
+/// The active set's start from an interior point's iterate: the rows whose multiplier exceeds
+/// their slack, with those multipliers; a row that joins later starts from its iterate's
+/// multiplier, and only the most violated row joins at an iteration (rows then also leave one
+/// at a time, see [`Start::join_at_most`]): on a jam the guess already holds more rows than
+/// unknowns, and rows joining together add dependent ones.
+///
+/// An interior point that got nowhere near its tolerance (a set with no interior, whose
+/// multipliers grow without bound) lends only its support: the multipliers start from the
+/// rows' own.
+fn finish_start(it: &ipm::Iterate, r: &[f64], p: &ProjectionProblem) -> Start {
+    let support: Vec<usize> = (0..it.lambda.len())
+        .filter(|&i| it.lambda[i] > it.slack[i])
+        .collect();
+    let near = it.accuracy <= 1e-3;
+    let start = |i: usize| {
+        let own = own_multiplier(p, i, r[i]);
+        if near {
+            it.lambda[i].max(own)
+        } else {
+            own
+        }
+    };
+    Start {
+        lambda: support.iter().map(|&i| start(i)).collect(),
+        support,
+        join: (0..r.len()).map(start).collect(),
+        join_at_most: Some(1),
+    }
+}
+
+/// One row's starting multiplier when it enters the support without a remembered one: the
+/// multiplier of its own half-space projection, `max(0, rᵢ)/‖aᵢ‖²`.
+fn own_multiplier(p: &ProjectionProblem, i: usize, r: f64) -> f64 {
+    let norm2: f64 = p.a().row(i).map(|(_, v)| v * v).sum();
+    if norm2 > 0.0 {
+        (r.max(0.0) / norm2).max(f64::MIN_POSITIVE)
+    } else {
+        f64::MIN_POSITIVE
+    }
+}
+
+/// A block whose rows went to the interior point at the last three projections or more
+/// skips the active set, except when that count is a power of two (which finds out when the
+/// jam is over).
+fn skips_active_set(streak: u32) -> bool {
+    streak >= 3 && !streak.is_power_of_two()
+}
+
+/// The size of the terms of `b − A y`, `maxᵢ |bᵢ| + Σⱼ |aᵢⱼ yⱼ|`: what its rounding is
+/// relative to.
+fn rounding_scale(p: &ProjectionProblem) -> f64 {
+    let y = p.y();
+    (0..p.n_rows())
+        .map(|i| p.b()[i].abs() + p.a().row(i).map(|(c, v)| (v * y[c]).abs()).sum::<f64>())
+        .fold(f64::MIN_POSITIVE, f64::max)
+}
+
+/// A Farkas certificate from diverging multipliers: with `λ̂ = λ/‖λ‖∞ ≥ 0`, every `d` with
+/// `A d ≥ r` has `λ̂ᵀr ≤ λ̂ᵀA d ≤ ‖Aᵀλ̂‖₁ ‖d‖∞`, so no such `d` lies within
+/// `λ̂ᵀr / ‖Aᵀλ̂‖₁` of `y`. A certificate that rules out every point within [`FARKAS_REACH`]
+/// times the block's length scale is taken; the rows it rests on.
+fn farkas(p: &ProjectionProblem, r: &[f64], lambda: &[f64]) -> Option<Vec<usize>> {
+    let top = lambda.iter().fold(0.0, |acc: f64, l| acc.max(*l));
+    if !(top.is_finite() && top > 0.0) {
+        return None;
+    }
+    let hat: Vec<f64> = lambda.iter().map(|l| l / top).collect();
+    let mut at = vec![0.0; p.dim()];
+    p.a().mul_transpose_vec(&hat, &mut at);
+    let combined: f64 = at.iter().map(|v| v.abs()).sum();
+    let reads: f64 = hat.iter().zip(r).map(|(h, ri)| h * ri).sum();
+    let norms: Vec<f64> = (0..p.n_rows())
+        .map(|i| p.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt())
+        .collect();
+    let length = (0..p.n_rows())
+        .filter(|&i| norms[i] > 0.0)
+        .map(|i| r[i].abs() / norms[i])
+        .fold(0.0, f64::max);
+    // The certificate's own infeasibility, as a distance: beyond the rounding of the data, or
+    // it is a set of zero width (two rows facing each other on one hyperplane) seen through
+    // rounding.
+    let weight: f64 = hat.iter().zip(&norms).map(|(h, n)| h * n).sum();
+    let width = reads / weight.max(f64::MIN_POSITIVE);
+    let noise = 1e3 * f64::EPSILON * rounding_scale(p);
+    (reads > 0.0 && width > noise && reads >= FARKAS_REACH * length * combined).then(|| {
+        (0..p.n_rows())
+            .filter(|&i| hat[i] > 1e-9)
+            .collect::<Vec<_>>()
+    })
+}

@@ -1,0 +1,433 @@
+//! A primal–dual interior-point method (Mehrotra's predictor–corrector) for one block, on the
+//! normal equations.
+//!
+//! With `d = x − y` and `r = b − A y` the projection is `min ½‖d‖²` subject to `A d − s = r`,
+//! `s ≥ 0`; its KKT conditions are `d = Aᵀλ`, `A d − s = r`, `λ ∘ s = 0`, `λ, s ≥ 0`. A Newton
+//! step on them with `λ ∘ s = σμ` eliminates `Δs = A Δd + r_p` and `Δλ = −r_c/s − W (A Δd +
+//! r_p)`, `W = diag(λ/s)`, leaving
+//!
+//! ```text
+//!     (I + AᵀWA) Δd = −r_d − Aᵀ(W r_p + r_c/s),
+//! ```
+//!
+//! `n × n` and positive definite whatever the rows ([`NormalMatrix`]). Rows that outnumber
+//! the unknowns, linearly dependent rows, multipliers that are not unique: none of it changes
+//! this system, which is why the method is the engine's answer to a jam. Its iterates reach
+//! rows that are tight with a zero multiplier (weakly active) only like `√μ`, so it runs until
+//! the duality gap is small against the squared step (see [`Tolerance`]), not to a fixed `μ`.
+
+use crate::normal::NormalMatrix;
+use sweeping_api::SparseRows;
+
+/// Fraction of the step to the boundary that an iteration takes.
+const TO_BOUNDARY: f64 = 0.99;
+
+/// Most refinement steps of a direction against the whole Newton system.
+const REFINEMENTS: usize = 4;
+
+/// Iterations without the residuals or `μ` halving after which the method stops.
+const STALLED: u32 = 10;
+
+/// The least slack and multiplier, against the length scale.
+const FLOOR: f64 = 1e-30;
+
+/// The duality measure, against the squared length scale, from which every solve is refined.
+const LATE: f64 = 1e-8;
+
+/// When the method stops: the accuracy contract of an interior-point answer.
+///
+/// Lengths are measured against the block's own length scale `S = maxᵢ |rᵢ|/‖aᵢ‖`, the
+/// farthest that `y` lies from a row's hyperplane. The method stops when the primal
+/// residuals (as distances, `|A d − s − r|ᵢ/‖aᵢ‖`), the dual residual `‖d − Aᵀλ‖∞` and the
+/// last Newton direction `‖Δd‖∞` are all at most `accuracy · S`, and the duality measure
+/// `μ = sᵀλ/m` at most `accuracy · S²`. Near the answer the method converges linearly, so the
+/// last direction measures how far the step still is from the answer; a bound from the gap
+/// alone (`‖d − d*‖₂ ≤ ‖r_d‖₂ + √(sᵀλ)`) would be far too pessimistic to stop on, since the
+/// iterates reach rows that are tight with a zero multiplier only like `√μ`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerance {
+    /// Target accuracy against the block's length scale. Default `1e-10`.
+    pub accuracy: f64,
+}
+
+impl Default for Tolerance {
+    fn default() -> Self {
+        Self { accuracy: 1e-10 }
+    }
+}
+
+/// Where the method stopped.
+#[derive(Debug, Clone)]
+pub struct Iterate {
+    /// The step `d = x − y`.
+    pub d: Vec<f64>,
+    /// The multipliers `λ > 0`.
+    pub lambda: Vec<f64>,
+    /// The slacks `s > 0`.
+    pub slack: Vec<f64>,
+    /// Iterations (one factorization each).
+    pub iterations: u32,
+    /// Whether the tolerance was met.
+    pub converged: bool,
+    /// How far the iterate is from the tolerance's tests: the largest of the residuals, the
+    /// last direction and `μ/S`, against `S` (see [`Tolerance`]).
+    pub accuracy: f64,
+    /// The block's length scale `S`.
+    pub length: f64,
+}
+
+/// The block's data and the work vectors of one run.
+struct Run<'a> {
+    a: &'a SparseRows,
+    r: &'a [f64],
+    normal: &'a mut NormalMatrix,
+    w: Vec<f64>,
+    row_work: Vec<f64>,
+}
+
+/// The residuals of an iterate.
+struct Residuals {
+    /// `d − Aᵀλ`.
+    dual: Vec<f64>,
+    /// `A d − s − r`.
+    primal: Vec<f64>,
+}
+
+impl Run<'_> {
+    /// The solution `(δd, δλ, δs)` of the Newton system at the iterate `(λ, s)`,
+    ///
+    /// ```text
+    ///     δd − Aᵀδλ = r₁,   A δd − δs = r₂,   S δλ + Λ δs = r₃,
+    /// ```
+    ///
+    /// by elimination: `δs = A δd − r₂`, `δλ = r₃/s − W(A δd − r₂)` and
+    /// `(I + AᵀWA) δd = r₁ + Aᵀ(r₃/s + W r₂)`.
+    fn eliminate(
+        &mut self,
+        slack: &[f64],
+        (r1, r2, r3): (&[f64], &[f64], &[f64]),
+        (dd, dl, ds): (&mut [f64], &mut [f64], &mut [f64]),
+    ) {
+        let m = slack.len();
+        for i in 0..m {
+            self.row_work[i] = r3[i] / slack[i] + self.w[i] * r2[i];
+        }
+        self.a.mul_transpose_vec(&self.row_work, dd);
+        dd.iter_mut().zip(r1).for_each(|(v, r)| *v += r);
+        self.normal.solve(dd);
+        self.a.mul_vec(dd, ds);
+        for i in 0..m {
+            ds[i] -= r2[i];
+            dl[i] = r3[i] / slack[i] - self.w[i] * ds[i];
+        }
+    }
+
+    /// The direction `(Δd, Δλ, Δs)` for the complementarity residual `r_c` (`λ ∘ s` minus
+    /// what it should become): the Newton system with `r₁ = −r_d`, `r₂ = −r_p`, `r₃ = −r_c`,
+    /// and, when `refine`, one step of refinement against the whole system. Near the answer
+    /// `W` spans twenty orders of magnitude, and `δλ = … − W(A δd − r₂)` multiplies the
+    /// rounding of `δd` by it; the whole system's residual sees that error (in its first
+    /// equation), the normal equations' does not.
+    fn direction(
+        &mut self,
+        (lambda, slack): (&[f64], &[f64]),
+        res: &Residuals,
+        r_c: &[f64],
+        refine: bool,
+        (dd, dl, ds): (&mut [f64], &mut [f64], &mut [f64]),
+    ) {
+        let (m, n) = (slack.len(), dd.len());
+        let r1: Vec<f64> = res.dual.iter().map(|v| -v).collect();
+        let r2: Vec<f64> = res.primal.iter().map(|v| -v).collect();
+        let r3: Vec<f64> = r_c.iter().map(|v| -v).collect();
+        self.eliminate(slack, (&r1, &r2, &r3), (dd, dl, ds));
+        if !refine {
+            return;
+        }
+        let size = inf_norm(dd).max(inf_norm(ds)).max(
+            (0..m)
+                .map(|i| (dl[i] * slack[i] / lambda[i]).abs())
+                .fold(0.0, f64::max),
+        );
+        let (mut e1, mut e2, mut e3) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+        let (mut cd, mut cl, mut cs) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+        let mut last = f64::INFINITY;
+        for _ in 0..REFINEMENTS {
+            // e₁ = r₁ − (δd − Aᵀδλ), e₂ = r₂ − (A δd − δs), e₃ = r₃ − (S δλ + Λ δs), each
+            // against the size of its terms.
+            self.a.mul_transpose_vec(dl, &mut e1);
+            for j in 0..n {
+                e1[j] += r1[j] - dd[j];
+            }
+            self.a.mul_vec(dd, &mut e2);
+            for i in 0..m {
+                e2[i] = r2[i] - e2[i] + ds[i];
+                e3[i] = r3[i] - slack[i] * dl[i] - lambda[i] * ds[i];
+            }
+            let off = inf_norm(&e1).max(inf_norm(&e2)).max(
+                (0..m)
+                    .map(|i| (e3[i] / lambda[i]).abs())
+                    .fold(0.0, f64::max),
+            );
+            // Residuals at the rounding of the direction's own size need no correction.
+            let shrinking = off < 0.5 * last;
+            if !shrinking || off <= size * 1e-14 {
+                break;
+            }
+            last = off;
+            self.eliminate(slack, (&e1, &e2, &e3), (&mut cd, &mut cl, &mut cs));
+            dd.iter_mut().zip(&cd).for_each(|(v, c)| *v += c);
+            dl.iter_mut().zip(&cl).for_each(|(v, c)| *v += c);
+            ds.iter_mut().zip(&cs).for_each(|(v, c)| *v += c);
+        }
+    }
+}
+
+/// The largest `α` with `v + α Δv ≥ 0` (infinite when `Δv ≥ 0`).
+fn step_to_boundary(v: &[f64], dv: &[f64]) -> f64 {
+    v.iter()
+        .zip(dv)
+        .filter(|(_, d)| **d < 0.0)
+        .map(|(x, d)| -x / d)
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn inf_norm(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |acc: f64, x| acc.max(x.abs()))
+}
+
+/// Mehrotra's starting point: the least-squares `d̂ = argmin ½‖d‖² + ½‖Ad − r‖²` (`normal`
+/// factored with unit weights), whose `λ̂ = r − A d̂` makes it dual feasible (`d̂ = Aᵀλ̂`) with
+/// `s = −λ̂`; both shifted into the positive orthant and balanced.
+fn starting_point(run: &mut Run<'_>, d: &mut [f64]) -> (Vec<f64>, Vec<f64>) {
+    let m = run.r.len();
+    run.a.mul_transpose_vec(run.r, d);
+    run.normal.solve(d);
+    run.a.mul_vec(d, &mut run.row_work);
+    let mut slack: Vec<f64> = (0..m).map(|i| run.row_work[i] - run.r[i]).collect();
+    let mut lambda: Vec<f64> = slack.iter().map(|s| -s).collect();
+    let shift = |v: &mut Vec<f64>| {
+        let low = v.iter().fold(f64::INFINITY, |acc, &x| acc.min(x));
+        let by = (-1.5 * low).max(0.0);
+        v.iter_mut().for_each(|x| *x += by);
+    };
+    shift(&mut slack);
+    shift(&mut lambda);
+    let product: f64 = slack.iter().zip(&lambda).map(|(s, l)| s * l).sum();
+    let (sum_s, sum_l): (f64, f64) = (slack.iter().sum(), lambda.iter().sum());
+    let by_s = if sum_l > 0.0 {
+        0.5 * product / sum_l
+    } else {
+        1.0
+    };
+    let by_l = if sum_s > 0.0 {
+        0.5 * product / sum_s
+    } else {
+        1.0
+    };
+    let floor = f64::MIN_POSITIVE.max(1e-20 * inf_norm(run.r));
+    slack.iter_mut().for_each(|s| *s = (*s + by_s).max(floor));
+    lambda.iter_mut().for_each(|l| *l = (*l + by_l).max(floor));
+    (slack, lambda)
+}
+
+/// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` (`normal` built from `a`) until `tolerance`
+/// is met or `max_iterations` have run, or until the normal matrix can no longer be factored,
+/// a direction is no longer finite, or [`STALLED`] iterations pass without the residuals or
+/// `μ` halving; then
+/// the most accurate iterate is returned, not converged (on an empty set the multipliers
+/// diverge along a Farkas certificate: then the last iterate). `None` without rows or when
+/// the first factorization fails.
+///
+/// `kkt` is the caller's certificate: the method does not stop before the residuals and every
+/// product `λᵢ sᵢ` are within it (absolute), so that a converged iterate passes the check.
+pub(crate) fn solve(
+    a: &SparseRows,
+    r: &[f64],
+    normal: &mut NormalMatrix,
+    tolerance: Tolerance,
+    kkt: f64,
+    max_iterations: u32,
+) -> Option<Iterate> {
+    let (m, n) = (a.n_rows(), a.n_cols());
+    if m == 0 || normal.factor(&vec![1.0; m]).is_err() {
+        return None;
+    }
+    let row_norm: Vec<f64> = (0..m)
+        .map(|i| a.row(i).map(|(_, v)| v * v).sum::<f64>().sqrt())
+        .collect();
+    let length = (0..m)
+        .filter(|&i| row_norm[i] > 0.0)
+        .map(|i| r[i].abs() / row_norm[i])
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let mut run = Run {
+        a,
+        r,
+        normal,
+        w: vec![0.0; m],
+        row_work: vec![0.0; m],
+    };
+    let mut d = vec![0.0; n];
+    let (mut slack, mut lambda) = starting_point(&mut run, &mut d);
+    let mut res = Residuals {
+        dual: vec![0.0; n],
+        primal: vec![0.0; m],
+    };
+    let mut r_c = vec![0.0; m];
+    let (mut dd, mut dl, mut ds) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+    // The residuals shrink by `1 − α` per iteration in exact arithmetic; once they grow the
+    // directions are no longer accurate (weights spanning many orders of magnitude), and from
+    // then on each solve is refined once; so they are from the late iterations on, where the
+    // weights spread (without, a door queue's residuals jumped from 1e-11 to 1e-7 and the
+    // method broke down one step short of its tolerance).
+    let mut refine = false;
+    let mut last_residual = f64::INFINITY;
+    let mut last_direction = f64::INFINITY;
+    let mut best: Option<((bool, f64), Iterate)> = None;
+    let mut best_progress = f64::INFINITY;
+    let mut since_progress = 0;
+    let mut iterations = 0;
+    loop {
+        // Residuals: r_d = d − Aᵀλ, r_p = A d − s − r.
+        a.mul_transpose_vec(&lambda, &mut res.dual);
+        res.dual.iter_mut().zip(&d).for_each(|(v, di)| *v = di - *v);
+        a.mul_vec(&d, &mut res.primal);
+        for i in 0..m {
+            res.primal[i] -= slack[i] + r[i];
+        }
+        let primal_off = (0..m)
+            .filter(|&i| row_norm[i] > 0.0)
+            .map(|i| res.primal[i].abs() / row_norm[i])
+            .fold(0.0, f64::max);
+        let residual = primal_off.max(inf_norm(&res.dual));
+        let mu = slack.iter().zip(&lambda).map(|(s, l)| s * l).sum::<f64>() / m as f64;
+        let largest_product = slack
+            .iter()
+            .zip(&lambda)
+            .map(|(s, l)| s * l)
+            .fold(0.0, f64::max);
+        let certifiable = residual.max(largest_product) <= kkt;
+        let off = residual.max(last_direction).max(mu / length) / length;
+        if !(residual.is_finite() && mu.is_finite()) {
+            break;
+        }
+        if off <= tolerance.accuracy && certifiable {
+            return Some(Iterate {
+                d,
+                lambda,
+                slack,
+                iterations,
+                converged: true,
+                accuracy: off,
+                length,
+            });
+        }
+        // The best iterate is the most accurate of those the certificate would accept (or of
+        // all, while none would): past the point where the directions lose accuracy, a later
+        // iterate can have a smaller last direction and a residual the check refuses.
+        let rank = (!certifiable, off);
+        if best.as_ref().is_none_or(|b| rank < b.0) {
+            best = Some((
+                rank,
+                Iterate {
+                    d: d.clone(),
+                    lambda: lambda.clone(),
+                    slack: slack.clone(),
+                    iterations,
+                    converged: false,
+                    accuracy: off,
+                    length,
+                },
+            ));
+        }
+        // Progress is the residuals and `μ` falling; the last direction comes and goes (a
+        // random instance sat at one residual for five iterations and then converged).
+        let progress = residual.max(mu / length);
+        if progress < 0.5 * best_progress {
+            best_progress = progress;
+            since_progress = 0;
+        } else {
+            since_progress += 1;
+        }
+        if iterations >= max_iterations || since_progress >= STALLED {
+            break;
+        }
+        iterations += 1;
+        let absolute_residual = residual;
+        refine |= mu <= LATE * length * length
+            || (absolute_residual > last_residual && residual > tolerance.accuracy * length);
+        last_residual = absolute_residual;
+        for i in 0..m {
+            run.w[i] = lambda[i] / slack[i];
+        }
+        if run.normal.factor(&run.w).is_err() {
+            break;
+        }
+        // Predictor: the affine-scaling direction (target λ ∘ s = 0).
+        for i in 0..m {
+            r_c[i] = slack[i] * lambda[i];
+        }
+        run.direction(
+            (&lambda, &slack),
+            &res,
+            &r_c,
+            refine,
+            (&mut dd, &mut dl, &mut ds),
+        );
+        let alpha = step_to_boundary(&slack, &ds)
+            .min(step_to_boundary(&lambda, &dl))
+            .min(1.0);
+        let mu_affine = slack
+            .iter()
+            .zip(&ds)
+            .zip(lambda.iter().zip(&dl))
+            .map(|((s, dsi), (l, dli))| (s + alpha * dsi) * (l + alpha * dli))
+            .sum::<f64>()
+            / m as f64;
+        let sigma = (mu_affine / mu).clamp(0.0, 1.0).powi(3);
+        // Corrector: the second-order term of the predictor, and centring.
+        for i in 0..m {
+            r_c[i] = slack[i] * lambda[i] + ds[i] * dl[i] - sigma * mu;
+        }
+        run.direction(
+            (&lambda, &slack),
+            &res,
+            &r_c,
+            refine,
+            (&mut dd, &mut dl, &mut ds),
+        );
+        let alpha = (TO_BOUNDARY
+            * step_to_boundary(&slack, &ds).min(step_to_boundary(&lambda, &dl)))
+        .min(1.0);
+        if !(alpha.is_finite() && dd.iter().chain(&ds).chain(&dl).all(|v| v.is_finite())) {
+            break;
+        }
+        last_direction = alpha * inf_norm(&dd);
+        for j in 0..n {
+            d[j] += alpha * dd[j];
+        }
+        // Kept off zero by a floor far below any accuracy asked for: a slack rounded to zero
+        // makes its weight infinite and the next direction not finite.
+        let floor = FLOOR * length;
+        for i in 0..m {
+            slack[i] = (slack[i] + alpha * ds[i]).max(floor);
+            lambda[i] = (lambda[i] + alpha * dl[i]).max(floor);
+        }
+    }
+    // A diverging run (an empty set) keeps its last multipliers, which point along a Farkas
+    // certificate; otherwise the most accurate iterate is the one worth having.
+    let got_close = best.as_ref().is_some_and(|(b, _)| b.1 < 1e-3);
+    match best {
+        Some((_, it)) if got_close => Some(Iterate { iterations, ..it }),
+        _ => Some(Iterate {
+            d,
+            lambda,
+            slack,
+            iterations,
+            converged: false,
+            accuracy: f64::INFINITY,
+            length,
+        }),
+    }
+}

@@ -1,0 +1,337 @@
+//! The normal matrix `I + AᵀWA` of a block, and its Cholesky factor.
+//!
+//! Both methods of the engine solve with it: the interior point with the weights `W =
+//! diag(λ/s)` of its iterate, the support method with weights `σ` on the rows of its support
+//! and `0` elsewhere. Whatever the rows — more of them than unknowns, linearly dependent — it
+//! is symmetric positive definite (the identity comes from the objective `½‖d‖²`), so a
+//! Cholesky factorization exists. Its pattern is that of `I + AᵀA` for every `W`: it is
+//! ordered (AMD) and analysed once per block, and only refactored numerically after that.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+use sweeping_api::SparseRows;
+
+/// Blocks of at least this many unknowns are factored supernodally (dense kernels on groups
+/// of columns with the same pattern), smaller ones column by column: on a jam's blocks of
+/// 1400 unknowns the supernodal factorization takes two thirds of the time of the other
+/// (`docs/lab/`), on small ones its bookkeeping costs more than it saves.
+const SUPERNODAL_FROM: usize = 400;
+
+/// Why a factorization could not be used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct NotFactorable;
+
+/// `I + AᵀWA` for one block's rows `A`, and its factor for the last weights given.
+pub(crate) struct NormalMatrix {
+    n: usize,
+    /// Upper triangle, compressed by columns.
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+    /// For each row of `A`, for each pair `k ≤ l` of its entries, where `aₖ aₗ` adds up in
+    /// `values`…
+    slots: Vec<usize>,
+    /// …and `aₖ aₗ` itself.
+    products: Vec<f64>,
+    /// Where each row's pairs start in `slots`.
+    row_slots: Vec<usize>,
+    /// Where the diagonal entries are.
+    diagonal: Vec<usize>,
+    symbolic: SymbolicCholesky<usize>,
+    factor: Vec<f64>,
+    workspace: MemBuffer,
+    factored: bool,
+}
+
+impl std::fmt::Debug for NormalMatrix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NormalMatrix")
+            .field("n", &self.n)
+            .field("entries", &self.values.len())
+            .field("factor_entries", &self.factor.len())
+            .finish()
+    }
+}
+
+impl NormalMatrix {
+    /// The pattern of `I + AᵀA`, ordered and analysed.
+    ///
+    /// # Errors
+    /// [`NotFactorable`] when the symbolic analysis cannot allocate its workspace.
+    pub(crate) fn new(a: &SparseRows) -> Result<Self, NotFactorable> {
+        let (m, n) = (a.n_rows(), a.n_cols());
+        let (ptr, idx, val) = (a.row_ptr(), a.col_idx(), a.values());
+        // The rows touching each column (the transpose's pattern), by counting: each column of
+        // `I + AᵀA` is then gathered from its own rows.
+        let mut col_start = vec![0usize; n + 1];
+        for &c in idx {
+            col_start[c + 1] += 1;
+        }
+        for j in 0..n {
+            col_start[j + 1] += col_start[j];
+        }
+        let mut next = col_start.clone();
+        let mut col_rows = vec![0usize; idx.len()];
+        for i in 0..m {
+            for &c in &idx[ptr[i]..ptr[i + 1]] {
+                col_rows[next[c]] = i;
+                next[c] += 1;
+            }
+        }
+        // Column q holds the diagonal and every p < q that shares a row with q.
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0);
+        let mut row_idx = Vec::with_capacity(n + 2 * idx.len());
+        let mut seen = vec![usize::MAX; n];
+        for q in 0..n {
+            let start = row_idx.len();
+            seen[q] = q;
+            row_idx.push(q);
+            for &i in &col_rows[col_start[q]..col_start[q + 1]] {
+                for &p in &idx[ptr[i]..ptr[i + 1]] {
+                    if p < q && seen[p] != q {
+                        seen[p] = q;
+                        row_idx.push(p);
+                    }
+                }
+            }
+            row_idx[start..].sort_unstable();
+            col_ptr.push(row_idx.len());
+        }
+        let position = |row: usize, col: usize| -> usize {
+            let range = col_ptr[col]..col_ptr[col + 1];
+            range.start
+                + row_idx[range]
+                    .binary_search(&row)
+                    .expect("every pair of a row was entered in the pattern")
+        };
+        let pairs: usize = (0..m)
+            .map(|i| {
+                let t = ptr[i + 1] - ptr[i];
+                t * (t + 1) / 2
+            })
+            .sum();
+        let mut slots = Vec::with_capacity(pairs);
+        let mut products = Vec::with_capacity(pairs);
+        let mut row_slots = Vec::with_capacity(m + 1);
+        row_slots.push(0);
+        for i in 0..m {
+            for k in ptr[i]..ptr[i + 1] {
+                for l in ptr[i]..ptr[i + 1] {
+                    let (p, q) = (idx[k], idx[l]);
+                    if p <= q {
+                        slots.push(position(p, q));
+                        products.push(val[k] * val[l]);
+                    }
+                }
+            }
+            row_slots.push(slots.len());
+        }
+        let diagonal = (0..n).map(|j| position(j, j)).collect();
+        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let threshold = if n >= SUPERNODAL_FROM {
+            SupernodalThreshold::FORCE_SUPERNODAL
+        } else {
+            SupernodalThreshold::FORCE_SIMPLICIAL
+        };
+        let symbolic = factorize_symbolic_cholesky(
+            pattern,
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: threshold,
+                ..Default::default()
+            },
+        )
+        .map_err(|_| NotFactorable)?;
+        let scratch = symbolic
+            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+            .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+        let workspace = MemBuffer::try_new(scratch).map_err(|_| NotFactorable)?;
+        let nnz = row_idx.len();
+        Ok(Self {
+            n,
+            factor: vec![0.0; symbolic.len_val()],
+            col_ptr,
+            row_idx,
+            values: vec![0.0; nnz],
+            slots,
+            products,
+            row_slots,
+            diagonal,
+            symbolic,
+            workspace,
+            factored: false,
+        })
+    }
+
+    /// Fills `I + AᵀWA` (one weight per row of the `A` this matrix was built from) and factors
+    /// it. A factorization that meets a pivot too small for its size (weights spanning twenty
+    /// orders of magnitude near an interior point's answer) is redone with such pivots raised
+    /// (faer's dynamic regularization); the solves are then those of a nearby matrix, which
+    /// callers refine against the true one.
+    ///
+    /// # Errors
+    /// [`NotFactorable`] when a weight is not finite or both factorizations fail.
+    pub(crate) fn factor(&mut self, w: &[f64]) -> Result<(), NotFactorable> {
+        self.factored = false;
+        if !w.iter().all(|v| v.is_finite()) {
+            return Err(NotFactorable);
+        }
+        self.values.iter_mut().for_each(|v| *v = 0.0);
+        for &p in &self.diagonal {
+            self.values[p] = 1.0;
+        }
+        for (i, &wi) in w.iter().enumerate() {
+            if wi == 0.0 {
+                continue;
+            }
+            let range = self.row_slots[i]..self.row_slots[i + 1];
+            for (&slot, &c) in self.slots[range.clone()].iter().zip(&self.products[range]) {
+                self.values[slot] += wi * c;
+            }
+        }
+        let largest = self
+            .diagonal
+            .iter()
+            .map(|&p| self.values[p])
+            .fold(1.0, f64::max);
+        // Every pivot of `I + AᵀWA` is at least 1 in exact arithmetic (a Schur complement of
+        // the identity plus a positive semidefinite matrix); one far below it is rounding
+        // after cancellation between weights of 1e20, as near an interior point's answer.
+        // Such a pivot is made far larger than any entry, which sets the direction's component there to zero
+        // instead of letting the rounding through (the treatment of dependent rows in the
+        // normal equations of LIPSOL, Zhang 1996).
+        let regularization = LltRegularization {
+            dynamic_regularization_delta: largest * 1e8,
+            dynamic_regularization_epsilon: 0.5,
+        };
+        let matrix = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(
+                self.n,
+                self.n,
+                &self.col_ptr,
+                None,
+                &self.row_idx,
+            ),
+            &self.values,
+        );
+        let stack = MemStack::new(&mut self.workspace);
+        if self
+            .symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.factor,
+                matrix,
+                Side::Upper,
+                regularization,
+                Par::Seq,
+                stack,
+                Default::default(),
+            )
+            .is_ok()
+        {
+            self.factored = true;
+            return Ok(());
+        }
+        Err(NotFactorable)
+    }
+
+    /// Solves `(I + AᵀWA) v_new = v` in place with the last factor.
+    ///
+    /// # Panics
+    /// When no factorization succeeded since the last [`Self::factor`] call, or `v` has the
+    /// wrong length.
+    pub(crate) fn solve(&mut self, v: &mut [f64]) {
+        assert!(self.factored, "solve without a factor");
+        assert_eq!(v.len(), self.n, "right-hand side of the wrong length");
+        let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.factor);
+        let stack = MemStack::new(&mut self.workspace);
+        let n = v.len();
+        llt.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(v, n, 1),
+            Par::Seq,
+            stack,
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dense(a: &SparseRows, w: &[f64]) -> Vec<Vec<f64>> {
+        let n = a.n_cols();
+        let mut m = vec![vec![0.0; n]; n];
+        for (j, row) in m.iter_mut().enumerate() {
+            row[j] = 1.0;
+        }
+        for (i, wi) in w.iter().enumerate() {
+            let row: Vec<_> = a.row(i).collect();
+            for &(p, u) in &row {
+                for &(q, v) in &row {
+                    m[p][q] += wi * u * v;
+                }
+            }
+        }
+        m
+    }
+
+    fn chain(n: usize) -> SparseRows {
+        // Rows x_{j+1} − x_j and a few repeated (dependent) ones, more rows than unknowns.
+        let mut rows: Vec<Vec<(usize, f64)>> =
+            (0..n - 1).map(|j| vec![(j, -1.0), (j + 1, 1.0)]).collect();
+        rows.extend((0..n - 1).map(|j| vec![(j, -2.0), (j + 1, 2.0)]));
+        rows.push(vec![(0, 0.5), (n - 1, 0.25)]);
+        SparseRows::from_rows(n, &rows)
+    }
+
+    #[test]
+    fn solves_against_the_dense_matrix_for_small_and_large_blocks() {
+        for n in [5, SUPERNODAL_FROM + 3] {
+            let a = chain(n);
+            let w: Vec<f64> = (0..a.n_rows()).map(|i| 0.1 + (i % 7) as f64).collect();
+            let mut normal = NormalMatrix::new(&a).unwrap();
+            normal.factor(&w).unwrap();
+            let x: Vec<f64> = (0..n).map(|j| (j as f64 * 0.37).sin()).collect();
+            let m = dense(&a, &w);
+            let mut b: Vec<f64> = m
+                .iter()
+                .map(|row| row.iter().zip(&x).map(|(u, v)| u * v).sum())
+                .collect();
+            normal.solve(&mut b);
+            for (u, v) in b.iter().zip(&x) {
+                assert!((u - v).abs() < 1e-9, "n = {n}: {u} vs {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn weights_far_apart_still_factor() {
+        let a = chain(40);
+        let w: Vec<f64> = (0..a.n_rows())
+            .map(|i| if i % 2 == 0 { 1e20 } else { 1e-20 })
+            .collect();
+        let mut normal = NormalMatrix::new(&a).unwrap();
+        assert!(normal.factor(&w).is_ok());
+        let mut v = vec![1.0; 40];
+        normal.solve(&mut v);
+        assert!(v.iter().all(|x| x.is_finite()));
+    }
+
+    #[test]
+    fn a_weight_that_is_not_finite_is_refused() {
+        let a = chain(4);
+        let mut normal = NormalMatrix::new(&a).unwrap();
+        let mut w = vec![1.0; a.n_rows()];
+        w[2] = f64::NAN;
+        assert_eq!(normal.factor(&w), Err(NotFactorable));
+    }
+}
