@@ -399,6 +399,12 @@ fn parallel_groups(blocks: &[Block], parallel_rows: usize) -> Vec<Vec<usize>> {
 /// scale, where the iterate lies nearer the projection than that measure says (`docs/lab/`).
 const STALL_ALLOWANCE: f64 = 1e4;
 
+/// Blocks smaller than [`EngineSettings::parallel_rows`] give the active set this many times
+/// [`EngineSettings::active_set_iterations`]: on them an iteration of the active set costs a
+/// few tens of microseconds and the interior point with its set-up a millisecond (a queue at
+/// the paper's door; `docs/lab/`).
+const SMALL_BLOCK_ITERATIONS: u32 = 3;
+
 /// A finish is kept when it lies within this many times the interior point's accuracy (its
 /// measure times the block's length scale) of the interior point's answer.
 const AGREEMENT: f64 = 100.0;
@@ -427,13 +433,12 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         k.is_finite() && k <= context.tol
     };
     if settings.active_set_iterations > 0 && !skips_active_set(streak) {
-        let res = active_set::solve_remembering(
-            p,
-            start,
-            settings.active_set_iterations,
-            orderings,
-            &block.cols,
-        );
+        let cap = if m < settings.parallel_rows {
+            settings.active_set_iterations.saturating_mul(SMALL_BLOCK_ITERATIONS)
+        } else {
+            settings.active_set_iterations
+        };
+        let res = active_set::solve_remembering(p, start, cap, orderings, &block.cols);
         match res {
             Ok(outcome) if certified(&outcome.x, &outcome.lambda) => {
                 return Ok(BlockAnswer {

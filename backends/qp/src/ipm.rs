@@ -83,6 +83,22 @@ struct Run<'a> {
     normal: &'a mut NormalMatrix,
     w: Vec<f64>,
     row_work: Vec<f64>,
+    scratch: Scratch,
+}
+
+/// The right-hand sides, residuals and corrections of [`Run::direction`], kept from one
+/// iteration to the next.
+#[derive(Default)]
+struct Scratch {
+    r1: Vec<f64>,
+    r2: Vec<f64>,
+    r3: Vec<f64>,
+    e1: Vec<f64>,
+    e2: Vec<f64>,
+    e3: Vec<f64>,
+    cd: Vec<f64>,
+    cl: Vec<f64>,
+    cs: Vec<f64>,
 }
 
 /// The residuals of an iterate.
@@ -137,49 +153,61 @@ impl Run<'_> {
         (dd, dl, ds): (&mut [f64], &mut [f64], &mut [f64]),
     ) {
         let (m, n) = (slack.len(), dd.len());
-        let r1: Vec<f64> = res.dual.iter().map(|v| -v).collect();
-        let r2: Vec<f64> = res.primal.iter().map(|v| -v).collect();
-        let r3: Vec<f64> = r_c.iter().map(|v| -v).collect();
-        self.eliminate(slack, (&r1, &r2, &r3), (dd, dl, ds));
-        if !refine {
-            return;
-        }
-        let size = inf_norm(dd).max(inf_norm(ds)).max(
-            (0..m)
-                .map(|i| (dl[i] * slack[i] / lambda[i]).abs())
-                .fold(0.0, f64::max),
-        );
-        let (mut e1, mut e2, mut e3) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
-        let (mut cd, mut cl, mut cs) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
-        let mut last = f64::INFINITY;
-        for _ in 0..REFINEMENTS {
-            // e₁ = r₁ − (δd − Aᵀδλ), e₂ = r₂ − (A δd − δs), e₃ = r₃ − (S δλ + Λ δs), each
-            // against the size of its terms.
-            self.a.mul_transpose_vec(dl, &mut e1);
-            for j in 0..n {
-                e1[j] += r1[j] - dd[j];
-            }
-            self.a.mul_vec(dd, &mut e2);
-            for i in 0..m {
-                e2[i] = r2[i] - e2[i] + ds[i];
-                e3[i] = r3[i] - slack[i] * dl[i] - lambda[i] * ds[i];
-            }
-            let off = inf_norm(&e1).max(inf_norm(&e2)).max(
+        let mut sc = std::mem::take(&mut self.scratch);
+        let negated = |out: &mut Vec<f64>, v: &[f64]| {
+            out.clear();
+            out.extend(v.iter().map(|x| -x));
+        };
+        negated(&mut sc.r1, &res.dual);
+        negated(&mut sc.r2, &res.primal);
+        negated(&mut sc.r3, r_c);
+        self.eliminate(slack, (&sc.r1, &sc.r2, &sc.r3), (dd, dl, ds));
+        if refine {
+            let size = inf_norm(dd).max(inf_norm(ds)).max(
                 (0..m)
-                    .map(|i| (e3[i] / lambda[i]).abs())
+                    .map(|i| (dl[i] * slack[i] / lambda[i]).abs())
                     .fold(0.0, f64::max),
             );
-            // Residuals at the rounding of the direction's own size need no correction.
-            let shrinking = off < 0.5 * last;
-            if !shrinking || off <= size * 1e-14 {
-                break;
+            for v in [&mut sc.e1, &mut sc.cd] {
+                v.resize(n, 0.0);
             }
-            last = off;
-            self.eliminate(slack, (&e1, &e2, &e3), (&mut cd, &mut cl, &mut cs));
-            dd.iter_mut().zip(&cd).for_each(|(v, c)| *v += c);
-            dl.iter_mut().zip(&cl).for_each(|(v, c)| *v += c);
-            ds.iter_mut().zip(&cs).for_each(|(v, c)| *v += c);
+            for v in [&mut sc.e2, &mut sc.e3, &mut sc.cl, &mut sc.cs] {
+                v.resize(m, 0.0);
+            }
+            let mut last = f64::INFINITY;
+            for _ in 0..REFINEMENTS {
+                // e₁ = r₁ − (δd − Aᵀδλ), e₂ = r₂ − (A δd − δs), e₃ = r₃ − (S δλ + Λ δs).
+                self.a.mul_transpose_vec(dl, &mut sc.e1);
+                for j in 0..n {
+                    sc.e1[j] += sc.r1[j] - dd[j];
+                }
+                self.a.mul_vec(dd, &mut sc.e2);
+                for i in 0..m {
+                    sc.e2[i] = sc.r2[i] - sc.e2[i] + ds[i];
+                    sc.e3[i] = sc.r3[i] - slack[i] * dl[i] - lambda[i] * ds[i];
+                }
+                let off = inf_norm(&sc.e1).max(inf_norm(&sc.e2)).max(
+                    (0..m)
+                        .map(|i| (sc.e3[i] / lambda[i]).abs())
+                        .fold(0.0, f64::max),
+                );
+                // Residuals at the rounding of the direction's own size need no correction.
+                let shrinking = off < 0.5 * last;
+                if !shrinking || off <= size * 1e-14 {
+                    break;
+                }
+                last = off;
+                self.eliminate(
+                    slack,
+                    (&sc.e1, &sc.e2, &sc.e3),
+                    (&mut sc.cd, &mut sc.cl, &mut sc.cs),
+                );
+                dd.iter_mut().zip(&sc.cd).for_each(|(v, c)| *v += c);
+                dl.iter_mut().zip(&sc.cl).for_each(|(v, c)| *v += c);
+                ds.iter_mut().zip(&sc.cs).for_each(|(v, c)| *v += c);
+            }
         }
+        self.scratch = sc;
     }
 }
 
@@ -267,6 +295,7 @@ pub(crate) fn solve(
         normal,
         w: vec![0.0; m],
         row_work: vec![0.0; m],
+        scratch: Scratch::default(),
     };
     let mut d = vec![0.0; n];
     let (mut slack, mut lambda) = starting_point(&mut run, &mut d);
@@ -328,9 +357,9 @@ pub(crate) fn solve(
         // iterate can have a smaller last direction and a residual the check refuses.
         let rank = (!certifiable, off);
         if best.as_ref().is_none_or(|b| rank < b.0) {
-            best = Some((
-                rank,
-                Iterate {
+            // Copied into the vectors of the last best, not allocated again.
+            let mut kept = best.take().map_or_else(
+                || Iterate {
                     d: d.clone(),
                     lambda: lambda.clone(),
                     slack: slack.clone(),
@@ -339,7 +368,14 @@ pub(crate) fn solve(
                     accuracy: off,
                     length,
                 },
-            ));
+                |(_, kept)| kept,
+            );
+            kept.d.copy_from_slice(&d);
+            kept.lambda.copy_from_slice(&lambda);
+            kept.slack.copy_from_slice(&slack);
+            kept.iterations = iterations;
+            kept.accuracy = off;
+            best = Some((rank, kept));
         }
         // Progress is the residuals and `μ` falling; the last direction comes and goes (a
         // random instance sat at one residual for five iterations and then converged).
