@@ -34,7 +34,8 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     for file in files {
         let text = std::fs::read_to_string(file).with_context(|| format!("reading {file}"))?;
-        let value: Value = serde_json::from_str(&text).with_context(|| format!("parsing {file}"))?;
+        let value: Value =
+            serde_json::from_str(&text).with_context(|| format!("parsing {file}"))?;
         let value = value.get("problem").cloned().unwrap_or(value);
         let problem: ProjectionProblem =
             serde_json::from_value(value).with_context(|| format!("{file}: not a problem"))?;

@@ -39,7 +39,7 @@ use crate::problem::{LinearizeScratch, Problem};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use sweeping_api::{
-    max_or_nan, Projection, ProjectionProblem, Projector, RowKey, SolveStats, SparseRows,
+    BackendCounters, Projection, ProjectionProblem, Projector, RowKey, SolveStats, SparseRows,
 };
 
 /// A time or coordinate for messages: rounded to 1e-9 so that `t = k·h` prints as `3.78`, not
@@ -187,21 +187,9 @@ pub struct StepReport {
     pub solves: usize,
     /// Solver iterations, summed over the solves.
     pub iterations: u32,
-    /// Sub-problems the backend could not certify and handed to its fallback, summed over the
-    /// solves (see [`sweeping_api::SolveStats::fallbacks`]).
+    /// How the backend reached its answers, summed over the solves.
     #[serde(default)]
-    pub fallbacks: u32,
-    /// Sub-problems the backend's first method did not converge on and its own second method
-    /// solved, summed over the solves (see [`sweeping_api::SolveStats::rescues`]).
-    #[serde(default)]
-    pub rescues: u32,
-    /// Sub-problems whose answer the active-set method's second pass could not finish,
-    /// summed over the solves (see [`sweeping_api::SolveStats::unfinished`]).
-    #[serde(default)]
-    pub unfinished: u32,
-    /// The largest amount by which those answers are off (absolute; `0` when none).
-    #[serde(default)]
-    pub unfinished_off: f64,
+    pub counters: BackendCounters,
     /// Seconds per stage.
     pub times: StageTimes,
     /// `max(0, −minᵢ gᵢ(t_{k+1}, q_{k+1}))`: how far the new configuration is outside the true
@@ -226,18 +214,9 @@ pub struct RunStats {
     pub times: StageTimes,
     /// Solver iterations, summed.
     pub iterations: u64,
-    /// Backend fallbacks, summed.
+    /// How the backend reached its answers, summed.
     #[serde(default)]
-    pub fallbacks: u64,
-    /// Backend rescues (its own second method), summed.
-    #[serde(default)]
-    pub rescues: u64,
-    /// Answers the active-set method's second pass could not finish, summed.
-    #[serde(default)]
-    pub unfinished: u64,
-    /// The largest amount by which any of them was off.
-    #[serde(default)]
-    pub unfinished_off: f64,
+    pub counters: BackendCounters,
     /// Solves, summed (more than `steps` when culling proofs failed).
     pub solves: u64,
     /// Rows assembled, summed over steps.
@@ -260,10 +239,7 @@ impl RunStats {
         self.steps += 1;
         self.times.add(&r.times);
         self.iterations += u64::from(r.iterations);
-        self.fallbacks += u64::from(r.fallbacks);
-        self.rescues += u64::from(r.rescues);
-        self.unfinished += u64::from(r.unfinished);
-        self.unfinished_off = max_or_nan(self.unfinished_off, r.unfinished_off);
+        self.counters.add(&r.counters);
         self.solves += r.solves as u64;
         self.rows += r.rows as u64;
         self.max_rows = self.max_rows.max(r.rows);
@@ -969,9 +945,7 @@ impl<'p> Stepper<'p> {
 
         let mut solves = 0usize;
         let mut iterations = 0u32;
-        let mut fallbacks = 0u32;
-        let mut rescues = 0u32;
-        let (mut unfinished, mut unfinished_off) = (0u32, 0.0f64);
+        let mut counters = BackendCounters::default();
         let solution: Projection = loop {
             self.assemble(t_next, &mut times)?;
             let tp = Instant::now();
@@ -1005,10 +979,7 @@ impl<'p> Stepper<'p> {
             times.projection += tp.elapsed().as_secs_f64();
             solves += 1;
             iterations += sol.stats.iterations;
-            fallbacks += sol.stats.fallbacks;
-            rescues += sol.stats.rescues;
-            unfinished += sol.stats.unfinished;
-            unfinished_off = max_or_nan(unfinished_off, sol.stats.unfinished_off);
+            counters.add(&sol.stats.counters);
             if let Some(i) = sol.x.iter().position(|v| !v.is_finite()) {
                 return Err(SweepError::NonFinite {
                     step: self.k,
@@ -1083,10 +1054,7 @@ impl<'p> Stepper<'p> {
             active: solution.active_count(self.settings.active_threshold),
             solves,
             iterations,
-            fallbacks,
-            rescues,
-            unfinished,
-            unfinished_off,
+            counters,
             times,
             max_violation,
             worst_constraint,

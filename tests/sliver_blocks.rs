@@ -195,9 +195,9 @@ fn both_backends_project_the_block(name: &str) {
     let clarabel = ClarabelProjector::default().project(&s.problem).unwrap();
     // Clarabel finished by its polish's second pass; the native answer, when it is an
     // interior point's short of its tolerance, says by how much, within the tolerance here.
-    assert_eq!(clarabel.stats.unfinished, 0);
+    assert_eq!(clarabel.stats.counters.reduced, 0);
     assert!(
-        native.stats.unfinished_off <= TOLERANCE,
+        native.stats.counters.reduced_by <= TOLERANCE,
         "{:?}",
         native.stats
     );
@@ -256,7 +256,7 @@ fn the_native_backend_projects_the_block(name: &str, p: &ProjectionProblem, x_st
     // Its answer is exact, or an interior point's whose estimated error is within the
     // tolerance.
     assert!(
-        native.stats.unfinished_off <= TOLERANCE,
+        native.stats.counters.reduced_by <= TOLERANCE,
         "{:?}",
         native.stats
     );
@@ -274,10 +274,10 @@ fn clarabel_finishes_down_the_ladder(name: &str, p: &ProjectionProblem, x_star: 
     eprintln!(
         "{name}: Clarabel on the block alone {off:.2e} from the projection, {} block(s) \
          unfinished, off by {:.1e}",
-        clarabel.stats.unfinished, clarabel.stats.unfinished_off
+        clarabel.stats.counters.reduced, clarabel.stats.counters.reduced_by
     );
     assert!(off <= TOLERANCE, "Clarabel {off:e}");
-    assert_eq!(clarabel.stats.unfinished, 0, "{:?}", clarabel.stats);
+    assert_eq!(clarabel.stats.counters.reduced, 0, "{:?}", clarabel.stats);
 }
 
 #[test]

@@ -553,14 +553,15 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         "  ms per step: {:.3} total = effects {:.3} + broad phase {:.3} + assembly {:.3} + projection {:.3} + check {:.3}",
         m.total, m.effects, m.broad_phase, m.assembly, m.projection, m.check
     );
+    let c = &s.counters;
     outln!(
-        "  solver iterations: {} over {} solves (max rows {}, max active {}, interior-point rescues {}, fallbacks {})",
-        s.solver_iterations, s.solves, s.max_rows, s.max_active, s.rescues, s.fallbacks
+        "  solver iterations: {} over {} solves (max rows {}, max active {}, blocks escalated to the backend's second method {}, fallbacks {})",
+        s.solver_iterations, s.solves, s.max_rows, s.max_active, c.escalations, c.fallbacks
     );
-    if s.unfinished > 0 {
+    if c.reduced > 0 {
         outln!(
-            "  unfinished answers: {} (the active set did not finish them at 1e-15; rows off by up to {:.1e}, certified to that only)",
-            s.unfinished, s.unfinished_off
+            "  answers short of the backend's accuracy target: {} (estimated distance from the exact projection up to {:.1e}; each passed the KKT check)",
+            c.reduced, c.reduced_by
         );
     }
     if let Some(mib) = s.peak_memory_mib {

@@ -305,22 +305,11 @@ pub struct RunSummary {
     pub ms_per_step: MsPerStep,
     /// Solver iterations, summed.
     pub solver_iterations: u64,
-    /// Sub-problems the backend handed to its fallback (native backend), summed.
-    #[serde(default)]
-    pub fallbacks: u64,
-    /// Sub-problems the backend's first method did not converge on and its own second
-    /// method solved (native backend: active set, then interior point), summed.
-    #[serde(default)]
-    pub rescues: u64,
-    /// Sub-problems whose answer the active-set method's second pass (at `1e-15`) could not
-    /// finish, summed: each stands certified only to the first pass's `1e-12` (see
-    /// `SolveStats::unfinished` in the projection contract).
-    #[serde(default)]
-    pub unfinished: u64,
-    /// The largest violation of a row, or gap of a row of the support, that those answers
-    /// left (absolute; `0` when there were none).
-    #[serde(default)]
-    pub unfinished_off: f64,
+    /// How the backend reached its answers (fallbacks, escalations to its second method,
+    /// answers short of its accuracy target and their largest estimated error), summed; written
+    /// as four fields of the summary.
+    #[serde(flatten)]
+    pub counters: crate::api::BackendCounters,
     /// The process's peak resident memory at the end of the run, in MiB (`None` where the
     /// platform does not report it).
     #[serde(default)]
@@ -509,10 +498,7 @@ impl Observer for SummaryCollector<'_> {
         s.seconds_per_stage = st.times;
         s.solver_iterations = st.iterations;
         s.solves = st.solves;
-        s.fallbacks = st.fallbacks;
-        s.rescues = st.rescues;
-        s.unfinished = st.unfinished;
-        s.unfinished_off = st.unfinished_off;
+        s.counters = st.counters;
         s.max_rows = st.max_rows;
         s.max_active = st.max_active;
         self.record(r.t, q);

@@ -1081,10 +1081,7 @@ mod tests {
             active: 0,
             solves: 1,
             iterations: 0,
-            fallbacks: 0,
-            rescues: 0,
-            unfinished: 0,
-            unfinished_off: 0.0,
+            counters: Default::default(),
             times: Default::default(),
             max_violation: 0.0,
             worst_constraint: None,
@@ -1096,10 +1093,7 @@ mod tests {
                 solve_seconds: 0.0,
                 setup_seconds: 0.0,
                 warm_started: false,
-                fallbacks: 0,
-                rescues: 0,
-                unfinished: 0,
-                unfinished_off: 0.0,
+                counters: Default::default(),
             },
         };
         s.on_step(&report(0.5), &[1.0, 3.0]).unwrap();

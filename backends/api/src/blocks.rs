@@ -214,8 +214,8 @@ impl Blocks {
 
     /// The answer of the whole problem from one answer per block (in the order of
     /// [`Blocks::blocks`]): unknowns outside every block keep `y`, rows outside every block get
-    /// multiplier `0`. Statistics are summed (iterations, seconds, fallbacks, rescues, unfinished
-    /// blocks; the largest `unfinished_off` is kept); the status is
+    /// multiplier `0`. Statistics are summed (iterations, seconds, counters, see
+    /// [`crate::BackendCounters::add`]); the status is
     /// the weakest of the blocks', `warm_started` whether any block was.
     ///
     /// # Panics
@@ -249,10 +249,7 @@ impl Blocks {
             stats.solve_seconds += s.solve_seconds;
             stats.setup_seconds += s.setup_seconds;
             stats.warm_started |= s.warm_started;
-            stats.fallbacks = stats.fallbacks.saturating_add(s.fallbacks);
-            stats.rescues = stats.rescues.saturating_add(s.rescues);
-            stats.unfinished = stats.unfinished.saturating_add(s.unfinished);
-            stats.unfinished_off = crate::max_or_nan(stats.unfinished_off, s.unfinished_off);
+            stats.counters.add(&s.counters);
         }
         Projection {
             x,
@@ -410,7 +407,7 @@ mod tests {
     }
 
     #[test]
-    fn stitched_statistics_sum_the_blocks_counts_and_keep_the_largest_unfinished_off() {
+    fn stitched_statistics_sum_the_blocks_counts_and_keep_the_largest_reduced_by() {
         let p = two_copies(3);
         let blocks = Blocks::split(&p);
         let answers: Vec<Projection> = blocks
@@ -421,10 +418,10 @@ mod tests {
                 let mut answer = Projection::identity(&b.problem, "b");
                 let k = u32::try_from(i).unwrap();
                 answer.stats.iterations = 10 + k;
-                answer.stats.fallbacks = k;
-                answer.stats.rescues = 2 * k;
-                answer.stats.unfinished = k + 1;
-                answer.stats.unfinished_off = [3e-13, 5e-13, 4e-13][i % 3];
+                answer.stats.counters.fallbacks = u64::from(k);
+                answer.stats.counters.escalations = 2 * u64::from(k);
+                answer.stats.counters.reduced = u64::from(k) + 1;
+                answer.stats.counters.reduced_by = [3e-13, 5e-13, 4e-13][i % 3];
                 answer
             })
             .collect();
@@ -434,10 +431,10 @@ mod tests {
         let triangle = count * (count - 1) / 2;
         assert_eq!(stats.backend, "whole");
         assert_eq!(stats.iterations, 10 * count + triangle);
-        assert_eq!(stats.fallbacks, triangle);
-        assert_eq!(stats.rescues, 2 * triangle);
-        assert_eq!(stats.unfinished, triangle + count);
-        assert_eq!(stats.unfinished_off, 5e-13);
+        assert_eq!(stats.counters.fallbacks, u64::from(triangle));
+        assert_eq!(stats.counters.escalations, 2 * u64::from(triangle));
+        assert_eq!(stats.counters.reduced, u64::from(triangle + count));
+        assert_eq!(stats.counters.reduced_by, 5e-13);
     }
 
     #[test]

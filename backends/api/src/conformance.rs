@@ -528,10 +528,7 @@ impl Projector for ReferenceProjector {
                             solve_seconds: start.elapsed().as_secs_f64(),
                             setup_seconds: 0.0,
                             warm_started: false,
-                            fallbacks: 0,
-                            rescues: 0,
-                            unfinished: 0,
-                            unfinished_off: 0.0,
+                            counters: crate::BackendCounters::default(),
                         },
                     });
                 }

@@ -167,7 +167,7 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
         self.stats.sum_gap += gap;
         self.stats.max_gap = crate::max_or_nan(self.stats.max_gap, gap);
         if gap.is_nan() || gap > self.tolerance {
-            let unfinished = [a.stats.unfinished, b.stats.unfinished];
+            let reduced = [a.stats.counters.reduced, b.stats.counters.reduced];
             self.stats.disagreement = Some(Box::new(CrossCheckDisagreement {
                 first_backend: self.first.name().to_string(),
                 second_backend: self.second.name().to_string(),
@@ -183,7 +183,7 @@ impl<P1: Projector, P2: Projector> Projector for CrossCheck<P1, P2> {
                 gap,
                 coordinate,
                 tolerance: self.tolerance,
-                unfinished,
+                reduced,
             });
         }
         let largest_so_far = self

@@ -279,16 +279,16 @@ pub fn max_or_nan(a: f64, b: f64) -> f64 {
     }
 }
 
-/// The end of a disagreement's message: `; NAME's answer: K block(s) left unfinished by the
-/// active set` for each side with any, nothing when neither has.
-fn unfinished_clause(first: &str, second: &str, unfinished: &[u32; 2]) -> String {
-    [(first, unfinished[0]), (second, unfinished[1])]
+/// The end of a disagreement's message: `; NAME's answer: K block(s) short of its accuracy
+/// target` for each side with any, nothing when neither has.
+fn reduced_clause(first: &str, second: &str, reduced: &[u64; 2]) -> String {
+    [(first, reduced[0]), (second, reduced[1])]
         .iter()
         .filter(|(_, blocks)| *blocks > 0)
         .map(|(name, blocks)| {
             format!(
-                "; {name}'s answer: {blocks} block(s) left unfinished by the active set \
-                 (see SolveStats::unfinished)"
+                "; {name}'s answer: {blocks} block(s) short of its accuracy target (see \
+                 BackendCounters::reduced)"
             )
         })
         .collect()
@@ -372,31 +372,51 @@ pub struct SolveStats {
     pub setup_seconds: f64,
     /// Whether the solve started from a previous answer.
     pub warm_started: bool,
-    /// How many (sub-)problems the backend could not certify itself and handed to its
-    /// fallback backend (the native backend's count; `0` for the others).
+    /// How the backend reached its answer, counted by sub-problem (block).
     #[serde(default)]
-    pub fallbacks: u32,
-    /// How many (sub-)problems the backend's first method did not converge on and its own
-    /// second method solved (the native backend: active set, then interior point; `0` for
-    /// the others).
+    pub counters: BackendCounters,
+}
+
+/// What a backend counts about how it reached its answers, by sub-problem (block), summed over
+/// blocks and solves: in every backend's statistics, zero where a backend has no such thing.
+///
+/// ```
+/// use sweeping_api::BackendCounters;
+/// let mut total = BackendCounters::default();
+/// total.add(&BackendCounters { escalations: 2, reduced: 1, reduced_by: 3e-10, ..Default::default() });
+/// total.add(&BackendCounters { fallbacks: 1, reduced: 1, reduced_by: 1e-10, ..Default::default() });
+/// assert_eq!((total.fallbacks, total.escalations, total.reduced), (1, 2, 2));
+/// assert_eq!(total.reduced_by, 3e-10);
+/// ```
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct BackendCounters {
+    /// Sub-problems the backend could not answer itself and handed to a fallback backend.
     #[serde(default)]
-    pub rescues: u32,
-    /// How many (sub-)problems have an answer that the active-set method's second pass could
-    /// not finish (the native backend and Clarabel's polish; `0` for the others). Both run
-    /// the method with tests at `1e-12` (relative), then, when the answer uses that room, a
-    /// second pass at `1e-15`, and ones at `1e-14` and `1e-13` when that does not converge
-    /// (and from the answer of one that does, the lower ones again); when none converges at
-    /// `1e-15`, the answer is the one off by least of the first pass's, a pass's answer or
-    /// best iterate, certified only to [`SolveStats::unfinished_off`]. Clarabel also counts
-    /// a block whose polish did not converge at all, where its interior-point iterate stands
-    /// (off by its largest violation of a row, or slack of a row whose multiplier exceeds it). On a jam with more tight rows than unknowns (a
-    /// sliver of a feasible set) an answer off by `1e-12` lay `1e-8` from the projection.
+    pub fallbacks: u64,
+    /// Sub-problems its first method did not answer and its second one did (the native
+    /// backend: the active set's warm attempt, then the interior point).
     #[serde(default)]
-    pub unfinished: u32,
-    /// The largest violation of a row, or gap of a row of the support, left by those answers
-    /// (absolute; `0` when there are none).
+    pub escalations: u64,
+    /// Sub-problems answered short of the backend's own accuracy target, within its KKT check
+    /// (the native backend: an interior point that stalled near its tolerance; Clarabel: an
+    /// interior-point answer its polish could not finish).
     #[serde(default)]
-    pub unfinished_off: f64,
+    pub reduced: u64,
+    /// The largest estimated distance of those answers from the exact projection (absolute;
+    /// `0` when there are none).
+    #[serde(default)]
+    pub reduced_by: f64,
+}
+
+impl BackendCounters {
+    /// Adds `other`'s counts (saturating) and keeps the larger `reduced_by` (NaN when either
+    /// is).
+    pub fn add(&mut self, other: &BackendCounters) {
+        self.fallbacks = self.fallbacks.saturating_add(other.fallbacks);
+        self.escalations = self.escalations.saturating_add(other.escalations);
+        self.reduced = self.reduced.saturating_add(other.reduced);
+        self.reduced_by = max_or_nan(self.reduced_by, other.reduced_by);
+    }
 }
 
 impl SolveStats {
@@ -410,10 +430,7 @@ impl SolveStats {
             solve_seconds: 0.0,
             setup_seconds: 0.0,
             warm_started: false,
-            fallbacks: 0,
-            rescues: 0,
-            unfinished: 0,
-            unfinished_off: 0.0,
+            counters: BackendCounters::default(),
         }
     }
 }
@@ -456,7 +473,7 @@ pub enum ProjectionError {
     },
     /// Two backends run by [`CrossCheck`] returned points farther apart than allowed.
     #[error(
-        "backends disagree: {first} and {second} differ by {gap:.3e} (∞-norm, coordinate {coordinate}) > tolerance {tolerance:.1e}{}", unfinished_clause(first, second, unfinished)
+        "backends disagree: {first} and {second} differ by {gap:.3e} (∞-norm, coordinate {coordinate}) > tolerance {tolerance:.1e}{}", reduced_clause(first, second, reduced)
     )]
     Disagreement {
         /// First backend.
@@ -469,11 +486,10 @@ pub enum ProjectionError {
         coordinate: usize,
         /// The allowed gap.
         tolerance: f64,
-        /// How many blocks of each answer (first, second) the active-set method's second
-        /// pass left unfinished ([`SolveStats::unfinished`]); the message names the answers
-        /// that have any. On a sliver of a feasible set such an answer can be `1e-8` from the
-        /// projection, so this says which side to suspect.
-        unfinished: [u32; 2],
+        /// How many blocks of each answer (first, second) were answered short of their
+        /// backend's accuracy target ([`BackendCounters::reduced`]); the message names the
+        /// answers that have any, the side to suspect.
+        reduced: [u64; 2],
     },
 }
 

@@ -75,9 +75,13 @@ fn a_gap_beyond_the_tolerance_is_an_error_naming_the_largest_coordinate() {
             gap,
             coordinate,
             tolerance,
-            unfinished,
+            reduced,
         }) => {
-            assert_eq!(unfinished, [0, 0], "neither answer says it is unfinished");
+            assert_eq!(
+                reduced,
+                [0, 0],
+                "neither answer says it is short of its target"
+            );
             assert_eq!((first.as_str(), second.as_str()), ("a", "b"));
             assert!((gap - 5e-6).abs() < 1e-15, "{gap}");
             assert_eq!(coordinate, 1);
@@ -143,30 +147,30 @@ fn a_cross_check_reports_its_statistics_through_the_trait_and_its_wrappers() {
     assert!(shifted("a", &[0.0; 3], 1e-9).cross_check().is_none());
 }
 
-/// Answers as [`Shifted`], reporting `blocks` blocks left unfinished by a second pass, off by
-/// `off`.
-struct Unfinished {
+/// Answers as [`Shifted`], reporting `blocks` blocks answered short of the backend's accuracy
+/// target, off by up to `off`.
+struct Reduced {
     inner: Shifted,
-    blocks: u32,
+    blocks: u64,
     off: f64,
 }
 
-impl Projector for Unfinished {
+impl Projector for Reduced {
     fn name(&self) -> &str {
         self.inner.name()
     }
     fn project(&mut self, p: &ProjectionProblem) -> Result<Projection, ProjectionError> {
         let mut answer = self.inner.project(p)?;
-        answer.stats.unfinished = self.blocks;
-        answer.stats.unfinished_off = self.off;
+        answer.stats.counters.reduced = self.blocks;
+        answer.stats.counters.reduced_by = self.off;
         Ok(answer)
     }
 }
 
 #[test]
-fn a_disagreement_names_the_answer_left_unfinished() {
+fn a_disagreement_names_the_answer_short_of_its_target() {
     let first = shifted("native", &[0.0; 3], 1e-9);
-    let second = Unfinished {
+    let second = Reduced {
         inner: shifted("clarabel", &[0.0, 2.3e-8, 0.0], 1e-9),
         blocks: 1,
         off: 8.5e-13,
@@ -176,8 +180,8 @@ fn a_disagreement_names_the_answer_left_unfinished() {
     let message = error.to_string();
     assert!(
         message.ends_with(
-            "> tolerance 1.0e-8; clarabel's answer: 1 block(s) left unfinished by the active \
-             set (see SolveStats::unfinished)"
+            "> tolerance 1.0e-8; clarabel's answer: 1 block(s) short of its accuracy target \
+             (see BackendCounters::reduced)"
         ),
         "{message}"
     );
@@ -185,10 +189,13 @@ fn a_disagreement_names_the_answer_left_unfinished() {
     // The kept answers carry the counts, for whoever decides the step from the file.
     let kept = both.stats().disagreement.as_deref().unwrap();
     assert_eq!(
-        (kept.first.stats.unfinished, kept.second.stats.unfinished),
+        (
+            kept.first.stats.counters.reduced,
+            kept.second.stats.counters.reduced
+        ),
         (0, 1)
     );
-    assert_eq!(kept.second.stats.unfinished_off, 8.5e-13);
+    assert_eq!(kept.second.stats.counters.reduced_by, 8.5e-13);
 }
 
 /// Answers as [`Shifted`], noting the thread each answer was computed on.

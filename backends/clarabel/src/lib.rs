@@ -69,7 +69,8 @@ use clarabel::solver::{
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use sweeping_api::{
-    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus,
+    BackendCounters, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats,
+    SolveStatus,
 };
 
 /// The name this backend reports in statistics and errors.
@@ -545,10 +546,11 @@ impl Projector for ClarabelProjector {
                 solve_seconds,
                 setup_seconds,
                 warm_started: false,
-                fallbacks: 0,
-                rescues: 0,
-                unfinished: unfinished.0,
-                unfinished_off: unfinished.1,
+                counters: BackendCounters {
+                    reduced: u64::from(unfinished.0),
+                    reduced_by: unfinished.1,
+                    ..BackendCounters::default()
+                },
             },
         })
     }

@@ -383,7 +383,7 @@ mod tests {
         let answer = crate::ClarabelProjector::default()
             .project(&block.problem)
             .unwrap();
-        assert_eq!(answer.stats.unfinished, 0, "{:?}", answer.stats);
+        assert_eq!(answer.stats.counters.reduced, 0, "{:?}", answer.stats);
     }
 
     #[test]

@@ -11,7 +11,10 @@ fn a_polished_answer_leaves_nothing_unfinished() {
     let p = ProjectionProblem::new(vec![0.0, 0.1], a, vec![0.4]).unwrap();
     let answer = ClarabelProjector::default().project(&p).unwrap();
     assert_eq!(
-        (answer.stats.unfinished, answer.stats.unfinished_off),
+        (
+            answer.stats.counters.reduced,
+            answer.stats.counters.reduced_by
+        ),
         (0, 0.0)
     );
     assert!((answer.x[0] + 0.15).abs() < 1e-15 && (answer.x[1] - 0.25).abs() < 1e-15);
@@ -26,10 +29,10 @@ fn an_interior_point_answer_that_stands_unpolished_says_so() {
     let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, -(1.0 - 1e-13)]).unwrap();
     let answer = ClarabelProjector::default().project(&p).unwrap();
     assert!((answer.x[0] - 1.0).abs() <= 1e-13, "{answer:?}");
-    assert_eq!(answer.stats.unfinished, 1, "{answer:?}");
+    assert_eq!(answer.stats.counters.reduced, 1, "{answer:?}");
     let violation = (1.0 - answer.x[0]).max(answer.x[0] - (1.0 - 1e-13));
     assert!(
-        (answer.stats.unfinished_off - violation).abs() <= 1e-15,
+        (answer.stats.counters.reduced_by - violation).abs() <= 1e-15,
         "{answer:?}, violation {violation:e}"
     );
 }

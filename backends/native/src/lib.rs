@@ -7,7 +7,7 @@
 //! jam), and every answer passes the KKT check at [`NativeSettings::kkt_tolerance`]. A block
 //! that neither method certifies goes to the fallback given to
 //! [`NativeProjector::with_fallback`] (the root crate passes Clarabel), counted in
-//! [`SolveStats::fallbacks`](sweeping_api::SolveStats::fallbacks); without one it is a
+//! [`BackendCounters::fallbacks`](sweeping_api::BackendCounters::fallbacks); without one it is a
 //! [`ProjectionError::NotConverged`]. Infeasibility is reported only with a checked Farkas
 //! certificate.
 //!
@@ -20,7 +20,7 @@
 //! let p = ProjectionProblem::new(vec![0.0, 0.1], a, vec![0.4]).unwrap();
 //! let sol = NativeProjector::default().project(&p).unwrap();
 //! assert!((sol.x[0] + 0.15).abs() < 1e-12 && (sol.x[1] - 0.25).abs() < 1e-12);
-//! assert_eq!(sol.stats.fallbacks, 0);
+//! assert_eq!(sol.stats.counters.fallbacks, 0);
 //! ```
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]

@@ -54,7 +54,7 @@ fn agrees_with_clarabel_on_random_instances_without_fallback() {
             kkt: 1e-10,
             gap: 1e-8,
         },
-        |sol| match sol.stats.fallbacks {
+        |sol| match sol.stats.counters.fallbacks {
             0 => Ok(()),
             k => Err(format!("{k} fallbacks")),
         },
@@ -102,8 +102,8 @@ fn interior_point_answers_agree_with_clarabel_on_random_instances() {
             gap: 1e-8,
         },
         |sol| {
-            interior += sol.stats.rescues;
-            match sol.stats.fallbacks {
+            interior += sol.stats.counters.escalations;
+            match sol.stats.counters.fallbacks {
                 0 => Ok(()),
                 k => Err(format!("{k} fallbacks")),
             }
@@ -141,7 +141,13 @@ fn capped_solver_goes_to_the_interior_point_or_falls_back_and_counts() {
     })
     .project(&p)
     .unwrap();
-    assert_eq!((rescue.stats.rescues, rescue.stats.fallbacks), (2, 0));
+    assert_eq!(
+        (
+            rescue.stats.counters.escalations,
+            rescue.stats.counters.fallbacks
+        ),
+        (2, 0)
+    );
     let capped = NativeSettings {
         active_set_iterations: 1,
         interior_point_iterations: 1,
@@ -160,10 +166,16 @@ fn capped_solver_goes_to_the_interior_point_or_falls_back_and_counts() {
     }
     let mut native = NativeProjector::with_fallback(capped, Box::new(ClarabelProjector::default()));
     let sol = native.project(&p).unwrap();
-    assert_eq!(sol.stats.fallbacks, 2, "both blocks fell back");
+    assert_eq!(sol.stats.counters.fallbacks, 2, "both blocks fell back");
     assert_eq!(sol.stats.backend, "native");
     let exact = NativeProjector::default().project(&p).unwrap();
-    assert_eq!((exact.stats.fallbacks, exact.stats.rescues), (0, 0));
+    assert_eq!(
+        (
+            exact.stats.counters.fallbacks,
+            exact.stats.counters.escalations
+        ),
+        (0, 0)
+    );
     assert!(max_gap(&sol.x, &exact.x) <= 1e-8);
     assert!(max_gap(&rescue.x, &exact.x) <= 1e-12);
     assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-8);

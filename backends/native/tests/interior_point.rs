@@ -50,7 +50,10 @@ fn interior(active_set_iterations: u32) -> NativeProjector {
 fn a_push_through_a_chain_is_answered_exactly_from_the_interior_point() {
     let p = chain(12, false);
     let sol = interior(0).project(&p).unwrap();
-    assert_eq!((sol.stats.rescues, sol.stats.fallbacks), (1, 0));
+    assert_eq!(
+        (sol.stats.counters.escalations, sol.stats.counters.fallbacks),
+        (1, 0)
+    );
     let exact: Vec<f64> = (0..12)
         .map(|i| if i < 5 { i as f64 } else { p.y()[i] })
         .collect();
@@ -77,7 +80,7 @@ fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_s
         let p = if solve % 2 == 0 { &left } else { &right };
         let sol = native.project(p).unwrap();
         assert_eq!(
-            (sol.stats.rescues, sol.stats.fallbacks),
+            (sol.stats.counters.escalations, sol.stats.counters.fallbacks),
             (1, 0),
             "solve {solve}"
         );

@@ -33,7 +33,7 @@ fn agrees_with_tight_osqp_where_it_converges() {
         let base = random_instance(9000 + seed, n, m);
         for p in [base.clone(), with_copies(&base)] {
             let native = NativeProjector::default().project(&p).unwrap();
-            assert_eq!(native.stats.fallbacks, 0);
+            assert_eq!(native.stats.counters.fallbacks, 0);
             // OSQP at eps = 1e-9 is within ~2e-7 of an exact projection (its documentation;
             // the worst gap measured here was 9.9e-8, and the bound is OSQP's tolerance, 1e-6);
             // near-degenerate instances that end NotConverged are skipped.

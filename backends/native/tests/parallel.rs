@@ -90,7 +90,7 @@ fn blocks_on_threads_give_the_answers_of_one_thread_step_after_step() {
         let reference = ClarabelProjector::default().project(&p).unwrap();
         let kkt = p.kkt_residuals(&threads.x, &threads.multipliers).max();
         assert!(kkt <= 1e-10, "step {step}: KKT residual {kkt:e}");
-        assert_eq!(threads.stats.fallbacks, 0, "step {step}");
+        assert_eq!(threads.stats.counters.fallbacks, 0, "step {step}");
         let (gap_one, gap_reference) = (
             max_gap(&threads.x, &one.x),
             max_gap(&threads.x, &reference.x),
@@ -119,7 +119,7 @@ fn a_block_that_fails_on_another_thread_goes_to_the_fallback() {
     let mut native =
         NativeProjector::with_fallback(settings, Box::new(ClarabelProjector::default()));
     let answer = native.project(&p).unwrap();
-    assert!(answer.stats.fallbacks > 0, "{:?}", answer.stats);
+    assert!(answer.stats.counters.fallbacks > 0, "{:?}", answer.stats);
     let reference = ClarabelProjector::default().project(&p).unwrap();
     assert!(max_gap(&answer.x, &reference.x) <= 1e-8);
 }

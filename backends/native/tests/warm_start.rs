@@ -55,7 +55,7 @@ fn reordered_appearing_and_vanishing_rows_match_a_cold_start() {
             let w = warm.project(&p).unwrap();
             let c = NativeProjector::default().project(&p).unwrap();
             warm_starts += usize::from(w.stats.warm_started);
-            assert_eq!(w.stats.fallbacks, 0);
+            assert_eq!(w.stats.counters.fallbacks, 0);
             let gap = max_gap(&w.x, &c.x);
             assert!(
                 gap <= 1e-9,
@@ -169,7 +169,7 @@ proptest! {
             Box::new(ClarabelProjector::default()),
         );
         let sol = backed.project(&p).unwrap();
-        let allowed = if sol.stats.fallbacks > 0 { backed.tolerance() } else { 1e-10 * scale };
+        let allowed = if sol.stats.counters.fallbacks > 0 { backed.tolerance() } else { 1e-10 * scale };
         let kkt = p.kkt_residuals(&sol.x, &sol.multipliers).max();
         prop_assert!(kkt <= allowed, "KKT {:.3e} > {:.1e}", kkt, allowed);
     }
@@ -181,7 +181,7 @@ proptest! {
 fn kkt_holds_on_the_shrunk_dependent_case() {
     let p = dependent_instance(17802, 7, 37);
     let sol = NativeProjector::default().project(&p).unwrap();
-    assert_eq!(sol.stats.fallbacks, 0);
+    assert_eq!(sol.stats.counters.fallbacks, 0);
     let scale = p
         .y()
         .iter()

@@ -642,10 +642,7 @@ impl OsqpProjector {
                         solve_seconds,
                         setup_seconds,
                         warm_started: reusable || keyed_warm,
-                        fallbacks: 0,
-                        rescues: 0,
-                        unfinished: 0,
-                        unfinished_off: 0.0,
+                        counters: sweeping_api::BackendCounters::default(),
                     },
                 })
             }

@@ -7,8 +7,8 @@ use crate::ipm::{self, Tolerance};
 use crate::normal::NormalMatrix;
 use std::time::Instant;
 use sweeping_api::{
-    Block, Blocks, FastMap, Projection, ProjectionError, ProjectionProblem, Projector, RowKey,
-    SolveStats, SolveStatus,
+    BackendCounters, Block, Blocks, FastMap, Projection, ProjectionError, ProjectionProblem,
+    Projector, RowKey, SolveStats, SolveStatus,
 };
 
 /// Settings of an [`Engine`]. Every field has a documented default.
@@ -23,7 +23,8 @@ pub struct EngineSettings {
     /// Most interior-point iterations per block. Default `100`.
     pub interior_point_iterations: u32,
     /// Most active-set iterations per block from the warm start before the interior point
-    /// takes the block; `0` sends every block to the interior point. Default `16`.
+    /// takes the block (at most 16 on blocks of 400 rows or more); `0` sends every block to
+    /// the interior point. Default `48`.
     ///
     /// The active set pays an iteration for each row that joins or leaves: it wins while the
     /// support changes by a few rows a step (a crowd walking, a queue moving) and loses to
@@ -51,7 +52,7 @@ impl Default for EngineSettings {
             kkt_tolerance: 1e-10,
             interior_point: Tolerance::default(),
             interior_point_iterations: 100,
-            active_set_iterations: 16,
+            active_set_iterations: 48,
             finish_iterations: 16,
             warm_start: true,
             threads: 0,
@@ -143,7 +144,7 @@ impl Engine {
     }
 
     /// Projects `problem`, block by block; the blocks neither method certifies go to
-    /// `fallback` (counted in [`SolveStats::fallbacks`]), or fail without one. `name` is the
+    /// `fallback` (counted in [`BackendCounters::fallbacks`]), or fail without one. `name` is the
     /// backend's name in statistics and errors.
     ///
     /// # Errors
@@ -199,10 +200,13 @@ impl Engine {
                         stats: SolveStats {
                             status: SolveStatus::Solved,
                             iterations: answer.iterations,
-                            rescues: u32::from(answer.method == Method::InteriorPoint),
                             warm_started: answer.warm,
-                            unfinished: u32::from(answer.short_of.is_some()),
-                            unfinished_off: answer.short_of.unwrap_or(0.0),
+                            counters: BackendCounters {
+                                escalations: u64::from(answer.method == Method::InteriorPoint),
+                                reduced: u64::from(answer.short_of.is_some()),
+                                reduced_by: answer.short_of.unwrap_or(0.0),
+                                ..BackendCounters::default()
+                            },
                             ..SolveStats::trivial(name)
                         },
                     });
@@ -220,7 +224,8 @@ impl Engine {
                 Err(BlockFailure::Unsolved { iterations, reason }) => match fallback.as_mut() {
                     Some(fallback) => {
                         let mut answer = fallback.project(&block.problem)?;
-                        answer.stats.fallbacks = answer.stats.fallbacks.saturating_add(1);
+                        answer.stats.counters.fallbacks =
+                            answer.stats.counters.fallbacks.saturating_add(1);
                         methods.push(None);
                         answers.push(answer);
                     }
@@ -243,7 +248,7 @@ impl Engine {
         // only guards the stitching itself); fallback answers are held to their backend's own
         // tolerance.
         let whole = problem.kkt_residuals(&answer.x, &answer.multipliers).max();
-        let allowed = if answer.stats.fallbacks > 0 {
+        let allowed = if answer.stats.counters.fallbacks > 0 {
             tol.max(fallback.map_or(0.0, |f| f.tolerance()))
         } else {
             tol
@@ -394,16 +399,19 @@ fn parallel_groups(blocks: &[Block], parallel_rows: usize) -> Vec<Vec<usize>> {
 }
 
 /// An interior point that stops short of its tolerance is still the answer within this many
-/// times the tolerance (counted in [`SolveStats::unfinished`], with its estimated error): on
+/// times the tolerance (counted in [`BackendCounters::reduced`], with its estimated error): on
 /// a jam the directions' rounding stops some runs at `1e-9`–`1e-6` of the block's length
 /// scale, where the iterate lies nearer the projection than that measure says (`docs/lab/`).
 const STALL_ALLOWANCE: f64 = 1e4;
 
-/// Blocks smaller than [`EngineSettings::parallel_rows`] give the active set this many times
-/// [`EngineSettings::active_set_iterations`]: on them an iteration of the active set costs a
-/// few tens of microseconds and the interior point with its set-up a millisecond (a queue at
-/// the paper's door; `docs/lab/`).
-const SMALL_BLOCK_ITERATIONS: u32 = 3;
+/// Blocks of at least this many rows give the active set at most [`LARGE_BLOCK_ITERATIONS`]:
+/// on a jam's large blocks the interior point is the better bet, on smaller ones an iteration of
+/// the active set costs tens of microseconds and the interior point with its set-up about a
+/// millisecond (a queue at the paper's door; `docs/lab/`).
+const LARGE_BLOCK_ROWS: usize = 400;
+
+/// The active set's cap on blocks of [`LARGE_BLOCK_ROWS`] or more.
+const LARGE_BLOCK_ITERATIONS: u32 = 16;
 
 /// A finish is kept when it lies within this many times the interior point's accuracy (its
 /// measure times the block's length scale) of the interior point's answer.
@@ -433,8 +441,8 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         k.is_finite() && k <= context.tol
     };
     if settings.active_set_iterations > 0 && !skips_active_set(streak) {
-        let cap = if m < settings.parallel_rows {
-            settings.active_set_iterations.saturating_mul(SMALL_BLOCK_ITERATIONS)
+        let cap = if m >= LARGE_BLOCK_ROWS {
+            settings.active_set_iterations.min(LARGE_BLOCK_ITERATIONS)
         } else {
             settings.active_set_iterations
         };

@@ -178,8 +178,8 @@ impl Run<'_> {
             for _ in 0..REFINEMENTS {
                 // e₁ = r₁ − (δd − Aᵀδλ), e₂ = r₂ − (A δd − δs), e₃ = r₃ − (S δλ + Λ δs).
                 self.a.mul_transpose_vec(dl, &mut sc.e1);
-                for j in 0..n {
-                    sc.e1[j] += sc.r1[j] - dd[j];
+                for ((e, r), d) in sc.e1.iter_mut().zip(&sc.r1).zip(dd.iter()) {
+                    *e += r - d;
                 }
                 self.a.mul_vec(dd, &mut sc.e2);
                 for i in 0..m {
