@@ -18,6 +18,10 @@
 //! * `data/hall_queue_fallback_qp.json` (3115 rows on 2256 coordinates): a door-queue jam of
 //!   the 10 000-person hall (`examples/scenes/hall-10000.toml`) at t ≈ 17.8 s that the earlier
 //!   method could not finish at all (it went to Clarabel).
+//! * `data/door_queue_stalled_qp.json` (2275 rows on 1670 coordinates): a block of the
+//!   2000-person evacuation between t = 0 and 20 s on which the interior point itself breaks
+//!   down short of its tolerance (its residuals jump from `1e-14` to `1e-2`); the engine handed
+//!   it to its fallback until the finish of an unconverged interior point got more iterations.
 //!
 //! The native method must solve each on its own, pass the KKT check at `1e-10`, and agree with
 //! Clarabel, an independent interior-point solver polished by an active-set method, within
@@ -68,6 +72,16 @@ fn a_door_queue_whose_support_guess_holds_many_loose_rows_is_solved_without_fall
 fn a_hall_queue_the_earlier_method_handed_to_its_fallback_is_solved_natively() {
     let problem = load("hall_queue_fallback_qp.json");
     assert_eq!((problem.n_rows(), problem.dim()), (3115, 2256));
+    solved_natively_as_clarabel_solves_it(&problem);
+}
+
+#[test]
+fn a_door_queue_whose_interior_point_breaks_down_is_finished_by_the_active_set() {
+    let problem = load("door_queue_stalled_qp.json");
+    assert_eq!((problem.n_rows(), problem.dim()), (2275, 1670));
+    let sol = NativeProjector::default().project(&problem).unwrap();
+    // Within the accuracy target, not an answer short of it.
+    assert_eq!(sol.stats.counters.reduced, 0);
     solved_natively_as_clarabel_solves_it(&problem);
 }
 
