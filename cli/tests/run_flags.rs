@@ -326,3 +326,43 @@ fn a_run_without_a_terminal_says_how_far_it_got_in_plain_lines() {
         lines[9]
     );
 }
+
+#[test]
+fn bench_measures_a_scene_from_a_time_of_its_run_or_from_an_earlier_run_s_state() {
+    let run = sweep_run("bench-scene", JAM, &["--threads", "1", "--t-end", "0.5"]);
+    assert!(run.success, "{}", run.output);
+    let scene = run.out.parent().unwrap().join("bench-scene.toml");
+    let scene = scene.to_str().unwrap();
+    let common = ["--steps", "2", "--backends", "native", "--threads", "1"];
+    let (ok, text) = sweep_bench(&[&["--scene", scene, "--from", "0.5"], &common[..]].concat());
+    assert!(ok, "{text}");
+    assert!(text.contains("jam: running to t = 0.5 s first"), "{text}");
+    let measured = |text: &str| -> Vec<String> {
+        let row = text
+            .lines()
+            .find(|l| l.starts_with("jam "))
+            .unwrap_or_else(|| panic!("no row for the scene: {text}"));
+        row.split_whitespace().map(str::to_string).collect()
+    };
+    let from_time = measured(&text);
+    // N, backend, steps; then the rows of a jam (not an empty projection).
+    assert_eq!(from_time[1..4], ["120", "native", "2"], "{text}");
+    assert!(from_time[10].parse::<usize>().unwrap() > 100, "{text}");
+    let dir = run.out.to_str().unwrap();
+    let (ok, text) = sweep_bench(&[&["--scene", scene, "--resume", dir], &common[..]].concat());
+    assert!(ok, "{text}");
+    assert!(!text.contains("running to"), "{text}");
+    let resumed = measured(&text);
+    // The same state: the same rows and active constraints per step.
+    assert_eq!(resumed[10..12], from_time[10..12], "{text}");
+    // Bad starts are refused by their flag.
+    let (ok, text) = sweep_bench(&["--scene", scene, "--resume", "/nonexistent-run"]);
+    assert!(!ok);
+    assert!(
+        text.contains("--resume /nonexistent-run: reading the run's last state"),
+        "{text}"
+    );
+    let (ok, text) = sweep_bench(&["--start", "queue,crowded"]);
+    assert!(!ok);
+    assert!(text.contains("expected spread, jammed or queue"), "{text}");
+}
