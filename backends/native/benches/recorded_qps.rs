@@ -13,6 +13,9 @@ use sweeping_api::{ProjectionProblem, Projector};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::NativeProjector;
 
+/// A fresh projector of one backend.
+type MakeProjector = fn() -> Box<dyn Projector>;
+
 /// The recorded problems, by file name, in name order.
 fn recorded() -> Vec<(String, ProjectionProblem)> {
     let here = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -48,7 +51,7 @@ fn cold(c: &mut Criterion) {
             problem.n_rows(),
             problem.dim()
         );
-        let backends: [(&str, fn() -> Box<dyn Projector>); 2] = [
+        let backends: [(&str, MakeProjector); 2] = [
             ("native", || Box::new(NativeProjector::default())),
             ("clarabel", || Box::new(ClarabelProjector::default())),
         ];
