@@ -116,6 +116,36 @@ struct Row {
     failure: Option<String>,
 }
 
+impl Row {
+    /// A configuration not measured yet.
+    fn new(start: String, n: usize, backend: BackendChoice) -> Self {
+        Row {
+            start,
+            n,
+            backend: backend.to_string(),
+            steps: 0,
+            times: StageTimes::default(),
+            rows: 0,
+            active: 0,
+            solves: 0,
+            peak_mib: None,
+            failure: None,
+        }
+    }
+}
+
+/// A fresh projector of `backend` on at most `threads` threads.
+fn projector(backend: BackendChoice, threads: usize) -> Result<Box<dyn sweeping::api::Projector>> {
+    make_projector_with(
+        backend,
+        ProjectorOptions {
+            threads,
+            ..ProjectorOptions::default()
+        },
+    )
+    .map_err(anyhow::Error::msg)
+}
+
 fn default_backends() -> Vec<BackendChoice> {
     BackendChoice::ALL
         .iter()
@@ -138,32 +168,14 @@ fn measure(crowd: SyntheticCrowd, backend: BackendChoice, args: &BenchArgs) -> R
     let problem = crowd
         .problem()
         .with_context(|| format!("building the {} crowd of {}", crowd.start, crowd.n))?;
-    let mut projector = make_projector_with(
-        backend,
-        ProjectorOptions {
-            threads: args.threads,
-            ..ProjectorOptions::default()
-        },
-    )
-    .map_err(anyhow::Error::msg)?;
+    let mut projector = projector(backend, args.threads)?;
     let settings = StepperSettings {
         h,
         t_end: args.steps as f64 * h,
         ..Default::default()
     };
     let mut stepper = Stepper::new(&problem, settings)?;
-    let mut row = Row {
-        start: crowd.start.to_string(),
-        n: crowd.n,
-        backend: backend.to_string(),
-        steps: 0,
-        times: StageTimes::default(),
-        rows: 0,
-        active: 0,
-        solves: 0,
-        peak_mib: None,
-        failure: None,
-    };
+    let mut row = Row::new(crowd.start.to_string(), crowd.n, backend);
     let began = Instant::now();
     while row.steps < args.steps && (row.steps == 0 || began.elapsed().as_secs_f64() < args.budget)
     {
@@ -235,14 +247,7 @@ fn run_untimed(built: &mut BuiltScene, label: &str, t: f64) -> Result<ResumeStat
     outln!("{label}: running to t = {t} s first (not timed)");
     std::io::stdout().flush().ok();
     built.settings.t_end = t;
-    let mut projector = make_projector_with(
-        built.backend,
-        ProjectorOptions {
-            threads: built.threads,
-            ..ProjectorOptions::default()
-        },
-    )
-    .map_err(anyhow::Error::msg)?;
+    let mut projector = projector(built.backend, built.threads)?;
     let run = built
         .run(projector.as_mut(), &mut [])
         .map_err(|f| anyhow::anyhow!("{label}: running to t = {t}: {}", f.error))?;
@@ -294,27 +299,13 @@ fn measure_scene(
     backend: BackendChoice,
     args: &BenchArgs,
 ) -> Result<Row> {
-    let mut projector = make_projector_with(
-        backend,
-        ProjectorOptions {
-            threads: args.threads,
-            ..ProjectorOptions::default()
-        },
-    )
-    .map_err(anyhow::Error::msg)?;
+    let mut projector = projector(backend, args.threads)?;
     let mut meter = Meter {
-        row: Row {
-            start: prepared.label.clone(),
-            n: prepared.built.population.len(),
-            backend: backend.to_string(),
-            steps: 0,
-            times: StageTimes::default(),
-            rows: 0,
-            active: 0,
-            solves: 0,
-            peak_mib: None,
-            failure: None,
-        },
+        row: Row::new(
+            prepared.label.clone(),
+            prepared.built.population.len(),
+            backend,
+        ),
         began: Instant::now(),
         budget: args.budget,
         out_of_budget: false,

@@ -414,7 +414,7 @@ const LARGE_BLOCK_ROWS: usize = 400;
 const LARGE_BLOCK_ITERATIONS: u32 = 16;
 
 /// How many times [`EngineSettings::finish_iterations`] the finish of an interior point that
-/// stopped short of its tolerance may take.
+/// stopped too far short of its tolerance to be kept may take.
 const UNCONVERGED_FINISH: u32 = 4;
 
 /// A finish is kept when it lies within this many times the interior point's accuracy (its
@@ -492,15 +492,17 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         // The finish's tests are at `1e-12`, and on a sliver of a feasible set an answer that
         // passes them can lie `1e-8` from the projection, farther than the interior point: it
         // is kept only where it agrees with the interior point's answer.
-        // An interior point short of its tolerance leaves the finish as the way to an answer
-        // within it: the finish then gets more iterations.
-        let cap = if it.converged {
-            settings.finish_iterations
-        } else {
-            settings
-                .finish_iterations
-                .saturating_mul(UNCONVERGED_FINISH)
-        };
+        // An interior point too far short of its tolerance to be kept leaves the finish as the
+        // way to an answer: the finish then gets more iterations. (Nearer, its answer stands:
+        // on a sliver a longer finish ends farther from the projection.)
+        let cap =
+            if it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy {
+                settings.finish_iterations
+            } else {
+                settings
+                    .finish_iterations
+                    .saturating_mul(UNCONVERGED_FINISH)
+            };
         let res = active_set::first_pass_remembering(
             p,
             finish_start(&it, &r, p),
