@@ -70,3 +70,33 @@ pub mod prelude {
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
+
+/// The guide's code blocks (`docs/guide/src`), compiled and run as doc tests so that the
+/// guide cannot drift from the library.
+#[cfg(doctest)]
+pub mod guide_doctests {
+    #[doc = include_str!("../docs/guide/src/introduction.md")]
+    pub struct Introduction;
+    #[doc = include_str!("../docs/guide/src/first-problem.md")]
+    pub struct FirstProblem;
+    #[doc = include_str!("../docs/guide/src/step-two.md")]
+    pub struct StepTwo;
+    #[doc = include_str!("../docs/guide/src/checks-and-assumptions.md")]
+    pub struct ChecksAndAssumptions;
+    #[doc = include_str!("../docs/guide/src/accuracy.md")]
+    pub struct Accuracy;
+    #[doc = include_str!("../docs/guide/src/crowds.md")]
+    pub struct Crowds;
+    #[doc = include_str!("../docs/guide/src/scene-format.md")]
+    pub struct SceneFormat;
+    #[doc = include_str!("../docs/guide/src/analysing-a-run.md")]
+    pub struct AnalysingARun;
+    #[doc = include_str!("../docs/guide/src/backends.md")]
+    pub struct Backends;
+    #[doc = include_str!("../docs/guide/src/performance.md")]
+    pub struct Performance;
+    #[doc = include_str!("../docs/guide/src/common-mistakes.md")]
+    pub struct CommonMistakes;
+    #[doc = include_str!("../docs/guide/src/theory.md")]
+    pub struct Theory;
+}
