@@ -349,13 +349,18 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
         None => None,
     };
     let mut csv = create_csv(args.csv.as_deref())?;
+    // The CSV records the threads a projection could use, `--threads 0` resolved to the cores.
+    let threads = match args.threads {
+        0 => std::thread::available_parallelism().map_or(1, usize::from),
+        t => t,
+    };
     outln!("ms per step (mean), by stage; rows and active constraints per step (mean)");
     let mut header_printed = false;
     let mut print = |row: &Row| -> Result<()> {
         if !std::mem::replace(&mut header_printed, true) {
             outln!("{}", header());
         }
-        print_row(row, csv.as_mut())
+        print_row(row, threads, csv.as_mut())
     };
     if let Some((scene, resume)) = scene {
         let label = scene.name.clone();
@@ -427,7 +432,7 @@ fn create_csv(
             .with_context(|| format!("--csv: creating {}", path.display()))?,
     );
     file.write_all(
-        b"start,n,backend,steps,effects_ms,broad_phase_ms,assembly_ms,projection_ms,check_ms,total_ms,rows,active,solves,peak_mib,failure\n",
+        b"start,n,backend,steps,threads,effects_ms,broad_phase_ms,assembly_ms,projection_ms,check_ms,total_ms,rows,active,solves,peak_mib,failure\n",
     )
     .and_then(|()| file.flush())
     .with_context(|| format!("--csv: writing {}", path.display()))?;
@@ -437,6 +442,7 @@ fn create_csv(
 /// Prints one measured configuration, and writes it to the CSV.
 fn print_row(
     row: &Row,
+    threads: usize,
     csv: Option<&mut (PathBuf, std::io::BufWriter<std::fs::File>)>,
 ) -> Result<()> {
     let k = row.steps.max(1) as f64;
@@ -476,7 +482,7 @@ fn print_row(
         let ms: Vec<String> = ms.iter().map(f64::to_string).collect();
         writeln!(
             file,
-            "{},{},{},{},{},{rows},{active},{},{},{}",
+            "{},{},{},{},{threads},{},{rows},{active},{},{},{}",
             row.start,
             row.n,
             row.backend,

@@ -142,7 +142,7 @@ fn bench_writes_its_csv_row_by_row_and_refuses_a_path_it_cannot_write_before_mea
     let csv = std::fs::read_to_string(&path).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 3, "{csv}");
-    assert!(lines[0].starts_with("start,n,backend,steps,"), "{csv}");
+    assert!(lines[0].starts_with("start,n,backend,steps,threads,"), "{csv}");
     assert!(lines[1].starts_with("spread,150,native,1,"), "{csv}");
     assert!(lines[2].starts_with("spread,150,clarabel,1,"), "{csv}");
 }
