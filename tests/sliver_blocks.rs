@@ -240,7 +240,8 @@ fn large_evacuation_cycling_the_native_backend_projects_the_block() {
     // From its interior point's guess Clarabel's second pass cycles at 1e-15, even under
     // Bland's rule, and no iterate of it is better than its first answer, 9.8e-9 from the
     // projection; the pass at 1e-14 brings it to 3.1e-10, and the pass at 1e-15 from there
-    // finishes it, 5.2e-11 from the projection (`docs/backends.md`).
+    // finishes it, 5.2e-11 from the projection
+    // (`docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
     let s = sliver("large_evacuation_cycling");
     let x_star = certified_projection(&s);
     the_native_backend_projects_the_block("large_evacuation_cycling", &s.problem, &x_star);
@@ -336,7 +337,8 @@ fn hall_late_the_stop_was_clarabels_answer_and_the_native_backend_projects_the_b
     clarabel_finishes_down_the_ladder("hall_late", p, &x_star);
 }
 
-/// What the two stops were, in numbers `docs/backends.md` quotes: how far each backend's
+/// What the two stops were, in numbers quoted by
+/// `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`: how far each backend's
 /// answer at the stop (`y + Aᵀλ` from the multipliers the run left) was from the certified
 /// projection, and the smallest singular value of the projection's support, which turns a
 /// violation `τ` into a distance of up to `τ/σ`. Long (dense eigenvalues of the support's Gram
