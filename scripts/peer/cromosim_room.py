@@ -1,11 +1,12 @@
-"""The paper's room run by cromosim (Python, cvxopt), the peer implementation of the same
+"""A square room with one door run by cromosim (Python, cvxopt), the peer implementation of the same
 prediction-projection scheme, from given initial positions, every phase of its loop timed.
 
-cromosim draws walls as pixels of an image whose origin must be (0, 0): the 10 m room is the
-interior [1, 11]^2 of a 12 m image, so its coordinates are ours plus 1. Its door is the middle
-1.2 m of the right wall, and people are removed when they reach a line 0.9 m past it.
+cromosim draws walls as pixels of an image whose origin must be (0, 0): the room of side L
+(`--room`, the paper's 10 m by default) is the interior [1, L + 1]^2 of an image 2 m wider, so
+its coordinates are ours plus 1. Its door is the middle `--door` metres (1.2 by default) of the
+right wall, and people are removed when they reach a line 0.9 m past it.
 
-    python cromosim_room.py --init xyrv.npy --dt 0.01 --outdir DIR
+    python cromosim_room.py --init xyrv.npy --dt 0.01 --outdir DIR [--room 37 --door 2 --tf 15]
 
 prints one line of JSON: steps, final time, ms per step in all and by phase.
 """
@@ -36,11 +37,13 @@ ap.add_argument("--init", required=True, help=".npy array of rows x, y, r, v (cr
 ap.add_argument("--dt", type=float, default=0.01)
 ap.add_argument("--tf", type=float, default=40.0)
 ap.add_argument("--outdir", required=True)
+ap.add_argument("--room", type=float, default=10.0, help="side of the square room, m")
+ap.add_argument("--door", type=float, default=1.2, help="width of the door, m")
 args = ap.parse_args()
 os.makedirs(args.outdir, exist_ok=True)
 os.chdir(args.outdir)  # cromosim writes its domain image into the working directory
 
-ROOM, MARGIN, DOOR, PIXEL = 10.0, 1.0, 1.2, 0.05
+ROOM, MARGIN, DOOR, PIXEL = args.room, 1.0, args.door, 0.05
 side = ROOM + 2 * MARGIN
 pixels = int(round(side / PIXEL))
 black, red = [0, 0, 0], [255, 0, 0]
