@@ -151,12 +151,12 @@ pub struct ProjectorOptions {
     /// `None` for its default (tight) settings. The cross-checks take none. Default `None`.
     pub tolerance: Option<f64>,
     /// Most threads a projection runs on, `0` meaning as many as the cores the process may run
-    /// on. The native backend runs a projection on more than one
-    /// ([`NativeSettings::threads`](sweeping_native::NativeSettings::threads): its blocks and
-    /// its speculated rescues), and the cross-checks, with two or more, run their two backends
-    /// at once ([`CrossCheck::concurrent`]; `cross-native`'s native backend then on one
-    /// thread fewer); Clarabel and OSQP run on one thread whatever it says. The answers do
-    /// not depend on it. Default `0`.
+    /// on. The native backend runs a projection's large blocks on more than one
+    /// ([`NativeSettings::threads`](crate::backends::NativeSettings::threads)), and the
+    /// cross-checks, with two or more, run their two backends at once
+    /// ([`CrossCheck::concurrent`]; `cross-native`'s native backend then on one thread
+    /// fewer); Clarabel and OSQP run on one thread whatever it says. The answers do not depend
+    /// on it. Default `0`.
     pub threads: usize,
 }
 
@@ -349,9 +349,9 @@ mod tests {
 
     #[test]
     fn clarabel_and_osqp_by_name_solve_each_block_on_its_own() {
-        // Given the whole problem, Clarabel took 8 interior-point iterations and OSQP 50 ADMM
-        // ones on these 50 pairs; block by block (`Blocked`) every pair is a solve of its own,
-        // of at least two iterations, and the statistics add them up.
+        // Given the whole problem, Clarabel and OSQP iterate on all 50 pairs at once; block by
+        // block (`Blocked`) every pair is a solve of its own, of at least two iterations, and
+        // the statistics add them up.
         let k = 50;
         let p = pushed_pairs(k);
         let options = ProjectorOptions {
@@ -396,8 +396,7 @@ mod tests {
                 name: "gurobi".into()
             })
         );
-        // The message lists every name that parses (an earlier one left out `native` and
-        // `cross-native`).
+        // The message lists every name that parses, `native` and `cross-native` included.
         let message = "gurobi".parse::<BackendChoice>().unwrap_err().to_string();
         for b in BackendChoice::ALL {
             assert!(

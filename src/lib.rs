@@ -41,6 +41,7 @@ pub mod stepper;
 pub mod study;
 
 pub use error::SweepError;
+#[doc(inline)]
 pub use sweeping_api as api;
 
 /// The names a first problem, a custom backend and a backend swap need: everything a
@@ -99,4 +100,6 @@ pub mod guide_doctests {
     pub struct CommonMistakes;
     #[doc = include_str!("../docs/guide/src/theory.md")]
     pub struct Theory;
+    #[doc = include_str!("../docs/guide/src/development.md")]
+    pub struct Development;
 }

@@ -4,12 +4,12 @@
 //! 128 KiB (a threshold it then raises as such blocks come and go) is unmapped, and the top
 //! of the heap is trimmed once more than twice that is free there. A projection of a jam of
 //! thousands of people allocates and frees vectors of that size many times per step (the
-//! interior point's and the active set's, one entry per row or unknown), so each of them was
-//! mapped afresh: `perf stat -e page-faults sweep bench --n 5000 --start jammed --steps 20
-//! --backends native` counted 17 108 page faults, and the kernel's zeroing of the new pages
-//! was a tenth of the run. [`keep_freed_memory`] raises both thresholds, so freed memory stays
-//! with the process for its next allocations: 3887 page faults. The resident set no longer
-//! shrinks after a peak, and the peak itself (what `sweep run` reports) is the same.
+//! interior point's and the active set's, one entry per row or unknown), so by default each
+//! of them is mapped afresh, its pages faulted in and zeroed by the kernel every time.
+//! [`keep_freed_memory`] raises both thresholds, so freed memory stays with the process for its
+//! next allocations (measured: `docs/lab/2026-11-23-per-size-table-release-by-release.md`).
+//! The resident set then does not shrink after a peak, and the peak itself (what `sweep run`
+//! reports) is the same.
 
 /// Makes glibc's allocator keep freed memory (blocks of up to 32 MiB are not mapped on their
 /// own, and the heap is not trimmed below 1 GiB of free space at its top). Call it first

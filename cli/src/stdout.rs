@@ -1,8 +1,8 @@
 //! Standard output that a closed pipe or a full disk cannot turn into a panic.
 //!
 //! `println!` panics when it cannot write ("failed printing to stdout: Broken pipe"), as in
-//! `sweep run SCENE | head -3`: the run's files were complete, but the process ended with a
-//! panic and exit code 101. Here a failed write is remembered instead and the rest of the
+//! `sweep run SCENE | head -3`: the run's files would be complete, but the process would end
+//! with a panic and exit code 101. Here a failed write is remembered instead and the rest of the
 //! output skipped; [`finish`] then tells what happened. A closed pipe means the reader had
 //! seen enough, as for the shell's own tools, and is not an error; any other failure (a full
 //! disk) is reported on standard error and makes the exit status 1.

@@ -199,9 +199,9 @@ impl DistanceField {
         // Blocked nodes just outside an exit, behind its opening, get minus their distance, so
         // the field carries people through the door rather than stopping them on it. Only
         // behind the opening: a blocked node beside an end of the exit is in or behind the wall
-        // that continues it, and a value below the exit's there pulled people straight into
-        // that wall (a lone person stopped for good against it 6 cm from a door's edge, where
-        // the pull into the wall balanced the pull along it towards the door).
+        // that continues it, and a value below the exit's there would pull people straight
+        // into that wall (a lone person can stop for good against it near a door's edge, where
+        // the pull into the wall balances the pull along it towards the door).
         let mut values = vec![f64::INFINITY; n];
         let mut known = vec![false; n];
         let band = 1.5 * cell;

@@ -164,8 +164,8 @@ impl Perturbation for DesiredVelocity {
                 let speed = self.speeds[i];
                 // Who has left keeps walking out, even where that path crosses the room again.
                 let outside = self.population.has_departed(i) || self.population.outside_room(p);
-                // The nearest exit is looked for only for who is outside (it was computed for
-                // everyone, a segment distance per exit per person per step, and then unused).
+                // The nearest exit is looked for only for who is outside: it costs a segment
+                // distance per exit per person per step, and nobody else uses it.
                 let v = match outside.then(|| self.nearest_exit_normal(p)).flatten() {
                     Some(n) => [n[0] * speed, n[1] * speed],
                     None => field.velocity(p, speed),

@@ -261,9 +261,9 @@ pub fn thread_cpu_seconds() -> Option<f64> {
 /// where the platform provides neither.
 ///
 /// `ru_maxrss` is not used first because Linux carries it over `execve` from the process that
-/// forked: started by `cargo run` (as `scripts/sweep` does), `sweep` reported cargo's own
-/// peak, 55 MiB, for a run whose own peak was 8 MiB. `VmHWM` belongs to the address space,
-/// which `execve` replaces.
+/// forked: started by `cargo run` (as `scripts/sweep` does), `sweep` would report cargo's
+/// own peak, often larger than the run's. `VmHWM` belongs to the address space, which
+/// `execve` replaces.
 pub fn peak_memory_bytes() -> Option<u64> {
     #[cfg(target_os = "linux")]
     {
@@ -1020,8 +1020,8 @@ mod tests {
         assert!(peak_memory_bytes().is_some_and(|b| b > 0));
     }
 
-    /// The rows' JSON keeps the cost columns at the top level, as before they were gathered
-    /// into [`RunCost`], and reads back equal.
+    /// The rows' JSON keeps the cost columns of [`RunCost`] at the top level (flattened),
+    /// and reads back equal.
     #[test]
     fn row_json_is_flat_and_round_trips() {
         let cost = RunCost {

@@ -132,9 +132,9 @@ pub struct WorkPrecisionReport {
 
 /// Errors within this fraction of each other count as equal on the efficient front. Tight
 /// solvers move `e_h` in its eighth or ninth digit by their own rounding and tolerance
-/// (tight OSQP, whose answers violate rows by up to about `1e-9`, was once "more accurate"
-/// than the native backend at h = 0.02 of the paper's room by 4e-10 in 5.2e-2, and so on the
-/// front at three times its cost); a loose tolerance moves it by a percent.
+/// (tight OSQP, whose answers violate rows by up to about `1e-9`, can come out "more
+/// accurate" than the native backend by that alone, and so on the front at several times its
+/// cost); a loose tolerance moves it by a percent.
 pub const ERROR_TIE: f64 = 1e-6;
 
 impl WorkPrecisionReport {
@@ -467,8 +467,8 @@ mod tests {
 
     #[test]
     fn an_error_smaller_by_a_solvers_rounding_buys_no_place_on_the_front() {
-        // The paper's room at h = 0.02, T = 2 (this release): tight OSQP's error 4.3e-10 below
-        // the native backend's, at three times its time.
+        // Errors and times shaped like the paper's room at h = 0.02, T = 2: tight OSQP's error
+        // a rounding below the native backend's, at three times its time.
         let tied = report(&[
             ("native", 5.157926859e-2, 0.0066),
             ("clarabel", 5.157926859e-2, 0.0563),
@@ -491,8 +491,8 @@ mod tests {
 
     #[test]
     fn a_settings_projector_keeps_to_the_thread_its_cpu_time_is_measured_on() {
-        // A native backend left to its default would speculate its rescues on a second
-        // thread, whose CPU time the study does not see.
+        // A native backend left to its default would solve large blocks on other threads,
+        // whose CPU time the study does not see.
         for text in ["native", "native@1e-9", "osqp@1e-3", "clarabel"] {
             let setting: SolverSetting = text.parse().unwrap();
             let options = projector_options(&setting);

@@ -101,8 +101,9 @@ impl Blocks {
         let (m, n) = (a.n_rows(), a.n_cols());
         let mut parent: Vec<usize> = (0..n).collect();
         // Union by size keeps the trees shallow: linking a row's first root under the next
-        // one's, whatever their sizes, made `find` two fifths of this function's time on the
-        // paper's evacuation. The components, and so the blocks, are the same either way.
+        // one's, whatever their sizes, makes `find` a large part of this function's time
+        // (measured: `docs/lab/2026-11-25-less-work-and-speculated-rescue.md`). The
+        // components, and so the blocks, are the same either way.
         let mut size = vec![1u32; n];
         let mut first_col = vec![usize::MAX; m];
         for (r, first) in first_col.iter_mut().enumerate() {

@@ -30,12 +30,13 @@
 //! residuals. Unless [`ClarabelSettings::polish`] is off, a Lawson–Hanson active-set method on
 //! the dual of the projection finishes the job from the interior-point answer, block by block
 //! (connected components of the rows, each under its own cap of iterations; each step one
-//! sparse `LDLᵀ` factorization with Clarabel's QDLDL; linearly dependent active rows are
+//! sparse `LDLᵀ` factorization in QDLDL's arithmetic; linearly dependent active rows are
 //! handled). **KKT acceptance:** the polished answer replaces the interior-point one when its
 //! KKT residuals are no larger, or below a hundredth of [`ClarabelSettings::kkt_tolerance`];
 //! a solve that stops short (iteration limit, insufficient progress) is kept only if its KKT
-//! residuals are within tolerance. Measurements and the commands that reproduce them are in
-//! `docs/backends.md`.
+//! residuals are within tolerance. Measurements, with the commands that reproduce them:
+//! `docs/lab/2026-11-23-clarabel-contact-loop-and-conformance.md` and
+//! `docs/lab/2026-11-23-clarabel-polish-block-by-block.md`.
 //!
 //! # Statuses
 //!
@@ -138,13 +139,12 @@ pub struct ClarabelSettings {
     /// Clarabel's Ruiz equilibration of the data. Default `true` (Clarabel's).
     pub equilibrate: bool,
     /// Polish the interior-point answer: guess the active rows (multiplier larger than
-    /// slack), project onto the affine set where they hold with equality (one sparse `LDLᵀ`
-    /// factorization, about the cost of one more interior-point iteration; repeated, at most
-    /// four times, when rows end with a negative multiplier and are dropped), and keep the
-    /// result when its KKT residuals are no larger than the interior-point answer's.
-    /// Default `true`. Without it, a row that is tight at the answer with a zero multiplier
-    /// leaves the point off by about the square root of the duality gap (`1.2e-5` on the
-    /// conformance kit's orthant, whose `y` has a coordinate exactly on the boundary).
+    /// slack), finish the projection from them with the active-set method, block by block
+    /// (see the crate documentation), and keep the result when its KKT residuals are no
+    /// larger than the interior-point answer's, or below a hundredth of
+    /// [`kkt_tolerance`](Self::kkt_tolerance). Default `true`. Without it, a row that is
+    /// tight at the answer with a zero multiplier leaves the point off by about the square
+    /// root of the duality gap.
     pub polish: bool,
 }
 
@@ -170,9 +170,9 @@ impl Default for ClarabelSettings {
 impl ClarabelSettings {
     /// Clarabel's own stopping tolerances (`1e-8` for gaps and feasibility), quiet, polished,
     /// and accepting `AlmostSolved`: for production runs where speed matters more than a
-    /// safety margin. About 10 % fewer iterations than the default; as accurate when
-    /// polishing succeeds, but off by up to ~`1e-4` on instances with weakly active rows when
-    /// it does not.
+    /// safety margin. Fewer iterations than the default; as accurate when polishing
+    /// succeeds, but off by up to ~`1e-4` on instances with weakly active rows when it does
+    /// not.
     pub fn loose() -> Self {
         Self {
             tol_gap_abs: 1e-8,
@@ -187,8 +187,8 @@ impl ClarabelSettings {
     /// [`Projector::tolerance`]: `100 × max(tol_gap_abs, tol_feas)` (so `1e-8` by default).
     ///
     /// The factor covers Clarabel's scaling of the feasibility residuals by the size of the
-    /// data and the sum over rows in the gap: without polishing, the worst residual measured
-    /// was `5.6 × max(tol_gap_abs, tol_feas)` on random instances and below `1 ×` on crowds.
+    /// data and the sum over rows in the gap, which can leave an unpolished answer's residuals
+    /// several times `max(tol_gap_abs, tol_feas)`.
     /// It bounds residuals, not the distance to the exact projection, which can reach
     /// `√(rows × residual)` when polishing fails (see the crate documentation).
     pub fn kkt_tolerance(&self) -> f64 {
@@ -509,9 +509,8 @@ impl Projector for ClarabelProjector {
                 // Small KKT residuals of the interior-point iterate do not make its point
                 // accurate (weakly active rows leave it off by ~√gap), so the polished answer
                 // is kept whenever it meets a hundredth of the tolerance, not only when it
-                // beats the iterate's residuals (on the contact loop of the paper scene's
-                // step 287 the iterate's are 1e-11 with a point 2.2e-6 away; the polished
-                // answer's are 1e-14).
+                // beats the iterate's residuals (measured:
+                // `docs/lab/2026-11-23-clarabel-contact-loop-and-conformance.md`).
                 if valid && polished <= kkt.max(0.01 * clamp) {
                     x = px;
                     multipliers = pl;

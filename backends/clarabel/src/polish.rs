@@ -10,13 +10,13 @@
 //! contact loops. The caller keeps the answer only when its KKT residuals say so.
 //!
 //! The polish runs block by block ([`Blocks`]): after its first pass the method drops one row
-//! per iteration, so on the whole problem every block's leaving rows queued behind each other
-//! under one cap, and each iteration re-solved every block. On the largest shipped scenes the
-//! whole-problem polish gave up on some steps, even with a cap growing with the rows, and
-//! the unpolished answer stood, up to `1e-7` from the projection (see `docs/backends.md`).
-//! Block by block, a jam's block whose guess holds more rows than unknowns could still go
-//! round for good when every violated row joined at once; such a block is polished again with
-//! the most violated row joining alone, as the native backend finishes its interior points.
+//! per iteration, so on the whole problem every block's leaving rows would queue behind each
+//! other under one cap, and each iteration would re-solve every block; on large jams such a
+//! polish gives up, even with a cap growing with the rows, and leaves the unpolished answer
+//! (measured: `docs/lab/2026-11-23-clarabel-polish-block-by-block.md`). Block by block, a
+//! jam's block whose guess holds more rows than unknowns can still go round for good when
+//! every violated row joins at once; such a block is polished again with the most violated
+//! row joining alone, as the native engine finishes its interior points.
 
 use sweeping_api::{Blocks, ProjectionProblem};
 use sweeping_qp::active_set::{self, Start};
@@ -102,9 +102,9 @@ fn surest(guess: &[usize], z: &[f64], s: &[f64], n: usize) -> Vec<usize> {
 /// the same with the most violated row joining alone; that under [`long_cap`]; and, when
 /// those rows outnumber the block's unknowns (so some of them depend on the others), from the
 /// [`surest`] of them by the interior-point answer's own slacks `point_slack` (Clarabel's cone
-/// slacks `s` ranked them so that the try did not finish the block below), the most violated
-/// row joining alone, under [`long_cap`]. A block whose guess outnumbers its unknowns and whose
-/// answer is unfinished gets the skipped first try last, kept when it finishes.
+/// slacks `s` rank them less well: from that ranking the try can fail to finish), the most
+/// violated row joining alone, under [`long_cap`]. A block whose guess outnumbers its unknowns
+/// and whose answer is unfinished gets the skipped first try last, kept when it finishes.
 fn polish_block(
     block: &ProjectionProblem,
     z: &[f64],
@@ -117,11 +117,10 @@ fn polish_block(
     let cap = short_cap(m);
     // A guess with more rows than unknowns holds dependent rows, and its first solves are
     // inconsistent: the method leaves rows along the ray one per iteration, and every row
-    // joining at once then takes back hundreds that leave again. On the door queues of the
-    // 10 000-person hall at t = 20 s (3000–4500 rows on 2200–3200 unknowns, 2700–4150 rows
-    // with `z > s`) that first try ran out or cycled on every such block and took more than
-    // half of the polish's iterations before the next try finished from the same guess
-    // (`docs/performance.md`); those blocks start at the next try.
+    // joining at once then takes back hundreds that leave again. On a jam's door queues that
+    // first try runs out or cycles on such blocks, spending iterations before the next try
+    // finishes from the same guess (measured:
+    // `docs/lab/2026-11-29-clarabel-polish-over-complete-guess.md`); they start at the next.
     let over_complete = guess.len() > block.dim();
     let mut outcome = if over_complete {
         Err(Cap(0))
@@ -130,34 +129,31 @@ fn polish_block(
     };
     // Rows joining together that depend on the support make its equations inconsistent, and
     // they leave again one per iteration; on a jam whose guess holds more rows than unknowns
-    // that can go round for good (a block of 1644 rows of the 2000-person evacuation ran out
-    // of 20 000 iterations), while the most violated row joining alone finishes in 197.
-    // Tried second, because joining every violated row at once is what saves iterations when
-    // the guess is good.
+    // that can go round for good, while the most violated row joining alone finishes (measured:
+    // `docs/lab/2026-11-24-clarabel-jam-polish-one-row-at-a-time.md`). Tried second, because
+    // joining every violated row at once is what saves iterations when the guess is good.
     if matches!(outcome, Err(Cap(_) | Cycling(_))) {
         outcome = active_set::solve(block, start_at(guess.clone(), z, Some(1)), cap);
-        // Room for every row of the block to join and leave once: on a block of 1004 rows of
-        // the 2000-person evacuation at h = 0.05 both tries above ran out and the
-        // interior-point iterate stood, 1.0e-7 from the projection; one row at a time
-        // finished it in 1405 iterations.
+        // Room for every row of the block to join and leave once: on a jam both tries above
+        // can run out where one row at a time under this cap finishes (measured:
+        // `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
         if matches!(outcome, Err(Cap(_))) {
             outcome = active_set::solve(block, start_at(guess.clone(), z, Some(1)), long_cap(m));
         }
     }
-    // On a door queue of the 10 000-person hall at t = 14.8 s (3743 rows on 2804 unknowns)
-    // 3373 rows had `z > s`, and every try above ran out: the interior-point iterate stood,
-    // 5.2e-7 from the projection. From the 2804 surest the method finished in 3321
-    // iterations.
+    // A guess far beyond the block's unknowns can make every try above run out, where the
+    // unknowns' count of its surest rows finishes (measured:
+    // `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
     if matches!(outcome, Err(Cap(_) | Cycling(_))) && over_complete {
         let point_slack: Vec<f64> = (0..m).map(point_slack).collect();
         let surest = surest(&guess, z, &point_slack, block.dim());
         outcome = active_set::solve(block, start_at(surest, z, Some(1)), long_cap(m));
     }
-    // The try skipped above is still worth its time where the answer is unfinished: on the
-    // 10 000-person hall's block of `tests/sliver_blocks.rs` (`hall_late`), one row at a
-    // time left an answer off by 9.6e-15 (9.6e-11 from the projection), every row at once
-    // finished it (2.8e-11). Kept only if finished: two unfinished answers are both off by
-    // about the tolerance of the rung that stood, which does not say which is nearer.
+    // The try skipped above is still worth its time where the answer is unfinished: on a
+    // sliver, one row at a time can leave an answer unfinished that every row at once
+    // finishes (measured: `docs/lab/2026-11-29-clarabel-polish-over-complete-guess.md`). Kept
+    // only if finished: two unfinished answers are both off by about the tolerance of the
+    // rung that stood, which does not say which is nearer.
     if over_complete && outcome.as_ref().is_ok_and(|o| o.unfinished.is_some()) {
         if let Ok(first) = active_set::solve(block, start_at(guess, z, None), cap) {
             if first.unfinished.is_none() {
@@ -295,7 +291,7 @@ mod tests {
     fn each_block_is_polished_under_its_own_cap() {
         let (problem, z, s) = chains_with_decoys(20);
         // On the whole problem the chains' leaving rows queue behind each other (a chain
-        // alone needs 7 iterations, the 20 together 59): the former cap of 40 runs out.
+        // alone needs 7 iterations, the 20 together 59): a single cap of 40 runs out.
         let support: Vec<usize> = (0..z.len()).filter(|&i| z[i] > s[i]).collect();
         assert!(matches!(
             active_set::solve(&problem, start_at(support, &z, None), ITERATIONS),
@@ -370,9 +366,9 @@ mod tests {
 
     #[test]
     fn an_unfinished_answer_from_a_guess_with_more_rows_than_unknowns_gets_the_first_try_too() {
-        // The 10 000-person hall's block of `tests/sliver_blocks.rs` (`hall_late`, 4000 rows
-        // on 3000 unknowns): one row at a time from Clarabel's guess leaves an answer off by
-        // 9.6e-15; every row at once finishes it, and that answer is kept.
+        // The hall's late sliver block of `tests/sliver_blocks.rs` (`hall_late`, 4000 rows on
+        // 3000 unknowns): one row at a time from Clarabel's guess leaves an answer unfinished;
+        // every row at once finishes it, and that answer is kept.
         #[derive(serde::Deserialize)]
         struct Block {
             problem: ProjectionProblem,
@@ -448,8 +444,8 @@ mod tests {
     fn a_jam_whose_rows_joining_together_run_out_is_polished_one_row_at_a_time() {
         // 400 rows of a jam of the 2000-person evacuation and the interior-point answer
         // Clarabel gave there (see `tests/jam_polish.rs`): joining every violated row at once
-        // runs out of the block's cap of 240 iterations, so the polish used to keep the
-        // iterate (every multiplier positive, the point off by ~√gap).
+        // runs out of the block's cap of 240 iterations, and the polish must not stop there
+        // with the iterate (every multiplier positive, the point off by ~√gap).
         let (problem, x, z, s) =
             interior_point_guess(include_str!("../tests/data/jam_polish_guess.json"));
         let Polished {
@@ -475,9 +471,9 @@ mod tests {
     #[test]
     fn a_block_whose_first_two_tries_run_out_is_polished_under_the_long_cap() {
         // A block of 1004 rows on 694 unknowns of the 2000-person evacuation at h = 0.05
-        // (t = 44.6 s) and the interior-point answer Clarabel gave there, which stood
-        // unpolished, 1.0e-7 from the projection (decided from the run's disagreement.json,
-        // `docs/backends.md`): both tries under 40 + 1004/2 iterations run out.
+        // (t = 44.6 s) and the interior-point answer Clarabel gave there (the case:
+        // `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`): both tries under
+        // 40 + 1004/2 iterations run out.
         let (problem, x, z, s) = interior_point_guess(include_str!(
             "../tests/data/evacuation_h005_polish_guess.json"
         ));
@@ -508,11 +504,10 @@ mod tests {
 
     #[test]
     fn a_guess_holding_more_rows_than_unknowns_is_polished_from_its_surest_rows() {
-        // Clarabel's interior-point answer on a door queue of the 10 000-person hall at
-        // t = 14.8 s, a block of 3743 rows on 2804 unknowns, from a `cross-native` run that
-        // stopped there: 3373 rows have z > s, and the three tries from them run out (1.4,
-        // 0.8 and 4.1 s in a release build). The iterate stood, 5.2e-7 from the native
-        // backend's answer.
+        // Clarabel's interior-point answer on a door queue of the hall at t = 14.8 s
+        // (`hall_t14_polish_guess.json`), a block of 3743 rows on 2804 unknowns: 3373 rows have
+        // z > s, and the three tries from them run out, so only the fourth moves the iterate
+        // (the case: `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
         let (problem, x, z, s) =
             interior_point_guess(include_str!("../tests/data/hall_t14_polish_guess.json"));
         let (m, n) = (problem.n_rows(), problem.dim());
@@ -526,7 +521,7 @@ mod tests {
             unfinished,
         } = polish(&problem, &x, &z, &s).expect("the block is polished");
         // The polished answer is finished but for its last rounding, and it is not the
-        // iterate, which lay 5.2e-7 from it (the projection's support has a smallest singular
+        // iterate, which lies 5.2e-7 from it (the projection's support has a smallest singular
         // value of about 5.7e-5: rows off by 6.5e-9 at the iterate put it that far).
         assert!(problem.kkt_residuals(&px, &pl).max() <= 1e-13);
         let moved = px

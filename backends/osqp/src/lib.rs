@@ -63,8 +63,8 @@
 //!
 //! Every OSQP status is mapped to a result: `Solved` to an answer, `SolvedInaccurate` to an
 //! answer of reduced accuracy when [`OsqpSettings::accept_inaccurate`] is set or when its KKT
-//! residuals are within [`Projector::tolerance`] anyway (checked, not trusted; in the paper's
-//! jam OSQP stops this way at 1e-9 with residuals far below 1e-6), else to
+//! residuals are within [`Projector::tolerance`] anyway (checked, not trusted: on a jam at
+//! tight tolerances OSQP often stops this way with residuals far below that), else to
 //! [`ProjectionError::NotConverged`], iteration and time limits to
 //! [`ProjectionError::NotConverged`], primal infeasibility to [`ProjectionError::Infeasible`],
 //! and the statuses a projection cannot produce (dual infeasibility, non-convexity) to
@@ -106,9 +106,9 @@ pub struct OsqpSettings {
     pub eps_rel: f64,
     /// Tolerance of OSQP's primal infeasibility certificate. Default `1e-7` (OSQP: `1e-4`).
     ///
-    /// OSQP's own value certified as infeasible 3 of 2000 random *feasible* sets whose feasible
-    /// region is (nearly) a single point; from `1e-6` down none was, and sets infeasible by a
-    /// margin of `1e-4` were still all detected, in a few hundred iterations.
+    /// OSQP's own value can certify as infeasible a *feasible* set whose region is (nearly) a
+    /// single point; a tighter one does not, and still detects sets infeasible by a margin of
+    /// `1e-4` in a few hundred iterations.
     pub eps_prim_inf: f64,
     /// Most ADMM iterations per solve. Default `100_000` (OSQP: `4000`).
     pub max_iter: u32,
@@ -190,8 +190,8 @@ impl OsqpSettings {
         }
     }
 
-    /// The former name of [`loose`](Self::loose) (the same spelling as
-    /// `ClarabelSettings::loose`).
+    /// A deprecated alias of [`loose`](Self::loose), whose name matches
+    /// `ClarabelSettings::loose`.
     #[deprecated(
         since = "0.1.0",
         note = "renamed `OsqpSettings::loose`, as for Clarabel"
@@ -723,9 +723,8 @@ impl Projector for OsqpProjector {
     /// `1000 × max(eps_abs, eps_rel)`: `1e-6` with the defaults.
     ///
     /// OSQP bounds its primal and dual residuals; the KKT residual that dominates is
-    /// complementarity, `λᵢ (Ax − b)ᵢ`, which is the primal residual times a multiplier. On 2000
-    /// random instances of the conformance kit (multipliers up to ~10³) the largest KKT
-    /// residual was `5e-7` with the defaults, and 99 % were below `6e-8`.
+    /// complementarity, `λᵢ (Ax − b)ᵢ`, which is the primal residual times a multiplier: the
+    /// factor covers multipliers up to ~10³, as on the conformance kit's random instances.
     fn tolerance(&self) -> f64 {
         1000.0 * self.settings.eps_abs.max(self.settings.eps_rel)
     }

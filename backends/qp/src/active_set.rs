@@ -50,14 +50,14 @@
 //! as it was, and says it is unfinished ([`Outcome::unfinished`]). On a jam with more
 //! tight rows than unknowns the feasible set is a sliver around the projection, and two
 //! points that pass the `1e-12` tests can lie millions of times further apart than that
-//! (measured in `docs/backends.md`). The second pass tells a support whose rows are nearly
-//! dependent from one whose equations are inconsistent by conjugate gradients where
-//! refinement stalls (see `LEAST_SQUARES_STEPS` in the source).
+//! (measured: `docs/lab/2026-11-24-second-pass-1e-13.md`). The second pass tells a support
+//! whose rows are nearly dependent from one whose equations are inconsistent by conjugate
+//! gradients where refinement stalls (see `LEAST_SQUARES_STEPS` in the source).
 //!
 //! The same method polishes Clarabel's interior-point answers (started from the interior-point
-//! guess, see the crate documentation) and is the whole of the native backend
-//! (`sweeping-native`, started from the previous step's active set or from the rows violated
-//! at `y`): one implementation, two starts.
+//! guess, see `sweeping-clarabel`) and is the engine's warm path and finish ([`crate::Engine`],
+//! started from the previous step's support, from the rows violated at `y`, or from an
+//! interior point's support): one implementation, several starts.
 
 use crate::csc::CscMatrix;
 use sweeping_api::{max_or_nan, FastMap, ProjectionProblem, RowKey};
@@ -73,8 +73,8 @@ const REFINE_STEPS: usize = 50;
 /// Refinement also stops when a step moves the first block by more than this fraction of the
 /// step before: on consistent equations it contracts by far more (the regularization `δ` is
 /// tiny against the rows' scale), so slower progress means inconsistent or nearly dependent
-/// rows. Running such refinements to [`REFINE_STEPS`] cost ten times more solves on the
-/// paper's evacuation without changing the number of active-set iterations.
+/// rows. Running such refinements to [`REFINE_STEPS`] multiplies the solves without changing
+/// the number of active-set iterations.
 const REFINE_CONTRACTION: f64 = 0.1;
 /// Refinement stops when the residual of the unregularized system, or the change of its first
 /// block, falls below this, relative to `max(1, ‖right-hand side‖∞)`.
@@ -85,31 +85,26 @@ const ACTIVE_TOL: f64 = 1e-12;
 /// The tolerance of the second pass ([`second_pass`]), relative as [`ACTIVE_TOL`], and of its
 /// refinement, below which a support's equations count as solved there.
 ///
-/// On a jam the support's rows can be nearly dependent: at a door queue of the 2000-person
-/// evacuation, the projection's support (1588 rows) had a smallest singular value of 1.7e-5,
-/// and of the 10 000-person hall 7.7e-7. A point that violates a row, or leaves its support's
-/// equations unsolved, by `τ` can then be `τ/σ` from the projection: at `1e-13`, answers of the
-/// two backends lay 1.5e-8 and 1.9e-8 apart there, and 1.3e-9 to 3.2e-8 from the certified
-/// projection. The crowd's problems are posed in the displacement `x − q_k`, whose rows and
-/// right-hand sides are of the order of a step's travel, so `1e-15` is still a hundred times
-/// the rounding of `r − A d`; answers finished at it came within 3e-10 of the projection on
-/// both blocks (`docs/backends.md`).
+/// On a jam the support's rows can be nearly dependent, its smallest singular value `σ` far
+/// below one: a point that violates a row, or leaves its support's equations unsolved, by `τ`
+/// can then be `τ/σ` from the projection, so the test must be far tighter than the distance
+/// it is to guarantee. The crowd's problems are posed in the displacement `x − q_k`, whose
+/// rows and right-hand sides are of the order of a step's travel, so `1e-15` is still a
+/// hundred times the rounding of `r − A d` (measured:
+/// `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
 const SECOND_PASS_TOL: f64 = 1e-15;
 
 /// The tests of the second pass, tried in turn, each from the first answer, until a pass
 /// converges; then the ones below it again, each from the last answer ([`second_pass`]); an
 /// answer that no pass at `1e-15` converges to is [`Outcome::unfinished`], off by up to
-/// `1e-14` or `1e-13`. On the slivers where the pass at `1e-15` cycles, a row violated by about
-/// `2e-15` joins and the refinement then measures the support's equations inconsistent by
-/// `2e-14`, so the row leaves again: the test is below what the refinement can resolve there.
-/// At `1e-14`, Clarabel's answer at the 10 000-person hall's stop of `docs/backends.md` was
-/// finished 2.9e-11 from the projection instead of 2.3e-8, and Clarabel on two such blocks
-/// alone ended 7.6e-10 and 3.1e-10 from it instead of 1.06e-9 and 9.8e-9; from there, the
-/// pass at `1e-15` run again finished both, 2.8e-11 and 5.2e-11 from it. The rung at `1e-13`
-/// is for answers that neither lower rung finishes from the first answer: at the hall's stop
-/// at t = 28.57 s, the native backend's first answer was off by 9.7e-13 and 1.1e-8 from the
-/// projection, both lower rungs cycled from it, and it stood; the pass at `1e-13` converged,
-/// and the pass at `1e-14` from its answer, 1.4e-10 from the projection.
+/// `1e-14` or `1e-13`. On the slivers where the pass at `1e-15` cycles, a row violated by a
+/// few `1e-15` joins and the refinement then measures the support's equations inconsistent by
+/// ten times that, so the row leaves again: the test is below what the refinement can resolve
+/// there. A pass at `1e-14` still brings such an answer much nearer the projection, and from
+/// there the pass at `1e-15` often finishes it. The rung at `1e-13` is for answers that
+/// neither lower rung finishes from the first answer: from its answer the lower rungs can
+/// converge where they cycled before (measured:
+/// `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
 const FINISH_LADDER: [f64; 3] = [SECOND_PASS_TOL, 1e-14, 1e-13];
 
 /// The tests of one pass of the method.
@@ -139,10 +134,10 @@ const FIRST_PASS: Tolerances = Tolerances {
 /// followed by conjugate gradients. Refinement (the proximal-point method with step `1/δ`)
 /// contracts an error along a singular vector of `A_P` by `δ/(σ² + δ)` per step, so it stalls
 /// on rows nearly dependent (`σ² ≲ 10δ`, `σ ≲ 1e-4`) whether or not their equations are
-/// consistent, and the method then took consistent supports for inconsistent ones: from an
-/// answer of Clarabel's polish at the door queue above, a second pass at `1e-13` dropped and
-/// took back the same rows until it restarted and ran out of its 1170 iterations. Conjugate
-/// gradients tell the two apart in two or three steps there.
+/// consistent, and the method would take consistent supports for inconsistent ones, dropping
+/// and taking back the same rows until it runs out of iterations. Conjugate gradients tell
+/// the two apart in a few steps (measured:
+/// `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
 const SECOND_PASS: Tolerances = Tolerances {
     active: SECOND_PASS_TOL,
     refine: SECOND_PASS_TOL,
@@ -217,8 +212,8 @@ pub enum Failure {
 /// Rows of `A`, each with its columns sorted and repeats summed, stored one after another.
 ///
 /// One vector for all of a support's rows rather than one per row: the method builds these
-/// rows at every fresh factorization, and as a vector each they were two allocations per
-/// row, two thirds of all the allocations of a run of the paper's evacuation.
+/// rows at every fresh factorization, and a vector each would cost two allocations per row,
+/// most of a run's allocations (measured: `docs/lab/2026-11-23-targets-release-by-release.md`).
 #[derive(Debug, Clone, Default)]
 struct MergedRows {
     /// Where each row starts in `entries`, and where the last ends.
@@ -300,9 +295,9 @@ impl MergedRows {
 /// regularization `K_δ = [I A_Pᵀ; A_P −δI]`.
 ///
 /// An unknown that no row of `P` touches has the equation `dⱼ = fⱼ` alone, so a sparse factor
-/// covers only the touched ones ([`Unknowns`]): on a jam the support touches a third of the
-/// block's people, and every factorization, solve and bordering column of the rest was
-/// identity work.
+/// covers only the touched ones ([`Unknowns`]): on a jam the support touches a fraction of
+/// the block's people, and every factorization, solve and bordering column of the rest would
+/// be identity work.
 struct ActiveSystem {
     n: usize,
     /// The support, in the order of `rows` and of the unknowns `μ`.
@@ -313,8 +308,8 @@ struct ActiveSystem {
     unknowns: Unknowns,
     /// Rows removed from and added to the support of a sparse factor since it was made.
     bordered: Option<Bordered>,
-    /// Work vectors of solves and refinement, kept from one to the next: a solve is a few
-    /// microseconds, and allocating its vectors afresh each time was a sizeable part of it.
+    /// Work vectors of solves and refinement, kept from one to the next: a solve is short,
+    /// and allocating its vectors afresh each time would be a sizeable part of it.
     scratch: Scratch,
 }
 
@@ -519,8 +514,8 @@ const STALE_FILL: f64 = 1.25;
 ///
 /// On a queue at a door the method factors, at the start of every step, a support of a
 /// hundred rows or more, much like the one of the step before: the same contacts, a few
-/// made or broken. AMD, which orders each fresh factorization, cost more there than the
-/// rest of the factorization (`docs/performance.md` has the measurements).
+/// made or broken. AMD, which orders each fresh factorization, costs more there than the
+/// rest of the factorization (measured: `docs/lab/2026-11-23-targets-release-by-release.md`).
 /// A factorization whose nodes are mostly remembered is ordered by their ranks in the
 /// orderings that placed them last (nodes new to the memory go last, in their own order),
 /// which keeps the fill of the AMD ordering it descends from as long as the support changes
@@ -653,8 +648,9 @@ impl Orderings {
         }
         // Ranks are distinct, so any sort gives this order. Most of them were handed out by
         // the last few factorizations and span a few times the nodes: placed by rank in a
-        // table of that span, they are in order without the comparison sort (which was most
-        // of the time spent here, four fifths of it on the paper's evacuation).
+        // table of that span, they are in order without the comparison sort, which would be
+        // most of the time spent here (measured:
+        // `docs/lab/2026-11-25-less-work-and-speculated-rescue.md`).
         // (No nodes at all leave `lowest` above `highest`: the difference saturates instead of
         // wrapping, and the sort has nothing to sort.)
         let span = highest.saturating_sub(lowest) + 1;
@@ -770,10 +766,10 @@ impl ActiveSystem {
             Some(unknown_ids.chain(row_ids).collect::<Vec<Node>>())
         });
         // A remembered ordering is used only when its factor is predicted to fill no more
-        // than `STALE_FILL` times the last AMD ordering: thousands of rows new to the memory
-        // go last, and eliminating the unknowns before them made a crowd at 1000 m/s fill
-        // 130 times more than AMD (6.8 million entries, 15 s for one factorization). The
-        // count is the factorization's own symbolic analysis, which gives up at the budget.
+        // than `STALE_FILL` times the last AMD ordering: when thousands of rows new to the
+        // memory go last, eliminating the unknowns before them can fill a hundred times more
+        // than AMD (measured: `docs/lab/2026-11-24-crowd-at-1000-m-s.md`). The count is the
+        // factorization's own symbolic analysis, which gives up at the budget.
         let remembered = match (&memory, &nodes) {
             (Some(m), Some(nodes)) => m.orderings.ordering(nodes).map(|perm| {
                 let budget = STALE_FILL * m.orderings.amd_fill * kkt.nnz() as f64;
@@ -875,8 +871,8 @@ impl ActiveSystem {
             return None;
         }
         // Counted before any is made: each change costs a solve with the old factor and a
-        // copy of `S`, and a jam can take in thousands of rows at once (a crowd at 1000 m/s
-        // pushed 5000 into one support, each of its iterations then took minutes).
+        // copy of `S`, and a jam can take in thousands of rows at once, each iteration then
+        // costing minutes (measured: `docs/lab/2026-11-24-crowd-at-1000-m-s.md`).
         let leaving: Vec<usize> = self
             .support
             .iter()
@@ -1433,9 +1429,9 @@ impl ActiveSystem {
 /// `step = rhs − kv`, returning `‖step‖∞`, NaN when an entry is (`f64::max` would pass over
 /// it, and a refinement whose iterate had gone NaN read as solved).
 ///
-/// Four running maxima, not one: each `max` waited on the one before, and this loop, over
-/// every unknown of the block at every refinement step, was 3 % of a jammed start of 5000.
-/// The maximum is the same in any order.
+/// Four running maxima, not one: with one, each `max` waits on the one before, and this loop
+/// runs over every unknown of the block at every refinement step. The maximum is the same in
+/// any order.
 fn residual_into(step: &mut [f64], rhs: &[f64], kv: &[f64]) -> f64 {
     let mut lanes = [0.0f64; 4];
     let mut nan = false;
@@ -1564,28 +1560,25 @@ type Best = Option<(f64, Outcome)>;
 /// by more than that: from its own support, the most violated row joining alone, for at most
 /// `cap` iterations (the first pass's own cap), through the factorization of its last
 /// iteration, bordered. When the pass does not converge (it runs out, or cycles: it does not
-/// restart from an empty support as the first pass does, which on a block of 1858 rows of the
-/// 2000-person evacuation spent 900 iterations for nothing), it is run again from the same
-/// start at the next tolerance of [`FINISH_LADDER`]. When one converges above `1e-15`, the
+/// restart from an empty support as the first pass does, since from there it would need as
+/// many iterations as the answer has rows), it is run again from the same start at the next
+/// tolerance of [`FINISH_LADDER`]. When one converges above `1e-15`, the
 /// tolerances below it are tried again in turn, each from the answer kept so far, closer to
 /// the projection than the first, until one does not converge. When none converges at
 /// `1e-15`, the answer is the first, a pass's answer or a pass's best iterate ([`Best`]),
 /// whichever is off by least, marked
-/// [`Outcome::unfinished`]: at such a jam's queue, rows that the data make dependent on the
-/// support and inconsistent with it by a few units in the last place of `b` keep joining and
-/// leaving at `1e-15`, and the pass's iterates between them were off by a few `1e-15`, where
-/// the first answer was off by `1e-12` and `1e-8` from the projection.
+/// [`Outcome::unfinished`]: on a jam, rows that the data make dependent on the support and
+/// inconsistent with it by a few units in the last place of `b` can keep joining and leaving
+/// at `1e-15`, and the pass's iterates between them are then still far nearer the projection
+/// than the first answer.
 ///
 /// On a jam with more tight rows than unknowns the feasible set is a sliver around the
 /// projection, and a point that violates a row, or solves its support's equations, only to
-/// `1e-12` can be `1e-8` from the projection: on a block of 2143 rows of the 10 000-person
-/// hall, the native backend's answer was 3.2e-8 from Clarabel's, whose polish had started
-/// from another support. Finished at `1e-13`, both came to the same point to `6e-16`, its
-/// KKT residuals `3e-16`. The whole method at `1e-13` finished fewer jams (the polish of a
-/// block of 2073 rows of the 2000-person evacuation ran out of iterations), hence a second
-/// pass from an answer rather than a tighter tolerance throughout. A cap of 16 left the next
-/// such stop of the hall (a block of 3902 rows, answers 1.2e-8 apart) as it was: finished
-/// from the two answers' supports, the passes took 79 and 193 iterations.
+/// `1e-12` can be `1e-8` from the projection, and two answers from different supports that
+/// far apart. Finished from each, both come to the same point. The whole method at a tighter
+/// tolerance finishes fewer jams, hence a second pass from an answer rather than a tighter
+/// tolerance throughout; and the pass gets the first pass's cap, since a short fixed cap
+/// leaves the larger jams as they were (measured: `docs/lab/2026-11-24-second-pass-1e-13.md`).
 fn second_pass(
     problem: &ProjectionProblem,
     first: Finished,
@@ -1642,11 +1635,9 @@ fn second_pass(
         }
     }
     // Down again: the rungs below the one that converged, each from the answer kept so far,
-    // which is closer to the projection than the first answer was. At the 10 000-person
-    // hall's stop at t = 28.57 s (`docs/backends.md`), the passes at `1e-15` and `1e-14`
-    // cycled from the native backend's first answer (off by 9.7e-13, 1.1e-8 from the
-    // projection) and the pass at `1e-13` converged (5.3e-9 from it); from there the pass at
-    // `1e-14` converged as well.
+    // which is closer to the projection than the first answer: a lower rung that cycles from
+    // the first answer can converge from there (measured:
+    // `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
     for rung in (0..converged.unwrap_or(0)).rev() {
         let pass = finishing_pass(
             problem,
@@ -1789,8 +1780,8 @@ fn run_pass(
     }
     // Every negative row leaves at once on the first pass, unless rows join one at a time:
     // from an interior point's guess on a jam, whose first solves are near inconsistent, that
-    // pass dropped 480 of 1350 rows at a door queue of the 2000-person evacuation, and the
-    // method ran out of iterations taking them back one by one.
+    // pass drops hundreds of rows and the method runs out of iterations taking them back one
+    // by one (measured: `docs/lab/2026-11-24-hard-blocks-door-queues.md`).
     let mut aggressive = join_at_most.is_none();
     // Set when the method restarted as Lawson–Hanson proper: from an empty support, one row
     // (the steepest) joining at a time, starting at a zero multiplier.
@@ -1834,11 +1825,9 @@ fn run_pass(
         let mut system = match reused {
             Some(system) => system,
             // A fresh factorization is ordered by AMD, or as its nodes were ordered last
-            // (`Orderings`, with `memory`). An ordering of the whole block made once and
-            // restricted to each working set paid for itself while every iteration factored;
-            // with bordering most do not, and ordering the whole block cost more than it
-            // saved (0.92x whole-process time on the paper's evacuation, 0.96x on the 10
-            // 000-person hall, jams faster too).
+            // (`Orderings`, with `memory`), not from an ordering of the whole block restricted
+            // to each working set: with bordering most iterations do not factor, and ordering
+            // the whole block costs more than it saves.
             None => ActiveSystem::new(problem, &support, memory.as_deref_mut())
                 .ok_or(Failure::Numerical("factorization"))?,
         };
@@ -1974,9 +1963,10 @@ fn answer_at(
 
 /// How often each support (a set of rows) has been factored in one run of the method.
 ///
-/// Sorting and hashing every support to count it cost about 2 % of the paper's evacuation:
-/// a support is found by a fingerprint that does not depend on the order of its rows, and
-/// sorted only when the fingerprint has been seen before (to tell a repeat from a collision).
+/// Sorting and hashing every support to count it would cost more than the count is worth
+/// (measured: `docs/lab/2026-11-25-one-ldl-code.md`): a support is found by a fingerprint
+/// that does not depend on the order of its rows, and sorted only when the fingerprint has
+/// been seen before (to tell a repeat from a collision).
 #[derive(Debug, Default)]
 struct Visits {
     /// By fingerprint: the supports seen with it (sorted once a later one shares it) and

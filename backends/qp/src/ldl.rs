@@ -127,8 +127,8 @@ impl Ldl {
         for i in 0..x.len() {
             let xi = x[i];
             // A zero updates nothing (but the sign of a zero below it): right-hand sides of
-            // bordering are a row's two to four entries, and about two in five columns of all
-            // forward passes on the paper's evacuation meet a zero.
+            // bordering are a row's two to four entries, so many columns of a forward pass
+            // meet a zero (measured: `docs/lab/2026-11-25-less-work-and-speculated-rescue.md`).
             if xi == 0.0 {
                 continue;
             }

@@ -19,9 +19,9 @@ use faer::{Conj, MatMut, Par, Side};
 use sweeping_api::SparseRows;
 
 /// Blocks of at least this many unknowns are factored supernodally (dense kernels on groups
-/// of columns with the same pattern), smaller ones column by column: on a jam's blocks of
-/// 1400 unknowns the supernodal factorization takes two thirds of the time of the other
-/// (`docs/lab/`), on small ones its bookkeeping costs more than it saves.
+/// of columns with the same pattern), smaller ones column by column: on a jam's large blocks
+/// the supernodal factorization is the faster, on small ones its bookkeeping costs more than
+/// it saves (measured: `docs/lab/2026-12-04-projection-engine.md`).
 const SUPERNODAL_FROM: usize = 400;
 
 /// Why a factorization could not be used.
