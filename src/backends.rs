@@ -24,8 +24,9 @@ pub enum BackendChoice {
     Cross,
     /// The dependency-free reference (Hildreth); small problems only.
     Reference,
-    /// The native active-set backend, certified by its KKT residuals, falling back to
-    /// Clarabel (when compiled in) on the blocks it cannot certify.
+    /// The native backend (the engine of `sweeping-qp`: a warm active set, an interior point
+    /// for rigid clusters), certified by its KKT residuals, falling back to Clarabel (when
+    /// compiled in) on the blocks it cannot certify.
     Native,
     /// Native and Clarabel on every step, failing when they disagree by more than
     /// [`NATIVE_CROSS_TOLERANCE`].

@@ -43,8 +43,10 @@ pub struct WorkPrecisionArgs {
     pub serial: bool,
 }
 
+/// The compiled backends a study compares by default, the native one (the default backend) first.
 fn compiled() -> Vec<BackendChoice> {
     [
+        BackendChoice::Native,
         BackendChoice::Clarabel,
         BackendChoice::Osqp,
         BackendChoice::Reference,
@@ -59,10 +61,20 @@ pub fn main(args: WorkPrecisionArgs) -> anyhow::Result<()> {
     let first = load_scene(&args.scene, Some(args.h_min), args.t_end)?;
     let t_end = args.t_end.unwrap_or(first.settings.t_end);
     let backends = compiled();
-    let reference = args.reference_solver.unwrap_or(SolverSetting {
-        backend: backends[0],
-        tolerance: None,
-    });
+    // By default the reference is an independent solver, not the native backend it measures.
+    let independent = backends
+        .iter()
+        .find(|b| **b != BackendChoice::Native)
+        .map(|&backend| SolverSetting {
+            backend,
+            tolerance: None,
+        });
+    let Some(reference) = args.reference_solver.or(independent) else {
+        anyhow::bail!(
+            "work-precision: no backend for the reference run (Clarabel, OSQP and the \
+             reference backend are not compiled in); name one with --reference-solver"
+        );
+    };
     let solvers = args.solvers.clone().unwrap_or_else(|| {
         let mut v: Vec<SolverSetting> = backends
             .iter()

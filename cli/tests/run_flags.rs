@@ -8,8 +8,8 @@ mod support;
 use support::sweep_run;
 
 /// A jam big enough for the native backend's large-block paths: 120 people walking to the
-/// centre of a 6 m room, one block of a few hundred rows, rescued by the interior point at
-/// its start (which a second thread speculates on).
+/// centre of a 6 m room, one block of a few hundred rows, taken by the interior point at its
+/// start.
 const JAM: &str = r#"
 name = "jam"
 [room]
@@ -142,7 +142,10 @@ fn bench_writes_its_csv_row_by_row_and_refuses_a_path_it_cannot_write_before_mea
     let csv = std::fs::read_to_string(&path).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 3, "{csv}");
-    assert!(lines[0].starts_with("start,n,backend,steps,threads,"), "{csv}");
+    assert!(
+        lines[0].starts_with("start,n,backend,steps,threads,"),
+        "{csv}"
+    );
     assert!(lines[1].starts_with("spread,150,native,1,"), "{csv}");
     assert!(lines[2].starts_with("spread,150,clarabel,1,"), "{csv}");
 }
@@ -365,4 +368,59 @@ fn bench_measures_a_scene_from_a_time_of_its_run_or_from_an_earlier_run_s_state(
     let (ok, text) = sweep_bench(&["--start", "queue,crowded"]);
     assert!(!ok);
     assert!(text.contains("expected spread, jammed or queue"), "{text}");
+}
+
+/// The default solvers of a work–precision study are every compiled backend, the native one
+/// (the default backend) among them; the reference run is an independent solver.
+#[test]
+fn a_work_precision_study_compares_the_native_backend_by_default() {
+    let dir = common::checker::scratch("work-precision-defaults");
+    let scene = dir.join("scene.toml");
+    std::fs::write(
+        &scene,
+        r#"
+name = "few"
+[room]
+rectangle = [0.0, 0.0, 4.0, 4.0]
+[[exits]]
+from = [4.0, 1.5]
+to = [4.0, 2.5]
+[[crowds]]
+count = 6
+radius = 0.2
+speed = 1.0
+seed = 1
+[desired]
+kind = "exit"
+[run]
+h = 0.05
+t_end = 0.2
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(["work-precision", scene.to_str().unwrap(), "--hs", "0.1"])
+        .args(["--h-min", "0.05", "--samples", "2", "--serial", "--out"])
+        .arg(&out)
+        .output()
+        .expect("running sweep work-precision");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "{text}");
+    let csv = std::fs::read_to_string(out.join("work_precision.csv")).unwrap();
+    assert!(
+        csv.lines().skip(1).any(|l| l.contains("native")),
+        "no native row: {csv}"
+    );
+    let json = std::fs::read_to_string(out.join("work_precision.json")).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let reference = report["settings"]["reference"]["backend"].as_str();
+    assert!(
+        reference.is_some_and(|b| b != "native"),
+        "the reference run is not an independent solver: {json}"
+    );
 }
