@@ -400,14 +400,15 @@ fn parallel_groups(blocks: &[Block], parallel_rows: usize) -> Vec<Vec<usize>> {
 
 /// An interior point that stops short of its tolerance is still the answer within this many
 /// times the tolerance (counted in [`BackendCounters::reduced`], with its estimated error): on
-/// a jam the directions' rounding stops some runs at `1e-9`–`1e-6` of the block's length
-/// scale, where the iterate lies nearer the projection than that measure says (`docs/lab/`).
+/// a jam the directions' rounding stops some runs short of it, where the iterate lies nearer
+/// the projection than that measure says (measured:
+/// `docs/lab/2026-12-04-projection-engine.md`).
 const STALL_ALLOWANCE: f64 = 1e4;
 
 /// Blocks of at least this many rows give the active set at most [`LARGE_BLOCK_ITERATIONS`]:
-/// on a jam's large blocks the interior point is the better bet, on smaller ones an iteration of
-/// the active set costs tens of microseconds and the interior point with its set-up about a
-/// millisecond (a queue at the paper's door; `docs/lab/`).
+/// on a jam's large blocks the interior point is the better bet, on smaller ones an iteration
+/// of the active set costs a small fraction of an interior point with its set-up (measured:
+/// `docs/lab/2026-12-04-projection-engine.md`).
 const LARGE_BLOCK_ROWS: usize = 400;
 
 /// The active set's cap on blocks of [`LARGE_BLOCK_ROWS`] or more.
@@ -590,8 +591,8 @@ fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start
         .map(|i| remembered[i].map_or_else(|| own_multiplier(p, i, r[i]), |rem| rem.multiplier))
         .collect();
     // With remembered rows, start from them alone: the rows violated at y join after the
-    // first solve if the point still violates them (starting from every violated row too cost
-    // 1.8 times the iterations on the paper's evacuation, most of them dropping rows).
+    // first solve if the point still violates them (starting from every violated row too
+    // costs more iterations, most of them dropping rows again).
     let warm = remembered.iter().any(Option::is_some);
     let support: Vec<usize> = (0..m)
         .filter(|&i| remembered[i].is_some() || (!warm && r[i] > 0.0))

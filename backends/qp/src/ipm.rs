@@ -308,8 +308,8 @@ pub(crate) fn solve(
     // The residuals shrink by `1 − α` per iteration in exact arithmetic; once they grow the
     // directions are no longer accurate (weights spanning many orders of magnitude), and from
     // then on each solve is refined once; so they are from the late iterations on, where the
-    // weights spread (without, a door queue's residuals jumped from 1e-11 to 1e-7 and the
-    // method broke down one step short of its tolerance).
+    // weights spread (without, a jam's residuals can jump by orders of magnitude and the
+    // method break down one step short of its tolerance).
     let mut refine = false;
     let mut last_residual = f64::INFINITY;
     let mut last_direction = f64::INFINITY;
