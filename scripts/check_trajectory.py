@@ -5,7 +5,8 @@ usage: python3 scripts/check_trajectory.py SCENE.toml OUTDIR [--tol 1e-9]
 
 Reads the scene file (room, exits, obstacles and their motion, people and crowds) and the
 run's `trajectory.csv` and `summary.json`, and recomputes at every recorded frame: overlaps
-of people, penetrations of walls and obstacles, people outside the room not through an exit,
+of people, penetrations of walls and obstacles (of obstacles on a path also at each waypoint
+between two frames, against both frames' positions), people outside the room not through an exit,
 non-finite numbers, people who came back after leaving, the largest speed between frames;
 then compares the summary's counts, times and largest overlap and penetration with what the
 trajectory shows. Standard library only (Python 3.11 or later, for tomllib).
@@ -277,6 +278,25 @@ for t in times:
     if prev is not None:
         pt, pf = prev
         dt = t - pt
+        # An obstacle whose path turns between two frames is checked at each waypoint in
+        # between too: a person who went straight from one frame to the other, at any pace,
+        # overlaps a convex obstacle there whenever both ends do.
+        for k, ob in enumerate(obstacles):
+            mot = ob[2]
+            if mot is None or mot[0] != 'path':
+                continue
+            for w in mot[1]:
+                tw = w[0]
+                if not pt < tw < t:
+                    continue
+                for i, (x, y, p) in fr.items():
+                    if p != 1 or i not in pf or pf[i][2] != 1:
+                        continue
+                    pen = min(-obstacle_gap((x, y), radii[i], ob, tw),
+                              -obstacle_gap(pf[i][:2], radii[i], ob, tw))
+                    if pen > worst_obs[0]:
+                        worst_obs = (pen, f'person {i} obstacle #{k} at its waypoint t={tw}, '
+                                          f'between the frames {pt} and {t}')
         for i, (x, y, p) in fr.items():
             if i in pf:
                 d = math.hypot(x - pf[i][0], y - pf[i][1])

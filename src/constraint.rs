@@ -505,6 +505,14 @@ pub trait ConstraintFamily: Send + Sync {
         None
     }
 
+    /// Pushes onto `out` the times strictly inside `(t0, t1)` at which some member's set
+    /// turns (a path's waypoints), in increasing order per set: a step from `t0` to `t1` sees
+    /// the set at its ends only, so the stepper checks the set's place at these times against
+    /// the step's ends. Default: none (the family's motions are smooth).
+    fn waypoints_within(&self, t0: f64, t1: f64, out: &mut Vec<f64>) {
+        let _ = (t0, t1, out);
+    }
+
     /// For a family that declares itself affine: `D²_q g` of member `index` at `(t, q)`
     /// (row-major on its support, as in [`SecondOrderData::hessian`]), computed although the
     /// family says it is zero, so that the checks can verify the claim once. Default `None`

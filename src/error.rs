@@ -129,6 +129,31 @@ pub enum SweepError {
         /// The distance and the motion compared.
         detail: String,
     },
+    /// A moving set's path turns inside the step (a waypoint strictly between `t_k` and
+    /// `t_{k+1}`) where the set overlaps the point at both ends of the step: the scheme sees the
+    /// set at the step's ends only, so what the set did in between is lost, and no pace along
+    /// the straight line from `q_k` to `q_{k+1}` keeps clear of it.
+    #[error("step {step}, t = {t}: the moving constraint {constraint} turns at its waypoint t = {waypoint}, inside the step from {t_k} (h = {h}), where it overlaps the person by {overlap:.3e} at both ends of the step (tolerance {tolerance:.1e}); a step sees the motion at its ends only: choose h so that the path's waypoints fall on step ends (h = {suggested_h} puts this one on one), or a smaller h")]
+    PathTurnsWithinStep {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// Time `t_k`.
+        t_k: f64,
+        /// Which constraint (person and obstacle).
+        constraint: String,
+        /// The waypoint's time.
+        waypoint: f64,
+        /// `min(−gᵢ(waypoint, q_k), −gᵢ(waypoint, q_{k+1}))`.
+        overlap: f64,
+        /// The violation tolerance it exceeds.
+        tolerance: f64,
+        /// The step length used.
+        h: f64,
+        /// A step at most `h` that puts this waypoint on a step end.
+        suggested_h: f64,
+    },
     /// The projection failed on a prediction `y` so far from `q_k` that the QP could not be
     /// solved, also after rescaling. The set is not empty (`q_k` satisfies every row), so any
     /// "infeasible" from the backend is numerical: a shorter step or lower speeds would do.
@@ -157,9 +182,9 @@ pub enum SweepError {
         /// Solves made.
         solves: usize,
     },
-    /// The user asked the run to stop (Ctrl-C in `sweep run`): not a failure of the run,
+    /// The user asked the run to stop (Ctrl-C, SIGTERM or SIGHUP in `sweep run`): not a failure of the run,
     /// which stops after the step it was taking.
-    #[error("step {step}, t = {}: interrupted by the user (Ctrl-C)", display_number(*t))]
+    #[error("step {step}, t = {}: interrupted (Ctrl-C, SIGTERM or SIGHUP)", display_number(*t))]
     Interrupted {
         /// The last step taken.
         step: usize,

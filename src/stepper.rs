@@ -53,10 +53,10 @@ pub fn display_number(v: f64) -> String {
 }
 
 /// The number of steps of length `h` that cover `span = T − t₀`: `⌈span/h⌉`, the last one
-/// shortened to land on `T` (a ratio within `1e-9` above an integer counts as that integer,
-/// so that rounding in `T/h` adds no sliver of a step), and at least one when `span > 0`: a
-/// step longer than the horizon by more than 10⁹ times is still one step to `T` (its ratio,
-/// within `1e-9` of zero, counted none, and such a run "completed" at `t₀`).
+/// shortened to land on `T`. A ratio within `1e-9` above an integer counts as that integer,
+/// so that rounding in `T/h` adds no sliver of a step. Any `span > 0` takes at least one step,
+/// however much longer than the horizon `h` is, so a run always reaches `T`; `span ≤ 0`
+/// takes none.
 pub fn step_count(span: f64, h: f64) -> usize {
     if span > 0.0 {
         ((span / h) - 1e-9).ceil().max(1.0) as usize
@@ -350,7 +350,7 @@ pub trait Observer {
         Ok(())
     }
     /// Called once at the end, with the error if the run failed (also after a failure, so
-    /// writers can flush what they have).
+    /// writers can flush what they have), or if an observer before this one failed to finish.
     ///
     /// # Errors
     /// An [`ObserverError`]; reported if the run had not already failed.
@@ -633,11 +633,11 @@ impl<'p> Stepper<'p> {
     /// `A v ≥ b/s`, then `u = s v`, `λ = s μ`. Done only when `u = 0` satisfies every row
     /// (`gᵢ(t_{k+1}, q_k) ≥ 0`, true for constraints that do not move) to within the
     /// `violation_tolerance` the stepper accepted `q_k` with: the set is then not empty (up to
-    /// that), so an "infeasible" answer at speed 1e8 is the solver's scaling, not the
-    /// problem's. (Asking for 1e-9 relative, a person left 3.5e-8 inside a wall by a step
-    /// at 1e8 m/s made the next step's false "infeasible" the run's error.) The answer is
-    /// then KKT-checked on the original QP like any other; when the retry fails too, the
-    /// error says that the prediction is too far to be resolved.
+    /// that), so an "infeasible" answer is the solver's scaling, not the problem's: a step
+    /// accurate relative to a huge travel can leave a person slightly inside a wall, and a
+    /// solver then calls the next step's set empty. The answer is KKT-checked on the original
+    /// QP like any other; when the retry fails too, the error says that the prediction is too
+    /// far to be resolved.
     fn rescaled_projection(
         &self,
         projector: &mut dyn Projector,
@@ -863,6 +863,52 @@ impl<'p> Stepper<'p> {
         Ok(())
     }
 
+    /// A path that turns inside the step (a waypoint strictly between `t_k` and `t_{k+1}`)
+    /// is where the step cannot see it: the scheme linearizes at `q_k` with `Q(t_{k+1})`. The
+    /// step is refused when, at such a waypoint, the set overlaps the person by more than the
+    /// violation tolerance at both `q_k` and `x = q_{k+1}`: `gᵢ` is convex in the point, so
+    /// it then overlaps every point of the straight line between them, whatever the pace.
+    fn check_waypoints(&mut self, t_k: f64, t_next: f64, x: &[f64]) -> Result<(), SweepError> {
+        let tol = self.settings.violation_tolerance;
+        let mut waypoints = Vec::new();
+        for fam in self.problem.families() {
+            if !fam.is_time_dependent() {
+                continue;
+            }
+            waypoints.clear();
+            fam.waypoints_within(t_k, t_next, &mut waypoints);
+            waypoints.sort_by(f64::total_cmp);
+            waypoints.dedup();
+            for &tw in &waypoints {
+                self.cands.clear();
+                fam.candidates(tw, x, 0.0, &mut self.cands);
+                for &idx in &self.cands {
+                    // A value that is not a number is the violation check's to report.
+                    let at_next = fam.value(idx, tw, x, &mut self.lin);
+                    let at_k = fam.value(idx, tw, &self.q, &mut self.lin);
+                    if at_next.is_nan() || at_k.is_nan() || at_next.max(at_k) >= -tol {
+                        continue;
+                    }
+                    let h = t_next - t_k;
+                    let since_start = tw - self.problem.t0();
+                    let suggested_h = since_start / (since_start / h).ceil().max(1.0);
+                    return Err(SweepError::PathTurnsWithinStep {
+                        step: self.k,
+                        t: t_next,
+                        t_k,
+                        constraint: fam.describe(idx),
+                        waypoint: tw,
+                        overlap: -at_next.max(at_k),
+                        tolerance: tol,
+                        h,
+                        suggested_h,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// The largest violation `max(0, −gᵢ(t, x))` of the true constraints at the new
     /// configuration, and the constraint that has it (`NaN` when some `gᵢ` is not a number).
     ///
@@ -1045,6 +1091,9 @@ impl<'p> Stepper<'p> {
                 tolerance: self.settings.violation_tolerance,
             });
         }
+        let tc = Instant::now();
+        self.check_waypoints(t_k, t_next, &solution.x)?;
+        times.check += tc.elapsed().as_secs_f64();
 
         let report = StepReport {
             step: self.k,
@@ -1117,8 +1166,8 @@ impl<'p> Stepper<'p> {
                 return Err(fail(run, e, observers));
             }
         }
-        // A start that already meets `stop` is where the run ends: the step a run resumed from
-        // a finished one took anyway went on past the end it had reached.
+        // A start that already meets `stop` is where the run ends: a run resumed from a
+        // finished one takes no step past the end it had reached.
         let mut stopping = stop(self.t, &self.q);
         while self.k < self.n_steps && !stopping {
             let report = match self.step(projector) {
@@ -1141,16 +1190,23 @@ impl<'p> Stepper<'p> {
                 }
             }
         }
+        // Every observer finishes, those after a failed one told of its error (a summary
+        // records the run as failed); that first error is the run's.
+        let mut failed: Option<SweepError> = None;
         for o in observers.iter_mut() {
-            if let Err(e) = o.on_finish(None) {
-                let error = e.into_sweep_error(o.name(), self.k, self.t);
-                return Err(Box::new(RunFailure {
-                    error,
-                    partial: run,
-                }));
+            if let Err(e) = o.on_finish(failed.as_ref()) {
+                if failed.is_none() {
+                    failed = Some(e.into_sweep_error(o.name(), self.k, self.t));
+                }
             }
         }
-        Ok(run)
+        match failed {
+            Some(error) => Err(Box::new(RunFailure {
+                error,
+                partial: run,
+            })),
+            None => Ok(run),
+        }
     }
 }
 
@@ -1193,7 +1249,7 @@ mod tests {
         // A ratio within 1e-9 above an integer counts as that integer.
         assert_eq!(step_count(0.3, 0.1), 3);
         assert_eq!(step_count(40.0, 100.0), 1);
-        // 4e-299 steps is within 1e-9 of none: it was none, and the run ended at t₀.
+        // 4e-299 steps is within 1e-9 of none, and is still one step to T.
         assert_eq!(step_count(40.0, 1e300), 1);
         assert_eq!(step_count(1e-12, 1.0), 1);
         assert_eq!(step_count(0.0, 0.01), 0);

@@ -532,3 +532,59 @@ fn a_polygon_that_crosses_or_touches_itself_is_refused() {
         .and_then(|s| s.build(&Overrides::default()))
         .unwrap();
 }
+
+/// Issue #53 item 2: a state to resume from is checked against the scene, since the run
+/// trusts it from then on; each refusal names the person and leaves the scene as it was.
+#[test]
+fn a_state_that_does_not_fit_the_scene_is_not_resumed_from() {
+    use sweeping::scene::{ResumeError, ResumeState};
+    let text =
+        "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[exits]]\nfrom = [4.0, 1.5]\nto = [4.0, 2.5]\n\
+                [[obstacles]]\npolygon = [[1.0, 3.0], [2.0, 3.0], [2.0, 3.9], [1.0, 3.9]]\n\
+                [[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n\
+                [[people]]\nposition = [2.0, 2.0]\nradius = 0.2\n\
+                [run]\nt_end = 5.0\n";
+    let scene = Scene::from_toml_str(text, "resume.toml").unwrap();
+    let mut built = scene.build(&Overrides::default()).unwrap();
+    let state = |t: f64, q: [f64; 4], departed: [bool; 2]| ResumeState {
+        t,
+        q: q.to_vec(),
+        departed: departed.to_vec(),
+    };
+    let cases: [(ResumeState, &str); 8] = [
+        (state(-100.0, [1.0, 1.0, 2.0, 2.0], [false; 2]), "before the scene's start t = 0"),
+        (state(5.0, [1.0, 1.0, 2.0, 2.0], [false; 2]), "not before the horizon T = 5"),
+        (
+            state(1.0, [1.0, 1.0, 2.0, 2.0], [false, true]),
+            "person 1 is marked gone at t = 1, at (2, 2), but their disk (radius 0.2) is not wholly outside the room",
+        ),
+        (
+            state(1.0, [-3.0, 2.0, 2.0, 2.0], [false; 2]),
+            "person 0 is marked present at t = 1, at (-3, 2), but their disk (radius 0.2) is wholly outside the room",
+        ),
+        (
+            state(1.0, [-3.0, 2.0, 2.0, 2.0], [true, false]),
+            "person 0 is marked gone at t = 1, at (-3, 2), but they are outside the room on no exit's outer side",
+        ),
+        (
+            state(1.0, [1.5, 3.5, 2.0, 2.0], [false; 2]),
+            "person 0 is marked present at t = 1, at (1.5, 3.5), but they are inside obstacle #1",
+        ),
+        (
+            state(1.0, [2.1, 2.0, 2.0, 2.0], [false; 2]),
+            "the state at t = 1 is not one a run of the scene reaches",
+        ),
+        (state(1.0, [f64::NAN, 2.0, 2.0, 2.0], [false; 2]), "person 0's x coordinate is NaN"),
+    ];
+    for (s, says) in cases {
+        let e: ResumeError = built.resume_at(s.clone()).unwrap_err();
+        assert!(e.to_string().contains(says), "{s:?}: {e}");
+        assert_eq!(built.problem.t0(), 0.0, "{e}");
+        assert_eq!(built.problem.q0(), &[1.0, 1.0, 2.0, 2.0], "{e}");
+    }
+    // Who left through the exit, and is beyond it, is gone; the rest as the run had them.
+    built
+        .resume_at(state(1.0, [4.5, 2.0, 2.0, 2.0], [true, false]))
+        .unwrap();
+    assert_eq!(built.departed_at_start, vec![true, false]);
+}

@@ -8,6 +8,8 @@ mod bench;
 mod check;
 mod converge;
 mod heap;
+mod interrupt;
+mod out_dir;
 mod resume;
 mod run;
 mod scene_loader;

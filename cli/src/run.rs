@@ -1,6 +1,8 @@
 //! `sweep run`: run a scene and write its trajectory (CSV and/or JuPedSim's SQLite format),
 //! summary, snapshots and animation.
 
+use crate::interrupt::Interrupt;
+use crate::out_dir::{self, DISAGREEMENT_FILE, LARGEST_GAP_FILE};
 use crate::resume;
 use crate::stdout::{errln, outln};
 use anyhow::{Context, Result};
@@ -21,7 +23,12 @@ use sweeping::stepper::{Observer, ObserverError, StepReport};
 pub struct RunArgs {
     /// The scene file.
     pub scene: PathBuf,
-    /// Output directory (default `out/<scene name>/`).
+    /// Output directory (default `out/<scene name>/`): new, empty, or an earlier run's, never
+    /// one holding other files (refused, so that none of them is replaced or deleted). In an
+    /// earlier run's, the files `sweep run` writes (trajectory.csv, trajectory.sqlite,
+    /// summary.json, animation.html, snapshots/t*.svg, disagreement.json, largest-gap.json) are
+    /// taken for that run's and replaced or removed; other files are left alone. One run at a
+    /// time: a folder another run is writing to is refused (the lock file .sweep.lock).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Projection backend: clarabel, osqp, native, cross, cross-native or reference (default: the scene's).
@@ -128,100 +135,6 @@ impl Observer for Progress {
     }
 }
 
-/// Stops the run at the end of the step during which Ctrl-C (SIGINT) came, as a failure, so
-/// that every writer finishes its file and the summary is written: killed outright, a run
-/// left `trajectory.csv` cut in the middle of a row and no `summary.json`. A second Ctrl-C
-/// ends the process at once (exit code 130).
-struct Interrupt {
-    requested: std::sync::Arc<std::sync::atomic::AtomicBool>,
-}
-
-impl Interrupt {
-    /// Installs the handler; `None` (and a note) where the system refuses it, in which case
-    /// Ctrl-C kills the process as it would have.
-    fn install() -> Option<Self> {
-        use std::sync::atomic::{AtomicBool, Ordering};
-        let requested = std::sync::Arc::new(AtomicBool::new(false));
-        let flag = requested.clone();
-        let installed = ctrlc::set_handler(move || {
-            if flag.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-            errln!("\ninterrupted: finishing the step and writing what was computed (Ctrl-C again to stop at once)");
-        });
-        match installed {
-            Ok(()) => Some(Self { requested }),
-            Err(e) => {
-                errln!("note: Ctrl-C will not stop the run cleanly: {e}");
-                None
-            }
-        }
-    }
-}
-
-impl Observer for Interrupt {
-    fn name(&self) -> &str {
-        "interrupt"
-    }
-    fn on_step(&mut self, report: &StepReport, _: &[f64]) -> Result<(), ObserverError> {
-        if self.requested.load(std::sync::atomic::Ordering::SeqCst) {
-            return Err(ObserverError::from(SweepError::Interrupted {
-                step: report.step,
-                t: report.t,
-            }));
-        }
-        Ok(())
-    }
-}
-
-/// Removes from `out` what an earlier run wrote there and this one will not overwrite: a
-/// trajectory in a format not asked for now, and the snapshots (named by their times, so a
-/// longer earlier run's outlast this one's). Rerun into the same directory, a run left the
-/// earlier trajectory beside its own summary. Only the names `sweep run` writes are touched.
-fn remove_stale_outputs(out: &std::path::Path, formats: &[TrajectoryFormat]) -> Result<()> {
-    let remove = |path: &std::path::Path| match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(anyhow::anyhow!(
-            "removing the earlier run's {}: {e}",
-            path.display()
-        )),
-        _ => Ok(()),
-    };
-    for format in [TrajectoryFormat::Csv, TrajectoryFormat::Sqlite] {
-        if !formats.contains(&format) {
-            remove(&out.join(format.file_name()))?;
-        }
-    }
-    // An earlier cross-checked run's disagreement and largest gap: this run writes its own,
-    // if any.
-    remove(&out.join(DISAGREEMENT_FILE))?;
-    remove(&out.join(LARGEST_GAP_FILE))?;
-    let snapshots = out.join("snapshots");
-    if let Ok(entries) = std::fs::read_dir(&snapshots) {
-        for entry in entries.flatten() {
-            let name = entry.file_name();
-            let name = name.to_string_lossy();
-            let ours = name == "final.svg"
-                || (name.len() > "t.svg".len()
-                    && name.starts_with('t')
-                    && name.ends_with(".svg")
-                    && name[1..name.len() - 4]
-                        .chars()
-                        .all(|c| c.is_ascii_digit() || c == '.'));
-            if ours {
-                remove(&entry.path())?;
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Where a cross-checked run that stopped on a disagreement keeps the problem and both answers.
-const DISAGREEMENT_FILE: &str = "disagreement.json";
-
-/// Where a cross-checked run keeps the problem of the largest gap between its backends that
-/// passed, and both answers.
-const LARGEST_GAP_FILE: &str = "largest-gap.json";
-
 /// Writes the problem on which a cross-checked run's backends disagreed, with both answers
 /// (a [`CrossCheckDisagreement`](sweeping::api::CrossCheckDisagreement)), to
 /// `out/disagreement.json`, so that the step can be decided afterwards (against a projection
@@ -296,16 +209,16 @@ pub fn main(args: RunArgs) -> Result<()> {
                     resume::TRAJECTORY
                 );
             }
-            let state = resume::last_frame(&path).with_context(|| {
+            let saved = resume::read(&path).with_context(|| {
                 format!("--resume {}: reading the run's last state", dir.display())
             })?;
-            Some((dir.clone(), path, state))
+            Some((dir.clone(), path, saved))
         }
         None => None,
     };
     let out = match (&args.out, &resume) {
         (Some(out), _) => out.clone(),
-        (None, Some((dir, _, state))) => resume::default_out(dir, state.t),
+        (None, Some((dir, _, saved))) => resume::default_out(dir, saved.state.t),
         (None, None) => PathBuf::from("out").join(&scene.name),
     };
     if let Some((dir, _, _)) = &resume {
@@ -322,9 +235,9 @@ pub fn main(args: RunArgs) -> Result<()> {
     prepare_output_dir(&out)?;
     let mut built = scene.build(&overrides)?;
     let resumed_at = match resume {
-        Some((dir, path, state)) => {
-            let t = state.t;
-            let (listed, people) = (state.departed.len(), built.population.len());
+        Some((dir, path, saved)) => {
+            let t = saved.state.t;
+            let (listed, people) = (saved.state.departed.len(), built.population.len());
             if listed != people {
                 anyhow::bail!(
                     "--resume {}: {}: its last frame (t = {}) lists {listed} people, the scene \
@@ -335,8 +248,15 @@ pub fn main(args: RunArgs) -> Result<()> {
                     sweeping::stepper::display_number(t)
                 );
             }
-            built.resume_at(state).map_err(|e| {
-                anyhow::anyhow!("--resume {}: {}: {e}", dir.display(), path.display())
+            resume::check_start(&saved, &path, built.problem.t0(), built.problem.q0())
+                .with_context(|| format!("--resume {}", dir.display()))?;
+            // An error about one person points at their row of the last frame.
+            let last_line = saved.last.line;
+            built.resume_at(saved.state).map_err(|e| {
+                let row = e
+                    .person()
+                    .map_or(String::new(), |i| format!(":{}", last_line + i));
+                anyhow::anyhow!("--resume {}: {}{row}: {e}", dir.display(), path.display())
             })?;
             Some((dir, t))
         }
@@ -350,7 +270,8 @@ pub fn main(args: RunArgs) -> Result<()> {
     };
     let mut seen = std::collections::HashSet::new();
     formats.retain(|f| seen.insert(*f));
-    remove_stale_outputs(&out, &formats)?;
+    // Held until the run ends: a second run into `out` is refused rather than mixed in.
+    let _out_dir = out_dir::claim(&out, &formats)?;
     let h = built.settings.h;
     let t_end = built.settings.t_end;
     let backend_name = built.backend.to_string();
@@ -470,11 +391,23 @@ pub fn main(args: RunArgs) -> Result<()> {
     }
     let result = built.run(projector.as_mut(), &mut observers);
     summary.record_cross_check(projector.cross_check());
-    let disagreement = write_disagreement(&out, projector.cross_check())?;
-    let largest_gap = write_largest_gap(&out, projector.cross_check())?;
-    summary
-        .write_json(&summary_path)
-        .with_context(|| format!("writing {}", summary_path.display()))?;
+    // Every file is tried whatever failed before it, and the first failure is the one
+    // reported: on a full disk the trajectory fails first and says the most.
+    let mut later_errors = Vec::new();
+    let disagreement = write_disagreement(&out, projector.cross_check()).unwrap_or_else(|e| {
+        later_errors.push(format!("{e:#}"));
+        None
+    });
+    let largest_gap = write_largest_gap(&out, projector.cross_check()).unwrap_or_else(|e| {
+        later_errors.push(format!("{e:#}"));
+        None
+    });
+    if let Err(e) = summary.write_json(&summary_path) {
+        later_errors.push(format!("writing {}: {e}", summary_path.display()));
+    }
+    if result.is_err() || !later_errors.is_empty() {
+        remove_empty_outputs(&out);
+    }
     print_summary(summary.summary(), &out, &formats);
     if let Some(path) = largest_gap {
         outln!(
@@ -482,18 +415,50 @@ pub fn main(args: RunArgs) -> Result<()> {
             path.display()
         );
     }
+    let later = later_errors.join("; then ");
     match result {
-        Ok(_) => Ok(()),
+        Ok(_) if later.is_empty() => Ok(()),
+        Ok(_) => Err(anyhow::anyhow!("{later}")),
         Err(failure) => Err(anyhow::anyhow!(
-            "{failure}; what was computed is in {}{}",
+            "{failure}; what was computed is in {}{}{}",
             out.display(),
             disagreement
                 .map(|path| format!(
                     " (the problem the backends disagreed on, with both answers: {})",
                     path.display()
                 ))
-                .unwrap_or_default()
+                .unwrap_or_default(),
+            if later.is_empty() {
+                String::new()
+            } else {
+                format!("; then {later}")
+            }
         )),
+    }
+}
+
+/// Removes the files of `out` left empty by a run that failed (a full disk): an empty
+/// trajectory, summary or picture would pass for a result.
+fn remove_empty_outputs(out: &std::path::Path) {
+    let mut paths: Vec<PathBuf> = [
+        TrajectoryFormat::Csv.file_name(),
+        TrajectoryFormat::Sqlite.file_name(),
+        "summary.json",
+        "animation.html",
+        DISAGREEMENT_FILE,
+        LARGEST_GAP_FILE,
+    ]
+    .iter()
+    .map(|name| out.join(name))
+    .collect();
+    if let Ok(entries) = std::fs::read_dir(out.join("snapshots")) {
+        paths.extend(entries.flatten().map(|entry| entry.path()));
+    }
+    for path in paths {
+        // `symlink_metadata`: a link is the user's doing, and not an empty file.
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file() && m.len() == 0) {
+            let _ = std::fs::remove_file(&path);
+        }
     }
 }
 

@@ -219,6 +219,58 @@ fn a_path_that_goes_out_and_back_within_one_step_is_seen() {
     assert!(run.success, "{}", run.output);
 }
 
+/// Issue #53 item 1: a wall whose path goes 0.07 m into a person standing against it and
+/// back within each step of 0.01 s. The ends of every step see the wall where it started,
+/// so the person was never pushed and the run completed, though at h = 0.005 (waypoints on
+/// step ends) the same wall pushes the person to x = 1.32. The step is now refused, naming
+/// the person, the obstacle and the waypoint; a path that only slows down inside the steps
+/// while it pushes is accepted.
+#[test]
+fn a_path_that_turns_into_a_person_within_a_step_is_refused() {
+    let scene = |path: &str, t_end: f64| {
+        format!(
+            "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\n\
+             segment = {{ from = [1.0, 0.5], to = [1.0, 3.5] }}\npath = {path}\n\
+             [[people]]\nposition = [1.25, 2.0]\nradius = 0.25\nspeed = 0\n\
+             [desired]\nkind = \"constant\"\nvelocity = [0.0, 0.0]\n\
+             [run]\nh = 0.01\nt_end = {t_end}\n[output]\ntrajectory_every = 0.01\n"
+        )
+    };
+    let oscillating = scene(
+        "[[0.0, 0.0, 0.0], [0.005, 0.07, 0.0], [0.01, 0.0, 0.0], [0.015, 0.07, 0.0], [0.02, 0.0, 0.0]]",
+        0.05,
+    );
+    let run = sweep_run("path-turns-in-step", &oscillating, &[]);
+    assert!(!run.success, "completed:\n{}", run.output);
+    assert!(
+        run.output.contains("step 0, t = 0.01")
+            && run.output.contains("person 0 against obstacles #0")
+            && run.output.contains("turns at its waypoint t = 0.005")
+            && run.output.contains("overlaps the person by 7.000e-2")
+            && run.output.contains("h = 0.005 puts this one on one"),
+        "{}",
+        run.output
+    );
+    // With every waypoint on a step end the wall pushes the person.
+    let run = sweep_run("path-turns-on-step-ends", &oscillating, &["--h", "0.005"]);
+    assert!(run.success, "{}", run.output);
+    let csv = std::fs::read_to_string(run.out.join("trajectory.csv")).unwrap();
+    let last = csv.lines().last().unwrap();
+    assert!(last.starts_with("0.05,0,1.32,"), "{csv}");
+    // Pushing at a speed that changes inside the steps is seen at the steps' ends.
+    let slowing = scene(
+        "[[0.0, 0.0, 0.0], [0.105, 0.3, 0.0], [0.155, 0.31, 0.0], [0.2, 0.5, 0.0]]",
+        0.3,
+    );
+    let run = sweep_run("path-slows-in-step", &slowing, &[]);
+    assert!(run.success, "{}", run.output);
+    let csv = std::fs::read_to_string(run.out.join("trajectory.csv")).unwrap();
+    assert!(
+        csv.lines().last().unwrap().starts_with("0.3,0,1.75,"),
+        "{csv}"
+    );
+}
+
 /// A disk obstacle at 1e308 m/s is nowhere representable a step later: its normal there is
 /// not a number. The refusal said the normal "turns by 180°", which was not measured.
 #[test]

@@ -87,3 +87,51 @@ fn the_independent_check_passes_a_run_and_flags_an_overlap_put_into_it() {
         "{text}"
     );
 }
+
+/// Issue #53 item 1: an obstacle whose path turns between two frames is checked at its
+/// waypoints too. A wall that pushes a person 0.07 m at h = 0.005 (waypoints on step ends)
+/// is clean; the same trajectory with the person put back where it started, as a run that
+/// did not see the wall's waypoints left it, is flagged, though at the frames' own times the
+/// wall is back where it started.
+#[test]
+fn the_independent_check_sees_an_obstacle_at_its_waypoints_between_frames() {
+    let has_tomllib = Command::new("python3")
+        .args(["-c", "import tomllib"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_tomllib {
+        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+        return;
+    }
+    let scene = "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\n\
+                 segment = { from = [1.0, 0.5], to = [1.0, 3.5] }\n\
+                 path = [[0.0, 0.0, 0.0], [0.005, 0.07, 0.0], [0.01, 0.0, 0.0], [0.015, 0.07, 0.0], [0.02, 0.0, 0.0]]\n\
+                 [[people]]\nposition = [1.25, 2.0]\nradius = 0.25\nspeed = 0\n\
+                 [desired]\nkind = \"constant\"\nvelocity = [0.0, 0.0]\n\
+                 [run]\nh = 0.005\nt_end = 0.05\n[output]\ntrajectory_every = 0.01\n";
+    let run = sweep_run("independent-check-waypoints", scene, &["--threads", "1"]);
+    assert!(run.success, "{}", run.output);
+    let scene = run.out.with_file_name("independent-check-waypoints.toml");
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 0, "{text}");
+    let csv = run.out.join("trajectory.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let unpushed: Vec<String> = text
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            if f[1] == "0" {
+                format!("{},0,1.25,{},{}", f[0], f[3], f[4])
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    std::fs::write(&csv, unpushed.join("\n") + "\n").unwrap();
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 1, "{text}");
+    assert!(
+        text.contains("OBSTACLE") && text.contains("7.000e-02") && text.contains("waypoint"),
+        "{text}"
+    );
+}

@@ -293,3 +293,278 @@ fn a_run_resumed_after_everybody_left_takes_no_step() {
     let t_final = summary["t_final"].as_f64().unwrap();
     assert!((t_final - t_last as f64 * 1e-6).abs() < 1e-9, "{summary}");
 }
+
+/// `lines` written as the `trajectory.csv` of a fresh directory `name` under `dir`.
+fn write_trajectory(dir: &Path, name: &str, lines: &[String]) -> String {
+    let d = dir.join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
+    d.to_str().unwrap().to_string()
+}
+
+/// Issue #53 item 2: `--resume` trusted what it read. Two people inside the room marked as
+/// gone resumed and walked through a wall; a person at x = −3 marked present was silently
+/// taken as gone; a trajectory starting at t = −100, and one of another scene, were resumed
+/// from. Each is refused now, naming the row, the person and what does not fit.
+#[test]
+fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
+    let (ok, printed, scratch_dir) =
+        sweep("resume-edited", ROOM, &["--t-end", "2", "--out", "first"]);
+    assert!(ok, "{printed}");
+    let text = std::fs::read_to_string(scratch_dir.join("first/trajectory.csv")).unwrap();
+    let lines: Vec<String> = text.lines().map(str::to_string).collect();
+    // The last frame, at t = 2: (index in `lines`, id, x, present) of each row.
+    let last: Vec<(usize, usize, f64, bool)> = lines
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.starts_with("2,"))
+        .map(|(k, l)| {
+            let f: Vec<&str> = l.split(',').collect();
+            (k, f[1].parse().unwrap(), f[2].parse().unwrap(), f[4] == "1")
+        })
+        .collect();
+    assert_eq!(last.len(), 12);
+    let inside: Vec<(usize, usize)> = last
+        .iter()
+        .filter(|r| r.3 && r.2 < 3.7)
+        .map(|r| (r.0, r.1))
+        .collect();
+    assert!(inside.len() >= 2, "{last:?}");
+    let refused = |name: &str, scene: &str, dir: &str, says: &[String]| {
+        let (ok, printed, _) = sweep(name, scene, &["--resume", dir, "--out", "again"]);
+        assert!(!ok, "{name}: resumed:\n{printed}");
+        for s in says {
+            assert!(
+                printed.contains(s.as_str()),
+                "{name}: no `{s}` in\n{printed}"
+            );
+        }
+    };
+    let with_row = |k: usize, row: String| {
+        let mut edited = lines.clone();
+        edited[k] = row;
+        edited
+    };
+
+    // Two people inside marked gone.
+    let mut edited = lines.clone();
+    for &(k, _) in &inside[..2] {
+        edited[k] = format!("{}0", &lines[k][..lines[k].len() - 1]);
+    }
+    let (k, id) = inside[0];
+    let dir = write_trajectory(&scratch_dir, "gone-inside", &edited);
+    let says = [
+        format!("trajectory.csv:{}", k + 1),
+        format!("person {id} is marked gone at t = 2"),
+        "not wholly outside the room".to_string(),
+    ];
+    refused("resume-gone-inside", ROOM, &dir, &says);
+
+    // A person at x = −3 marked present, then marked gone: no exit is on that side.
+    for (present, what) in [
+        ("1", "wholly outside the room"),
+        ("0", "on no exit's outer side"),
+    ] {
+        let dir = write_trajectory(
+            &scratch_dir,
+            &format!("outside-{present}"),
+            &with_row(k, format!("2,{id},-3,2,{present}")),
+        );
+        let says = [
+            format!("trajectory.csv:{}", k + 1),
+            format!("person {id} is marked"),
+            "at (-3, 2)".to_string(),
+            what.to_string(),
+        ];
+        refused(&format!("resume-outside-{present}"), ROOM, &dir, &says);
+    }
+
+    // The scene's start, written at t = −100.
+    let mut early = vec![lines[0].clone()];
+    early.extend(
+        lines[1..13]
+            .iter()
+            .map(|l| format!("-100{}", &l[l.find(',').unwrap()..])),
+    );
+    let dir = write_trajectory(&scratch_dir, "early", &early);
+    let says = [
+        "trajectory.csv:2".to_string(),
+        "before the scene's start t = 0".to_string(),
+    ];
+    refused("resume-early", ROOM, &dir, &says);
+
+    // Cut inside the first frame.
+    let dir = write_trajectory(&scratch_dir, "cut-first", &lines[..6]);
+    let says = ["lists 5 people, the scene has 12".to_string()];
+    refused("resume-cut-first", ROOM, &dir, &says);
+
+    // Another crowd of as many people in the same room.
+    let other = ROOM.replace("seed = 7", "seed = 8");
+    let (ok, printed, other_dir) = sweep(
+        "resume-other-seed",
+        &other,
+        &["--t-end", "2", "--out", "first"],
+    );
+    assert!(ok, "{printed}");
+    let dir = other_dir.join("first");
+    let says = [
+        "trajectory.csv:2".to_string(),
+        "the trajectory of another scene".to_string(),
+    ];
+    refused("resume-foreign", ROOM, dir.to_str().unwrap(), &says);
+}
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::OnceLock;
+
+    /// One change to a trajectory.
+    #[derive(Debug, Clone)]
+    enum Edit {
+        /// A row of the last frame marked the other way.
+        Present(usize),
+        /// A row of the last frame moved to a point.
+        Move(usize, f64, f64),
+        /// A row of the last frame moved by a little.
+        Nudge(usize, f64, f64),
+        /// The last frame put at another time.
+        Time(f64),
+        /// The file cut at this fraction of its length.
+        Cut(f64),
+    }
+
+    fn edit() -> impl Strategy<Value = Edit> {
+        prop_oneof![
+            (0..12usize).prop_map(Edit::Present),
+            (0..12usize, -1.0..5.0f64, -1.0..5.0f64).prop_map(|(i, x, y)| Edit::Move(i, x, y)),
+            (0..12usize, -0.2..0.2f64, -0.2..0.2f64).prop_map(|(i, x, y)| Edit::Nudge(i, x, y)),
+            prop_oneof![-2.0..4.0f64, 0.95..1.25f64].prop_map(Edit::Time),
+            (0.0..1.0f64).prop_map(Edit::Cut),
+        ]
+    }
+
+    /// The trajectory of ROOM to t = 1, made once.
+    fn base() -> &'static str {
+        static TEXT: OnceLock<String> = OnceLock::new();
+        TEXT.get_or_init(|| {
+            let (ok, printed, dir) = sweep(
+                "resume-fuzz-base",
+                ROOM,
+                &["--t-end", "1", "--out", "first"],
+            );
+            assert!(ok, "{printed}");
+            std::fs::read_to_string(dir.join("first/trajectory.csv")).unwrap()
+        })
+    }
+
+    fn apply(text: &str, edits: &[Edit]) -> String {
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        for e in edits {
+            let n = lines.len();
+            let last = n.saturating_sub(12).max(1)..n;
+            match *e {
+                Edit::Present(i) | Edit::Move(i, _, _) | Edit::Nudge(i, _, _)
+                    if last.start + i < n =>
+                {
+                    let k = last.start + i;
+                    let mut f: Vec<String> = lines[k].split(',').map(str::to_string).collect();
+                    if f.len() != 5 {
+                        continue;
+                    }
+                    let coordinate = |v: &str| v.parse::<f64>().unwrap_or(0.0);
+                    match *e {
+                        Edit::Move(_, x, y) => {
+                            f[2] = x.to_string();
+                            f[3] = y.to_string();
+                        }
+                        Edit::Nudge(_, dx, dy) => {
+                            f[2] = (coordinate(&f[2]) + dx).to_string();
+                            f[3] = (coordinate(&f[3]) + dy).to_string();
+                        }
+                        _ => f[4] = if f[4] == "1" { "0" } else { "1" }.to_string(),
+                    }
+                    lines[k] = f.join(",");
+                }
+                Edit::Time(t) => {
+                    for line in &mut lines[last] {
+                        if let Some(c) = line.find(',') {
+                            *line = format!("{t}{}", &line[c..]);
+                        }
+                    }
+                }
+                Edit::Cut(at) => {
+                    let joined = lines.join("\n");
+                    let mut cut = (joined.len() as f64 * at) as usize;
+                    while !joined.is_char_boundary(cut) {
+                        cut -= 1;
+                    }
+                    lines = joined[..cut].lines().map(str::to_string).collect();
+                }
+                _ => {}
+            }
+        }
+        lines.join("\n") + "\n"
+    }
+
+    fn cases() -> u32 {
+        std::env::var("SWEEP_RESUME_FUZZ_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(12)
+    }
+
+    fn has_tomllib() -> bool {
+        Command::new("python3")
+            .args(["-c", "import tomllib"])
+            .status()
+            .is_ok_and(|s| s.success())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            cases: cases(),
+            failure_persistence: None,
+            ..ProptestConfig::default()
+        })]
+
+        /// Every edit or cut of a real trajectory is either refused with an error that names
+        /// what it read, or resumed into a run that the independent checker
+        /// (`scripts/check_trajectory.py`) finds clean. `SWEEP_RESUME_FUZZ_CASES` sets how
+        /// many (12 by default, to stay quick).
+        #[test]
+        fn an_edited_or_cut_trajectory_is_refused_or_resumed_soundly(
+            edits in prop::collection::vec(edit(), 1..3)
+        ) {
+            static CASE: AtomicUsize = AtomicUsize::new(0);
+            let case = CASE.fetch_add(1, Ordering::Relaxed);
+            let scratch_dir = scratch(&format!("resume-fuzz-{case}"));
+            let lines: Vec<String> = apply(base(), &edits).lines().map(str::to_string).collect();
+            let dir = write_trajectory(&scratch_dir, "edited", &lines);
+            let name = format!("resume-fuzz-run-{case}");
+            let (ok, printed, run_dir) =
+                sweep(&name, ROOM, &["--resume", &dir, "--out", "again", "--t-end", "1.3"]);
+            prop_assert!(!printed.contains("panicked"), "{edits:?}: {printed}");
+            if !ok {
+                prop_assert!(
+                    printed.contains("error: --resume") && printed.contains("trajectory.csv"),
+                    "{edits:?}: an error that does not say what it read:\n{printed}"
+                );
+            } else if has_tomllib() {
+                let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/check_trajectory.py");
+                let checked = Command::new("python3")
+                    .arg(script)
+                    .arg(run_dir.join("scene.toml"))
+                    .arg(run_dir.join("again"))
+                    .output()
+                    .unwrap();
+                prop_assert!(
+                    checked.status.success(),
+                    "{edits:?}: the resumed run is not clean:\n{}",
+                    String::from_utf8_lossy(&checked.stdout)
+                );
+            }
+        }
+    }
+}

@@ -61,6 +61,14 @@ impl Motion {
         Some(travel)
     }
 
+    /// Pushes onto `out` the times of the path's waypoints strictly inside `(t0, t1)`.
+    pub fn waypoints_within(&self, t0: f64, t1: f64, out: &mut Vec<f64>) {
+        if let Motion::Path(p) = self {
+            let first = p.partition_point(|&(t, _)| t <= t0);
+            out.extend(p[first..].iter().map(|&(t, _)| t).take_while(|&t| t < t1));
+        }
+    }
+
     /// `o(t)`, generic so that `∂ₜ` comes by autodiff.
     pub fn offset<D: DualNum<Primitive = f64> + Copy>(&self, t: D) -> [D; 2] {
         match self {
@@ -488,6 +496,12 @@ impl ConstraintFamily for PersonShapes {
         self.shapes[shape].1.travel_within(t0, t1)
     }
 
+    fn waypoints_within(&self, t0: f64, t1: f64, out: &mut Vec<f64>) {
+        for (_, motion) in &self.shapes {
+            motion.waypoints_within(t0, t1, out);
+        }
+    }
+
     fn describe(&self, index: usize) -> String {
         let (i, s) = self.split(index);
         let what = match &self.shapes[s].0 {
@@ -618,6 +632,26 @@ mod tests {
             (t.distance - 7.0).abs() < 1e-12 && t.max_speed == 4.0,
             "{t:?}"
         );
+    }
+
+    #[test]
+    fn waypoints_within_lists_the_turns_strictly_inside_the_interval() {
+        let path = Motion::Path(vec![
+            (1.0, [0.0, 0.0]),
+            (2.0, [3.0, 0.0]),
+            (3.0, [3.0, 4.0]),
+        ]);
+        let within = |t0, t1| {
+            let mut out = Vec::new();
+            path.waypoints_within(t0, t1, &mut out);
+            out
+        };
+        assert_eq!(within(0.0, 5.0), vec![1.0, 2.0, 3.0]);
+        assert_eq!(within(1.0, 3.0), vec![2.0]);
+        assert_eq!(within(1.5, 2.0), Vec::<f64>::new());
+        let mut out = Vec::new();
+        Motion::Velocity([1.0, 0.0]).waypoints_within(0.0, 5.0, &mut out);
+        assert!(out.is_empty());
     }
 
     /// The plain search's answer: every present person against every placed shape.

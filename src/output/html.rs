@@ -312,7 +312,7 @@ impl Observer for AnimationWriter {
         if let Some((t, q)) = self.last.take() {
             self.record(t, &q);
         }
-        std::fs::write(&self.path, self.html())
+        super::write_whole(&self.path, self.html())
             .map_err(|e| format!("{}: {e}", self.path.display()).into())
     }
 }

@@ -130,6 +130,15 @@ pub fn prepare_output_dir(dir: &Path) -> Result<(), OutputError> {
     std::fs::remove_file(&probe).map_err(|e| io("cannot remove a file in the output directory", e))
 }
 
+/// Writes `contents` to `path`, removing the file when the writing fails: cut short by a full
+/// disk, it would pass for a result.
+pub(crate) fn write_whole(path: &Path, contents: impl AsRef<[u8]>) -> std::io::Result<()> {
+    let mut file = std::fs::File::create(path)?;
+    file.write_all(contents.as_ref()).inspect_err(|_| {
+        let _ = std::fs::remove_file(path);
+    })
+}
+
 /// Writes `t,id,x,y,present` rows every `every` steps (and the first and last states) to a
 /// CSV file. `present` is 1 while the person is in the room, 0 once they have left.
 pub struct TrajectoryWriter {
@@ -165,8 +174,8 @@ impl TrajectoryWriter {
         let Some(out) = self.out.as_mut() else {
             return Ok(());
         };
-        // `t` formatted once for all of its rows: formatting floats was most of the time
-        // spent writing, and a third of the floats are this one.
+        // `t` formatted once for all of its rows: formatting floats is most of the time spent
+        // writing, and a third of the floats are this one.
         let t = t.to_string();
         for i in 0..pop.len() {
             writeln!(
@@ -251,7 +260,7 @@ pub enum RunStatus {
     /// Stopped early: everybody has left.
     #[serde(rename = "everybody left")]
     EverybodyLeft,
-    /// Stopped by the user ([`SweepError::Interrupted`], Ctrl-C in `sweep run`); what was
+    /// Stopped by the user ([`SweepError::Interrupted`], Ctrl-C, SIGTERM or SIGHUP in `sweep run`); what was
     /// computed up to then is right, and can be resumed from.
     #[serde(rename = "interrupted")]
     Interrupted,
@@ -417,13 +426,13 @@ impl<'a> SummaryCollector<'a> {
     /// The file could not be written.
     pub fn write_json(&self, path: &Path) -> std::io::Result<()> {
         let text = serde_json::to_string_pretty(&self.summary).map_err(std::io::Error::other)?;
-        std::fs::write(path, text + "\n")
+        write_whole(path, text + "\n")
     }
 
     /// The most negative value of the constraints of each kind at `(t, q)`, and the
     /// constraint that has it: pairs of people, and walls or obstacles. Described only by the
-    /// caller, when it is a new worst: formatting two descriptions at every step showed in the
-    /// profile of the paper's evacuation.
+    /// caller, when it is a new worst: a description formatted at every step would almost
+    /// always be thrown away.
     fn violations(&mut self, t: f64, q: &[f64]) -> [(f64, Option<ConstraintId>); 2] {
         let mut worst: [(f64, Option<ConstraintId>); 2] = [(0.0, None), (0.0, None)];
         let _ = self.problem.for_each_linearized(

@@ -230,7 +230,7 @@ impl SnapshotWriter {
             &self.title,
         );
         let path = self.dir.join(name);
-        std::fs::write(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
+        super::write_whole(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
         self.written.push(path);
         Ok(())
     }

@@ -413,8 +413,8 @@ pub(super) fn shapes_of(o: &Obstacle) -> Vec<Shape> {
 
 /// How far a person placed at `t = 0` may cross a wall, an obstacle or another person:
 /// rounding. A person written as touching a wall (at (9.8, 9.8) with radius 0.2 in a room of
-/// 10) is 0.1999999999999993 from it in floating point, and was refused as crossing it; the
-/// stepper itself accepts `q₀` within `feasibility_tolerance` (1e-9).
+/// 10) is 0.1999999999999993 from it in floating point, and must not be refused as crossing
+/// it; the stepper itself accepts `q₀` within `feasibility_tolerance` (1e-9).
 const TOUCHING: f64 = 1e-12;
 
 /// Where a person of a given radius may stand at `t = 0`: inside the room, clear of the walls
@@ -718,9 +718,9 @@ pub(super) type DesireTerms = Vec<(DesiredSpec, Vec<usize>)>;
 
 /// One velocity term per distinct desire, with its people; a person's own desire wins over
 /// the scene's `[desired]`. A constant desire sets that person's speed to its norm, and a
-/// `speed` the file gives that differs from it is an error (it was ignored: a person given
-/// `speed = 0` walked at the velocity's 1 m/s). Also returns how many people have no desire
-/// at all (they stand still).
+/// `speed` the file gives that differs from it is an error rather than ignored (a person
+/// given `speed = 0` would walk at the velocity's 1 m/s). Also returns how many people have
+/// no desire at all (they stand still).
 pub(super) fn desire_terms(
     cx: &Ctx<'_>,
     people: &mut People,

@@ -61,6 +61,97 @@ impl SceneError {
     }
 }
 
+/// Why a run cannot go on from a state an earlier run is said to have reached
+/// ([`BuiltScene::resume_at`](super::BuiltScene::resume_at)): what does not fit, and the
+/// person at fault where there is one.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ResumeError {
+    /// Another number of people than the scene's.
+    #[error("the state has {found} people, the scene {expected}")]
+    PeopleCount {
+        /// People in the state.
+        found: usize,
+        /// People in the scene.
+        expected: usize,
+    },
+    /// A coordinate that is not a number, or infinite.
+    #[error("person {person}'s {axis} coordinate is {value}")]
+    NotFinite {
+        /// The person.
+        person: usize,
+        /// `"x"` or `"y"`.
+        axis: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A time before the scene starts: no run of it is there.
+    #[error("the state is at t = {}, before the scene's start t = {}", display_number(*t), display_number(*start))]
+    BeforeStart {
+        /// The state's time.
+        t: f64,
+        /// The scene's start.
+        start: f64,
+    },
+    /// A time at or past the horizon: nothing is left to run.
+    #[error("the state is at t = {}, not before the horizon T = {}", display_number(*t), display_number(*t_end))]
+    NotBeforeHorizon {
+        /// The state's time.
+        t: f64,
+        /// The horizon.
+        t_end: f64,
+    },
+    /// A person marked present where the model has nobody present.
+    #[error("person {person} is marked present at t = {}, at ({}, {}), but {what}", display_number(*t), display_number(position[0]), display_number(position[1]))]
+    PresentOutside {
+        /// The person.
+        person: usize,
+        /// The state's time.
+        t: f64,
+        /// The person's centre.
+        position: [f64; 2],
+        /// What is wrong.
+        what: String,
+    },
+    /// A person marked gone who cannot have left through an exit.
+    #[error("person {person} is marked gone at t = {}, at ({}, {}), but {what}", display_number(*t), display_number(position[0]), display_number(position[1]))]
+    GoneInside {
+        /// The person.
+        person: usize,
+        /// The state's time.
+        t: f64,
+        /// The person's centre.
+        position: [f64; 2],
+        /// What is wrong.
+        what: String,
+    },
+    /// People present overlapping each other, a wall or an obstacle, as a scene's start is
+    /// refused for.
+    #[error("the state at t = {} is not one a run of the scene reaches: {source}", display_number(*t))]
+    Infeasible {
+        /// The state's time.
+        t: f64,
+        /// The check of the start that failed.
+        source: crate::error::SweepError,
+    },
+}
+
+impl ResumeError {
+    /// The person the error is about, when it is about one.
+    pub fn person(&self) -> Option<usize> {
+        match self {
+            ResumeError::NotFinite { person, .. }
+            | ResumeError::PresentOutside { person, .. }
+            | ResumeError::GoneInside { person, .. } => Some(*person),
+            _ => None,
+        }
+    }
+}
+
+fn display_number(v: f64) -> String {
+    crate::stepper::display_number(v)
+}
+
 /// Line and column (1-based) of byte `offset` in `text`.
 pub fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());

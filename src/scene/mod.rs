@@ -51,7 +51,7 @@ pub mod spec;
 
 pub use builder::CrowdBuilder;
 pub use effect::Effect;
-pub use error::{line_column, SceneError};
+pub use error::{line_column, ResumeError, SceneError};
 pub use spec::SceneSpec;
 
 use crate::backends::BackendChoice;
@@ -221,7 +221,7 @@ struct Origin {
 struct Ctx<'a> {
     file: &'a str,
     /// Byte offset of the start of every line: a line is found by binary search, so that
-    /// 200 000 `[[people]]` are located in `O(N log N)` (scanning the text for each was
+    /// 200 000 `[[people]]` are located in `O(N log N)` (scanning the text for each would be
     /// quadratic).
     /// Empty when there is no text (a scene built in code): nothing has a line.
     line_starts: Vec<usize>,
@@ -723,36 +723,64 @@ impl BuiltScene {
     /// (latched, as the earlier run had them). The horizon stays the scene's (or the
     /// override's): a run resumed at `t` goes on to the same `T`.
     ///
-    /// The state is checked as a scene's start is (no two people present overlapping, nobody
-    /// present through a wall, to `1e-9`).
+    /// The state is checked against the scene, since the run trusts it from then on: the
+    /// time lies in `[t₀, T)`; everybody marked present has a disk in the room (not wholly
+    /// outside it, not inside a polygon obstacle) and, as a scene's start, overlaps nobody
+    /// present, no wall and no obstacle (to `1e-9`); everybody marked gone left through an
+    /// exit (wholly outside the room on an exit's outer side, or beyond an exit in line with
+    /// it, where a non-convex room lies across the way out).
     ///
     /// # Errors
-    /// A message saying what does not fit: another number of people, a position that is not
-    /// finite, a time at or past the horizon, people overlapping.
-    pub fn resume_at(&mut self, state: ResumeState) -> Result<(), String> {
+    /// A [`ResumeError`] saying what does not fit, and naming the person where one is at
+    /// fault. The scene is left as it was.
+    pub fn resume_at(&mut self, state: ResumeState) -> Result<(), ResumeError> {
         let n = self.population.len();
         if state.q.len() != 2 * n || state.departed.len() != n {
-            return Err(format!(
-                "the state has {} people, the scene {n}",
-                state.departed.len()
-            ));
+            return Err(ResumeError::PeopleCount {
+                found: state.departed.len(),
+                expected: n,
+            });
         }
         if let Some(k) = state.q.iter().position(|v| !v.is_finite()) {
-            return Err(format!(
-                "person {}'s {} coordinate is {}",
-                k / 2,
-                ["x", "y"][k % 2],
-                state.q[k]
-            ));
+            return Err(ResumeError::NotFinite {
+                person: k / 2,
+                axis: ["x", "y"][k % 2],
+                value: state.q[k],
+            });
         }
-        if !state.t.is_finite() || state.t >= self.settings.t_end {
-            return Err(format!(
-                "the state is at t = {}, not before the horizon T = {}",
-                crate::stepper::display_number(state.t),
-                crate::stepper::display_number(self.settings.t_end)
-            ));
+        let start = self.problem.t0();
+        if state.t.is_nan() || state.t < start {
+            return Err(ResumeError::BeforeStart { t: state.t, start });
         }
-        let (t0, q0) = (self.problem.t0(), self.problem.q0().to_vec());
+        if state.t >= self.settings.t_end {
+            return Err(ResumeError::NotBeforeHorizon {
+                t: state.t,
+                t_end: self.settings.t_end,
+            });
+        }
+        for i in 0..n {
+            let p = Population::position(&state.q, i);
+            let r = self.population.radius(i);
+            if state.departed[i] {
+                if let Some(what) = self.why_not_gone(p, r) {
+                    return Err(ResumeError::GoneInside {
+                        person: i,
+                        t: state.t,
+                        position: p,
+                        what,
+                    });
+                }
+            } else if let Some(what) = self.why_not_present(state.t, p, r) {
+                return Err(ResumeError::PresentOutside {
+                    person: i,
+                    t: state.t,
+                    position: p,
+                    what,
+                });
+            }
+        }
+        let (t0, q0) = (start, self.problem.q0().to_vec());
+        let t = state.t;
         self.problem.set_start(state.t, state.q);
         self.departed_at_start = state.departed;
         // Checked as a start is, with the departures latched (people who left are in no
@@ -760,12 +788,74 @@ impl BuiltScene {
         self.latch_departures_at_start();
         let checked = self.problem.validate(1e-9);
         self.population.reset_departures();
-        if let Err(e) = checked {
+        if let Err(source) = checked {
             self.problem.set_start(t0, q0);
             self.departed_at_start = vec![false; n];
-            return Err(e.to_string());
+            return Err(ResumeError::Infeasible { t, source });
         }
         Ok(())
+    }
+
+    /// Why a person of radius `r` at `p` cannot be present at `t`, if they cannot: the model
+    /// marks a person gone once their disk is wholly outside the room, and the constraints
+    /// see a polygon obstacle's edges only, not a person wholly inside it.
+    fn why_not_present(&self, t: f64, p: [f64; 2], r: f64) -> Option<String> {
+        if let Some(room) = self.population.room() {
+            if !(room.contains(p) || room.boundary_distance(p) < r) {
+                return Some(format!(
+                    "their disk (radius {r}) is wholly outside the room: who is there has left"
+                ));
+            }
+        }
+        self.geometry
+            .obstacles
+            .iter()
+            .enumerate()
+            .find_map(|(k, o)| {
+                let ObstacleShape::Polygon(v) = &o.shape else {
+                    return None;
+                };
+                let d: [f64; 2] = o.offset(t);
+                let moved = v.iter().map(|a| [a[0] + d[0], a[1] + d[1]]).collect();
+                crate::crowd::Room { vertices: moved }
+                    .contains(p)
+                    .then(|| format!("they are inside obstacle #{} there", k + 1))
+            })
+    }
+
+    /// Why a person of radius `r` at `p` cannot have left, if they cannot: leaving is through
+    /// an exit, after which they walk on along its outward normal. So they are on an exit's
+    /// outer side, and either wholly outside the room or, in line with that exit and at
+    /// least `r` beyond it, crossing another part of a non-convex room.
+    fn why_not_gone(&self, p: [f64; 2], r: f64) -> Option<String> {
+        let Some(room) = self.population.room() else {
+            return Some("the scene has no room to leave".into());
+        };
+        let exits = &self.geometry.exits;
+        if exits.is_empty() {
+            return Some("the scene has no exit to leave by".into());
+        }
+        let wholly_out = !(room.contains(p) || room.boundary_distance(p) < r);
+        // Rounding of the positions written, at the room's scale.
+        let slack = 1e-9 * (1.0 + p[0].abs() + p[1].abs());
+        let left_by = |e: &ExitSegment| {
+            let rel = [p[0] - e.a[0], p[1] - e.a[1]];
+            let beyond = rel[0] * e.outward[0] + rel[1] * e.outward[1];
+            let len = (e.b[0] - e.a[0]).hypot(e.b[1] - e.a[1]);
+            let along = (rel[0] * (e.b[0] - e.a[0]) + rel[1] * (e.b[1] - e.a[1])) / len;
+            // A person slips past an exit's ends by up to their radius as they go through,
+            // and moves a step further before the departure is seen.
+            let in_line = (-2.0 * r..=len + 2.0 * r).contains(&along);
+            beyond >= -slack && (wholly_out || (in_line && beyond >= r - slack))
+        };
+        if exits.iter().any(left_by) {
+            return None;
+        }
+        Some(if wholly_out {
+            "they are outside the room on no exit's outer side: they cannot have left through an exit".into()
+        } else {
+            format!("their disk (radius {r}) is not wholly outside the room, beyond no exit: who is there is present")
+        })
     }
 
     /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]: the

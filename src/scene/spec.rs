@@ -224,10 +224,10 @@ pub struct RunSpec {
     pub stop_when_empty: Option<bool>,
     /// Projection backend. Default `native` when compiled in, else `clarabel`.
     pub backend: Option<BackendChoice>,
-    /// Most threads a projection runs on (the native backend's blocks and speculated
-    /// rescues, [`NativeSettings::threads`](crate::backends::NativeSettings::threads) when
-    /// the native backend is compiled in; with two or more, a cross-check's two backends at
-    /// once); `0`, as many as the cores the process may run on. Default `0`.
+    /// Most threads a projection runs on (the native backend's large blocks,
+    /// [`NativeSettings::threads`](crate::backends::NativeSettings::threads) when the native
+    /// backend is compiled in; with two or more, a cross-check's two backends at once); `0`,
+    /// as many as the cores the process may run on. Default `0`.
     pub threads: Option<usize>,
 }
 
