@@ -4,11 +4,11 @@
 
 use crate::active_set::{self, Failure, Orderings, Start};
 use crate::ipm::{self, Tolerance};
-use crate::normal::NormalMatrix;
+use crate::normal::{Layout, NormalMatrix};
 use std::time::Instant;
 use sweeping_api::{
     BackendCounters, Block, Blocks, FastMap, Projection, ProjectionError, ProjectionProblem,
-    Projector, RowKey, SolveStats, SolveStatus,
+    Projector, RowKey, SolveStats, SolveStatus, SparseRows,
 };
 
 /// Settings of an [`Engine`]. Every field has a documented default.
@@ -473,106 +473,122 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         iterations,
         reason: reason.to_string(),
     };
-    let mut normal = NormalMatrix::new(p.a())
-        .map_err(|_| unsolved(iterations, "the normal matrix could not be analysed"))?;
-    let Some(it) = ipm::solve(
-        p.a(),
-        &r,
-        &mut normal,
-        settings.interior_point,
-        CERTIFIABLE * context.tol,
-        settings.interior_point_iterations,
-    ) else {
-        return Err(unsolved(iterations, "the interior point could not start"));
-    };
-    iterations = iterations.saturating_add(it.iterations);
-    if settings.finish_iterations > 0 {
-        // The interior point's support, finished exactly when the active set gets there
-        // within its cap: rows reached only like `√μ` are then where they belong. On a jam
-        // (more tight rows than unknowns) it runs out, and the interior point's answer stands.
-        // The finish's tests are at `1e-12`, and on a sliver of a feasible set an answer that
-        // passes them can lie `1e-8` from the projection, farther than the interior point: it
-        // is kept only where it agrees with the interior point's answer.
-        // An interior point too far short of its tolerance to be kept leaves the finish as the
-        // way to an answer: the finish then gets more iterations. (Nearer, its answer stands:
-        // on a sliver a longer finish ends farther from the projection.)
-        let cap =
-            if it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy {
+    // The rows that can matter first (see [`screened_rows`]); when the answer violates a
+    // row left out and the finish cannot repair it, those rows join, and after
+    // [`SCREEN_ROUNDS`] such rounds every row is taken.
+    let mut keep = screened_rows(p, &r);
+    let mut rounds = 0;
+    loop {
+        let (it, violated) =
+            interior_point_on(p, &r, keep.as_deref(), settings, CERTIFIABLE * context.tol)
+                .map_err(|reason| unsolved(iterations, reason))?;
+        let missed = !violated.is_empty();
+        iterations = iterations.saturating_add(it.iterations);
+        if settings.finish_iterations > 0 {
+            // The interior point's support, finished exactly when the active set gets there
+            // within its cap: rows reached only like `√μ` are then where they belong. On a
+            // jam (more tight rows than unknowns) it runs out, and the interior point's answer
+            // stands. The finish's tests are at `1e-12`, and on a sliver of a feasible set an
+            // answer that passes them can lie `1e-8` from the projection, farther than the
+            // interior point: it is kept only where it agrees with the interior point's
+            // answer. An interior point too far short of its tolerance to be kept leaves the
+            // finish as the way to an answer: the finish then gets more iterations. (Nearer,
+            // its answer stands: on a sliver a longer finish ends farther from the projection.)
+            let cap = if it.converged
+                || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy
+            {
                 settings.finish_iterations
             } else {
                 settings
                     .finish_iterations
                     .saturating_mul(UNCONVERGED_FINISH)
             };
-        let res = active_set::first_pass_remembering(
-            p,
-            finish_start(&it, &r, p),
-            cap,
-            orderings,
-            &block.cols,
-        );
-        let agrees = |x: &[f64]| {
-            let apart = x
-                .iter()
-                .zip(p.y().iter().zip(&it.d))
-                .map(|(a, (y, d))| (a - (y + d)).abs())
-                .fold(0.0, f64::max);
-            apart <= AGREEMENT * it.accuracy.max(settings.interior_point.accuracy) * it.length
-        };
-        match res {
-            Ok(outcome) if certified(&outcome.x, &outcome.lambda) && agrees(&outcome.x) => {
-                return Ok(BlockAnswer {
-                    x: outcome.x,
-                    lambda: outcome.lambda,
-                    method: Method::InteriorPoint,
-                    iterations: iterations.saturating_add(outcome.iterations),
-                    warm,
-                    short_of: None,
-                });
+            let res = active_set::first_pass_remembering(
+                p,
+                finish_start(&it, &r, p),
+                cap,
+                orderings,
+                &block.cols,
+            );
+            let agrees = |x: &[f64]| {
+                let apart = x
+                    .iter()
+                    .zip(p.y().iter().zip(&it.d))
+                    .map(|(a, (y, d))| (a - (y + d)).abs())
+                    .fold(0.0, f64::max);
+                apart <= AGREEMENT * it.accuracy.max(settings.interior_point.accuracy) * it.length
+            };
+            match res {
+                // An answer of the screened rows that violates a left-out row is no answer to
+                // agree with: the finish, which takes every row, stands on its certificate.
+                Ok(outcome)
+                    if certified(&outcome.x, &outcome.lambda) && (missed || agrees(&outcome.x)) =>
+                {
+                    return Ok(BlockAnswer {
+                        x: outcome.x,
+                        lambda: outcome.lambda,
+                        method: Method::InteriorPoint,
+                        iterations: iterations.saturating_add(outcome.iterations),
+                        warm,
+                        short_of: None,
+                    });
+                }
+                Ok(outcome) => iterations = iterations.saturating_add(outcome.iterations),
+                // A converged interior point says the set has points: a certificate of the
+                // finish's tests would be rounding of a set of zero width.
+                Err(Failure::Infeasible { rows }) if !it.converged => {
+                    return Err(BlockFailure::Infeasible(rows))
+                }
+                Err(Failure::Cap(n) | Failure::Cycling(n)) => {
+                    iterations = iterations.saturating_add(n)
+                }
+                Err(Failure::Infeasible { .. } | Failure::Numerical(_)) => {}
             }
-            Ok(outcome) => iterations = iterations.saturating_add(outcome.iterations),
-            // A converged interior point says the set has points: a certificate of the
-            // finish's tests would be rounding of a set of zero width.
-            Err(Failure::Infeasible { rows }) if !it.converged => {
-                return Err(BlockFailure::Infeasible(rows))
-            }
-            Err(Failure::Cap(n) | Failure::Cycling(n)) => iterations = iterations.saturating_add(n),
-            Err(Failure::Infeasible { .. } | Failure::Numerical(_)) => {}
         }
-    }
-    // An interior point that stalled near its tolerance (the directions' rounding, with
-    // weights spanning twenty orders of magnitude, sets a floor) is answered as it is,
-    // counted as short of the tolerance.
-    let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
-    let acceptable =
-        it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy;
-    if acceptable && certified(&x, &it.lambda) {
-        return Ok(BlockAnswer {
-            x,
-            lambda: it.lambda,
-            method: Method::InteriorPoint,
+        if missed {
+            rounds += 1;
+            match keep.as_mut() {
+                Some(rows) if rounds < SCREEN_ROUNDS => {
+                    violated.iter().for_each(|&i| rows[i] = true)
+                }
+                _ => keep = None,
+            }
+            continue;
+        }
+        // An interior point that stalled near its tolerance (the directions' rounding, with
+        // weights spanning twenty orders of magnitude, sets a floor) is answered as it is,
+        // counted as short of the tolerance.
+        let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
+        let acceptable =
+            it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy;
+        if acceptable && certified(&x, &it.lambda) {
+            return Ok(BlockAnswer {
+                x,
+                lambda: it.lambda,
+                method: Method::InteriorPoint,
+                iterations,
+                warm,
+                short_of: (!it.converged).then_some(it.accuracy * it.length),
+            });
+        }
+        if !it.converged {
+            if let Some(rows) = farkas(p, &r, &it.lambda) {
+                return Err(BlockFailure::Infeasible(rows));
+            }
+        }
+        debug_assert_eq!(r.len(), m);
+        return Err(unsolved(
             iterations,
-            warm,
-            short_of: (!it.converged).then_some(it.accuracy * it.length),
-        });
+            &if it.converged {
+                "the interior point's answer failed the KKT check".to_string()
+            } else {
+                format!(
+                    "the interior point did not converge (accuracy {:.1e})",
+                    it.accuracy
+                )
+            },
+        ));
     }
-    if !it.converged {
-        if let Some(rows) = farkas(p, &r, &it.lambda) {
-            return Err(BlockFailure::Infeasible(rows));
-        }
-    }
-    debug_assert_eq!(r.len(), m);
-    Err(unsolved(
-        iterations,
-        &if it.converged {
-            "the interior point's answer failed the KKT check".to_string()
-        } else {
-            format!(
-                "the interior point did not converge (accuracy {:.1e})",
-                it.accuracy
-            )
-        },
-    ))
 }
 
 /// The active set's start: the remembered multipliers by row key, or, without any, the rows
@@ -640,6 +656,102 @@ fn finish_start(it: &ipm::Iterate, r: &[f64], p: &ProjectionProblem) -> Start {
         join: (0..r.len()).map(start).collect(),
         join_at_most: Some(1),
     }
+}
+
+/// Rows that `y` satisfies with more room than this many times the block's largest violation
+/// are left out of the interior point's first try.
+const SCREEN_REACH: f64 = 0.5;
+
+/// Rows are left out only when at least this fraction of the block's rows can be: a door
+/// queue, nearly every row tight, is solved whole at once.
+const SCREEN_FRACTION: f64 = 0.25;
+
+/// Rounds of rows joining a screened interior point before it takes every row.
+const SCREEN_ROUNDS: usize = 3;
+
+/// The rows an interior point needs to see first, or `None` for every row. A jam's block
+/// holds every pair within the broad phase's reach, and most of them stay apart: the normal
+/// matrix's fill, which the method's factorizations pay for, grows with rows it need not see.
+/// Rows that `y` satisfies with more room than [`SCREEN_REACH`] times the block's largest
+/// violation are left out, when at least [`SCREEN_FRACTION`] of the rows are.
+fn screened_rows(p: &ProjectionProblem, r: &[f64]) -> Option<Vec<bool>> {
+    let a = p.a();
+    let m = a.n_rows();
+    let distance: Vec<f64> = (0..m)
+        .map(|i| {
+            let norm = a.row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
+            if norm > 0.0 {
+                r[i] / norm
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let worst = distance.iter().fold(0.0, |acc: f64, d| acc.max(*d));
+    let keep: Vec<bool> = distance
+        .iter()
+        .map(|d| *d >= -SCREEN_REACH * worst)
+        .collect();
+    let left_out = keep.iter().filter(|k| !**k).count();
+    ((left_out as f64) >= SCREEN_FRACTION * m as f64).then_some(keep)
+}
+
+/// The interior point on the rows `keep` marks (every row when `None`), as an iterate of the
+/// whole block: rows left out get `λ = 0` and the answer's slack. Also the rows left out that
+/// the answer violates.
+fn interior_point_on(
+    p: &ProjectionProblem,
+    r: &[f64],
+    keep: Option<&[bool]>,
+    settings: &EngineSettings,
+    kkt: f64,
+) -> Result<(ipm::Iterate, Vec<usize>), &'static str> {
+    let solve = |a: &SparseRows, r: &[f64], layout| -> Result<ipm::Iterate, &'static str> {
+        let mut normal = NormalMatrix::with_layout(a, layout)
+            .map_err(|_| "the normal matrix could not be analysed")?;
+        ipm::solve(
+            a,
+            r,
+            &mut normal,
+            settings.interior_point,
+            kkt,
+            settings.interior_point_iterations,
+        )
+        .ok_or("the interior point could not start")
+    };
+    let a = p.a();
+    let Some(keep) = keep else {
+        return Ok((solve(a, r, Layout::ByUnknowns)?, Vec::new()));
+    };
+    let m = a.n_rows();
+    let rows: Vec<usize> = (0..m).filter(|&i| keep[i]).collect();
+    let mut sub = SparseRows::with_capacity(a.n_cols(), rows.len(), 0);
+    for &i in &rows {
+        sub.push_row(a.row(i));
+    }
+    let sub_r: Vec<f64> = rows.iter().map(|&i| r[i]).collect();
+    let it = solve(&sub, &sub_r, Layout::ByFill)?;
+    let mut slack = vec![0.0; m];
+    a.mul_vec(&it.d, &mut slack);
+    slack.iter_mut().zip(r).for_each(|(s, ri)| *s -= ri);
+    let violated: Vec<usize> = (0..m).filter(|&i| !keep[i] && slack[i] <= 0.0).collect();
+    let mut lambda = vec![0.0; m];
+    for (k, &i) in rows.iter().enumerate() {
+        lambda[i] = it.lambda[k];
+        slack[i] = it.slack[k];
+    }
+    Ok((
+        ipm::Iterate {
+            d: it.d,
+            lambda,
+            slack,
+            iterations: it.iterations,
+            converged: it.converged,
+            accuracy: it.accuracy,
+            length: it.length,
+        },
+        violated,
+    ))
 }
 
 /// One row's starting multiplier when it enters the support without a remembered one: the

@@ -24,6 +24,17 @@ use sweeping_api::SparseRows;
 /// it saves (measured: `docs/lab/2026-12-04-projection-engine.md`).
 const SUPERNODAL_FROM: usize = 400;
 
+/// How a factorization chooses between supernodal and column-by-column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Layout {
+    /// Supernodal from [`SUPERNODAL_FROM`] unknowns: a door queue's whole block, whose fill is
+    /// dense enough for the dense kernels at any size past that.
+    ByUnknowns,
+    /// By the factor's own flops per entry (faer's automatic choice): a jam's rows screened
+    /// for an interior point leave a sparser factor, where the supernodes do not pay.
+    ByFill,
+}
+
 /// Why a factorization could not be used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct NotFactorable;
@@ -66,6 +77,12 @@ impl NormalMatrix {
     /// # Errors
     /// [`NotFactorable`] when the symbolic analysis cannot allocate its workspace.
     pub(crate) fn new(a: &SparseRows) -> Result<Self, NotFactorable> {
+        Self::with_layout(a, Layout::ByUnknowns)
+    }
+
+    /// As [`new`](Self::new), with the choice between the supernodal and the column-by-column
+    /// factorization made as `layout` says.
+    pub(crate) fn with_layout(a: &SparseRows, layout: Layout) -> Result<Self, NotFactorable> {
         let (m, n) = (a.n_rows(), a.n_cols());
         let (ptr, idx, val) = (a.row_ptr(), a.col_idx(), a.values());
         // The rows touching each column (the transpose's pattern), by counting: each column of
@@ -136,10 +153,10 @@ impl NormalMatrix {
         }
         let diagonal = (0..n).map(|j| position(j, j)).collect();
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let threshold = if n >= SUPERNODAL_FROM {
-            SupernodalThreshold::FORCE_SUPERNODAL
-        } else {
-            SupernodalThreshold::FORCE_SIMPLICIAL
+        let threshold = match layout {
+            Layout::ByFill => SupernodalThreshold::AUTO,
+            Layout::ByUnknowns if n >= SUPERNODAL_FROM => SupernodalThreshold::FORCE_SUPERNODAL,
+            Layout::ByUnknowns => SupernodalThreshold::FORCE_SIMPLICIAL,
         };
         let symbolic = factorize_symbolic_cholesky(
             pattern,
