@@ -588,3 +588,100 @@ fn a_state_that_does_not_fit_the_scene_is_not_resumed_from() {
         .unwrap();
     assert_eq!(built.departed_at_start, vec![true, false]);
 }
+
+#[test]
+fn a_crowd_of_nobody_is_refused() {
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[[crowds]]\ncount = 0\nradius = 0.2\n"
+    );
+    assert_message(&error_of(&text), 6, &["[[crowds]] #1", "count = 0"]);
+}
+
+#[test]
+fn a_bad_geodesic_cell_is_refused_even_when_nobody_heads_for_an_exit() {
+    let text =
+        format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[geodesic]\ncell = -1.0\n");
+    assert_message(
+        &error_of(&text),
+        6,
+        &["[geodesic] cell", "positive and finite, got -1"],
+    );
+}
+
+#[test]
+fn people_listed_one_by_one_count_towards_the_limit() {
+    // One person more than the limit, all at one place: the limit is reported, not the overlap.
+    let n = sweeping::scene::MAX_PEOPLE + 1;
+    let mut text = String::from("people = [\n");
+    for _ in 0..n {
+        text.push_str("{ position = [1.0, 1.0], radius = 0.2 },\n");
+    }
+    text.push_str("]\n");
+    text.push_str(ROOM);
+    let e = error_of(&text);
+    assert_message(
+        &e,
+        1 + n,
+        &[
+            &format!("[[people]] #{n}"),
+            &format!("{n} people: a scene holds at most 1000000"),
+        ],
+    );
+}
+
+#[test]
+fn an_exit_over_a_vertex_between_collinear_edges_is_on_the_wall() {
+    // The east wall is two edges, (4, 0)–(4, 2) and (4, 2)–(4, 4); the exit spans the vertex.
+    let text = "[room]\npolygon = [[0.0, 0.0], [4.0, 0.0], [4.0, 2.0], [4.0, 4.0], [0.0, 4.0]]\n\
+                [[exits]]\nfrom = [4.0, 1.5]\nto = [4.0, 2.5]\n[desired]\nkind = \"exit\"\n\
+                [[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n";
+    let built = Scene::from_toml_str(text, "ok.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap_or_else(|e| panic!("refused: {e}"));
+    let walls = &built.geometry.walls;
+    assert!(
+        walls.contains(&([4.0, 0.0], [4.0, 1.5])) && walls.contains(&([4.0, 2.5], [4.0, 4.0])),
+        "{walls:?}"
+    );
+    // No wall runs across the doorway.
+    assert!(
+        !walls.iter().any(|(a, b)| a[0] == 4.0
+            && b[0] == 4.0
+            && a[1].min(b[1]) < 2.5
+            && a[1].max(b[1]) > 1.5),
+        "{walls:?}"
+    );
+}
+
+#[test]
+fn a_geodesic_cell_too_coarse_for_an_exit_names_the_exit_width_unrounded() {
+    // 1.3 − 1.1 is 0.19999999999999996: the cell 0.1 is just over half of it, and the message
+    // must not call the width 0.2, of which 0.1 is half.
+    let text = format!(
+        "{ROOM}[[exits]]\nfrom = [4.0, 1.1]\nto = [4.0, 1.3]\n[desired]\nkind = \"exit\"\n\
+         [[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[geodesic]\ncell = 0.1\n"
+    );
+    let e = error_of(&text);
+    assert_message(
+        &e,
+        11,
+        &[
+            "[geodesic] cell",
+            "0.19999999999999996",
+            "0.09999999999999998",
+        ],
+    );
+    assert!(!e.to_string().contains("(0.2)"), "{e}");
+}
+
+#[test]
+fn a_name_with_a_control_character_is_refused_at_its_line() {
+    let text = format!(
+        "# a scene\nname = \"bell\\u0007\"\n{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n"
+    );
+    assert_message(
+        &error_of(&text),
+        2,
+        &["name", "control characters", "--out"],
+    );
+}

@@ -732,3 +732,17 @@ fn every_toml_block_uses_only_keys_of_the_format_and_every_scene_loads() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The scene module's documentation sends readers to this page, not to where the schema was
+/// documented before.
+#[test]
+fn the_scene_module_points_at_this_page() {
+    let module = read("src/scene/mod.rs");
+    let doc: String = module
+        .lines()
+        .take_while(|l| l.starts_with("//!"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(doc.contains(PAGE), "{doc}");
+    assert!(!doc.contains("README"), "{doc}");
+}

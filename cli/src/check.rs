@@ -3,8 +3,9 @@
 use crate::stdout::{errln, out, outln};
 use anyhow::{Context, Result};
 use sweeping::assumptions::{estimate_problem, samples_from_trajectory, EstimateSettings};
-use sweeping::backends::make_projector;
-use sweeping::scene::{Overrides, Scene};
+use sweeping::backends::{make_projector, make_projector_with, ProjectorOptions};
+use sweeping::output::{check_format, csv_interval_note, TrajectoryFormat};
+use sweeping::scene::{BuiltScene, Overrides, Scene};
 use sweeping::stepper::Stepper;
 
 /// Arguments of `sweep check`.
@@ -44,6 +45,7 @@ pub fn main(args: CheckArgs) -> Result<()> {
     }
     let scene = Scene::from_file(&args.scene)?;
     let built = scene.build(&Overrides::default())?;
+    refuse_as_run_would(&args.scene, &built)?;
     out!("{}", built.describe());
     outln!("ok: {} is a valid scene", args.scene.display());
     if args.no_constants {
@@ -105,4 +107,29 @@ pub fn main(args: CheckArgs) -> Result<()> {
             report.failures.len()
         )
     }
+}
+
+/// What `sweep run` refuses once the scene is built (a backend or a trajectory format this
+/// build lacks, SQLite frames that are not a whole number of steps apart), refused here too,
+/// and what it adjusts, told: a valid scene is one that runs as written.
+fn refuse_as_run_would(path: &std::path::Path, built: &BuiltScene) -> Result<()> {
+    let options = ProjectorOptions {
+        threads: built.threads,
+        ..ProjectorOptions::default()
+    };
+    make_projector_with(built.backend, options).map_err(anyhow::Error::msg)?;
+    let (every, h) = (built.output.trajectory_every, built.settings.h);
+    for &format in &built.output.formats {
+        check_format(format, every, h)
+            .with_context(|| format!("{} (--format {format})", path.display()))?;
+    }
+    for note in &built.output.notes {
+        errln!("note: {note}");
+    }
+    if built.output.formats.contains(&TrajectoryFormat::Csv) {
+        if let Some(note) = csv_interval_note(every, h) {
+            errln!("note: {note}");
+        }
+    }
+    Ok(())
 }

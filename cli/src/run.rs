@@ -12,8 +12,8 @@ use std::path::PathBuf;
 use sweeping::backends::{make_projector_with, threads_phrase, BackendChoice, ProjectorOptions};
 use sweeping::error::SweepError;
 use sweeping::output::{
-    prepare_output_dir, steps_between, AnimationWriter, RunSummary, SnapshotWriter,
-    SummaryCollector, TrajectoryFormat, TrajectoryWriter,
+    csv_interval_note, prepare_output_dir, steps_between, AnimationWriter, RunSummary,
+    SnapshotWriter, SummaryCollector, TrajectoryFormat, TrajectoryWriter,
 };
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::{Observer, ObserverError, StepReport};
@@ -184,6 +184,8 @@ fn write_case(
 /// Entry point of `sweep run`.
 pub fn main(args: RunArgs) -> Result<()> {
     let scene = Scene::from_file(&args.scene)?;
+    // Before `out/<name>/` is created: a name such as `../x` would create a directory elsewhere.
+    scene.check_name()?;
     let overrides = Overrides {
         h: args.h,
         t_end: args.t_end,
@@ -276,6 +278,14 @@ pub fn main(args: RunArgs) -> Result<()> {
     let t_end = built.settings.t_end;
     let backend_name = built.backend.to_string();
 
+    for note in &built.output.notes {
+        errln!("note: {note}");
+    }
+    if formats.contains(&TrajectoryFormat::Csv) {
+        if let Some(note) = csv_interval_note(built.output.trajectory_every, h) {
+            errln!("note: {note}");
+        }
+    }
     // The trajectory writers, created before the run so that their errors come first (the
     // SQLite file gets its schema and walkable area now).
     let mut csv = formats.contains(&TrajectoryFormat::Csv).then(|| {

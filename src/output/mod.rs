@@ -584,6 +584,58 @@ pub fn steps_between(interval: f64, h: f64) -> usize {
     }
 }
 
+/// Steps between the SQLite trajectory's frames: its frame rate is fixed, so
+/// `trajectory_every` must be a whole number of steps `h`.
+///
+/// # Errors
+/// [`OutputError::FrameInterval`] when it is not (or is less than one step).
+pub fn sqlite_frame_steps(trajectory_every: f64, h: f64) -> Result<usize, OutputError> {
+    let ratio = trajectory_every / h;
+    if !(h > 0.0 && ratio.is_finite() && ratio >= 1.0 - 1e-9)
+        || (ratio - ratio.round()).abs() > 1e-6 * ratio
+    {
+        return Err(OutputError::FrameInterval {
+            trajectory_every,
+            h,
+        });
+    }
+    Ok((ratio.round() as usize).max(1))
+}
+
+/// Whether this build can write `format` with frames `trajectory_every` apart at step `h`:
+/// what `sweep run` refuses before running, for `sweep check` to refuse as well.
+///
+/// # Errors
+/// [`OutputError::Unavailable`] for a format whose cargo feature is off,
+/// [`OutputError::FrameInterval`] as [`sqlite_frame_steps`].
+pub fn check_format(
+    format: TrajectoryFormat,
+    trajectory_every: f64,
+    h: f64,
+) -> Result<(), OutputError> {
+    match format {
+        TrajectoryFormat::Csv => Ok(()),
+        TrajectoryFormat::Sqlite if !cfg!(feature = "sqlite") => {
+            Err(OutputError::Unavailable("sqlite"))
+        }
+        TrajectoryFormat::Sqlite => sqlite_frame_steps(trajectory_every, h).map(|_| ()),
+    }
+}
+
+/// The CSV writes a row every whole number of steps ([`steps_between`]): when that is not
+/// `trajectory_every`, the sentence telling the user what is written instead.
+pub fn csv_interval_note(trajectory_every: f64, h: f64) -> Option<String> {
+    let every = steps_between(trajectory_every, h);
+    let written = every as f64 * h;
+    ((written - trajectory_every).abs() > 1e-6 * trajectory_every).then(|| {
+        format!(
+            "trajectory.csv: [output] trajectory_every = {trajectory_every} is not a whole \
+             number of steps h = {h}: a row is written every {every} step(s), every {} s",
+            crate::stepper::display_number(written)
+        )
+    })
+}
+
 #[cfg(test)]
 mod status_tests {
     use super::RunStatus;

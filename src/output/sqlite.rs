@@ -126,16 +126,7 @@ impl SqliteTrajectoryWriter {
         scene: &str,
     ) -> Result<Self, OutputError> {
         let path = path.into();
-        let ratio = trajectory_every / h;
-        if !(h > 0.0 && ratio.is_finite() && ratio >= 1.0 - 1e-9)
-            || (ratio - ratio.round()).abs() > 1e-6 * ratio
-        {
-            return Err(OutputError::FrameInterval {
-                trajectory_every,
-                h,
-            });
-        }
-        let every = (ratio.round() as usize).max(1);
+        let every = super::sqlite_frame_steps(trajectory_every, h)?;
         let fps = 1.0 / (every as f64 * h);
         // A new file, not tables dropped in an old one. A journal left beside the old file by
         // a killed run goes too: SQLite would take it for the new file's own hot journal and

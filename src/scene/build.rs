@@ -31,15 +31,22 @@ pub(super) type Wall = ([f64; 2], [f64; 2]);
 /// An obstacle with its line and its index in `[[obstacles]]`.
 pub(super) type Placed = (Obstacle, Option<usize>, usize);
 
-/// The scene's name becomes a directory under out/: a path in it would write elsewhere.
-pub(super) fn check_name(cx: &Ctx<'_>, name: &str) -> Result<(), SceneError> {
-    if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\\', '\0', ':']) {
+/// The scene's name becomes a directory under out/: a path in it would write elsewhere, and a
+/// control character would make a directory no one can type. `line` is the `name` key's.
+pub(super) fn check_name(cx: &Ctx<'_>, name: &str, line: Option<usize>) -> Result<(), SceneError> {
+    if name.is_empty()
+        || name == "."
+        || name == ".."
+        || name.contains(['/', '\\', ':'])
+        || name.contains(char::is_control)
+    {
         return Err(cx.err(
-            None,
+            line,
             "name",
             format!(
                 "the name {:?} names the output directory out/<name>/: it must be a plain \
-                 file name (not empty, `.` or `..`, without `/`, `\\`, `:`)",
+                 file name (not empty, `.` or `..`, without `/`, `\\`, `:` or control \
+                 characters); give another `name`, or `sweep run --out DIR`",
                 name
             ),
         ));
@@ -205,6 +212,8 @@ pub(super) fn room(cx: &Ctx<'_>, spec: &SceneSpec) -> Result<RoomPlan, SceneErro
     let bb = bbox(&vertices);
     check_resolution(cx, spec, room_line, &vertices)?;
     let scale = (bb.2 - bb.0).max(bb.3 - bb.1);
+    let on_tol = 1e-9 * scale.max(1.0);
+    let vertices = drop_vertices_under_exits(vertices, spec, on_tol);
     Ok(RoomPlan {
         room: Room {
             vertices: vertices.clone(),
@@ -212,8 +221,39 @@ pub(super) fn room(cx: &Ctx<'_>, spec: &SceneSpec) -> Result<RoomPlan, SceneErro
         vertices,
         bbox: bb,
         scale,
-        on_tol: 1e-9 * scale.max(1.0),
+        on_tol,
     })
+}
+
+/// Drops each vertex that lies inside an exit, between its ends, on the straight line of its
+/// two edges: the room keeps its shape, and an exit over consecutive collinear edges lies on
+/// one edge, as the walls, the geodesic field and the outputs expect.
+fn drop_vertices_under_exits(
+    mut vertices: Vec<[f64; 2]>,
+    spec: &SceneSpec,
+    on_tol: f64,
+) -> Vec<[f64; 2]> {
+    let under_an_exit = |v: [f64; 2]| {
+        spec.exits.iter().map(|e| e.get_ref()).any(|e| {
+            let near = |p: [f64; 2]| (p[0] - v[0]).hypot(p[1] - v[1]) <= on_tol;
+            finite(&e.from)
+                && finite(&e.to)
+                && segment_distance(v, e.from, e.to) <= on_tol
+                && !near(e.from)
+                && !near(e.to)
+        })
+    };
+    while vertices.len() > 3 {
+        let n = vertices.len();
+        let Some(k) = (0..n).find(|&k| {
+            let (prev, next) = (vertices[(k + n - 1) % n], vertices[(k + 1) % n]);
+            under_an_exit(vertices[k]) && segment_distance(vertices[k], prev, next) <= on_tol
+        }) else {
+            break;
+        };
+        vertices.remove(k);
+    }
+    vertices
 }
 
 /// Exits, each on one edge of the room, with their outward normals; the walls are the edges
@@ -532,6 +572,17 @@ pub(super) fn explicit_people(
     clear: &Clearance<'_>,
 ) -> Result<People, SceneError> {
     let has_exits = clear.has_exits;
+    // Checked before any person: a million checks would come first, for an error in the end.
+    if let Some(p) = spec.people.get(MAX_PEOPLE) {
+        return Err(cx.err(
+            cx.line_of(p),
+            format!("[[people]] #{}", MAX_PEOPLE + 1),
+            format!(
+                "{} people: a scene holds at most {MAX_PEOPLE}",
+                spec.people.len()
+            ),
+        ));
+    }
     let mut people = People::default();
     for (k, p) in spec.people.iter().enumerate() {
         let line = cx.line_of(p);
@@ -619,6 +670,13 @@ pub(super) fn place_crowd(
     let line = cx.line_of(c);
     let item = format!("[[crowds]] #{}", g + 1);
     let cs = c.get_ref();
+    if cs.count == 0 {
+        return Err(cx.err(
+            line,
+            item,
+            "count = 0 places nobody: give at least 1, or drop the crowd",
+        ));
+    }
     let (rmin, rmax) = match cs.radius {
         RadiusSpec::Fixed(r) => (r, r),
         RadiusSpec::Range([a, b]) => (a, b),
@@ -760,8 +818,8 @@ pub(super) fn desire_terms(
     Ok((terms, still))
 }
 
-/// The geodesic distance to the exits by fast marching, only when somebody heads for them;
-/// static obstacles are holes in its domain.
+/// The geodesic distance to the exits by fast marching, only when somebody heads for them
+/// (`[geodesic] cell` is checked either way); static obstacles are holes in its domain.
 pub(super) fn geodesic_field(
     cx: &Ctx<'_>,
     spec: &SceneSpec,
@@ -770,21 +828,22 @@ pub(super) fn geodesic_field(
     exits: &[ExitSegment],
     obstacles: &[Placed],
 ) -> Result<Option<Arc<DistanceField>>, SceneError> {
-    if !terms.iter().any(|(d, _)| d.kind == DesiredKind::Exit) {
-        return Ok(None);
-    }
     let cell = spec
         .geodesic
         .as_ref()
         .and_then(|g| g.get_ref().cell)
         .unwrap_or(0.05);
     let geodesic_line = spec.geodesic.as_ref().and_then(|g| cx.line_of(g));
+    // A wrong value is wrong whether or not the field is needed: the file is checked as a whole.
     if !(cell.is_finite() && cell > 0.0) {
         return Err(cx.err(
             geodesic_line,
             "[geodesic] cell",
             format!("the cell size must be positive and finite, got {cell}"),
         ));
+    }
+    if !terms.iter().any(|(d, _)| d.kind == DesiredKind::Exit) {
+        return Ok(None);
     }
     // A grid coarser than the room (or than a door) cannot represent the routes: the field
     // would point people anywhere. Refuse it rather than run with it.
@@ -794,15 +853,18 @@ pub(super) fn geodesic_field(
         .iter()
         .map(|e| (e.b[0] - e.a[0]).hypot(e.b[1] - e.a[1]))
         .fold(f64::INFINITY, f64::min);
+    // The numbers are printed to the last digit: rounded, a width of 0.19999999999999996
+    // would read 0.2, and a refused cell 0.1 would look like half of it.
     if cell > room_side / 4.0 || cell > shortest_exit / 2.0 {
         return Err(cx.err(
             geodesic_line,
             "[geodesic] cell",
             format!(
-                "the cell {cell} is too coarse for the geodesic field: it must be at most a \
-                 quarter of the room's smallest side ({}) and half the narrowest exit ({})",
-                display_number(room_side),
-                display_number(shortest_exit)
+                "the cell {cell} is too coarse for the geodesic field: it must be at most {}, a \
+                 quarter of the room's smallest side ({room_side}), and at most {}, half the \
+                 narrowest exit ({shortest_exit})",
+                room_side / 4.0,
+                shortest_exit / 2.0,
             ),
         ));
     }
@@ -924,7 +986,7 @@ pub(super) fn push_families(
     }
 }
 
-/// `[output]`, checked; intervals below one step are clamped to one step.
+/// `[output]`, checked; intervals below one step are clamped to one step, with a note.
 pub(super) fn output_settings(
     cx: &Ctx<'_>,
     spec: &SceneSpec,
@@ -973,11 +1035,31 @@ pub(super) fn output_settings(
     }
     let mut seen = std::collections::HashSet::new();
     formats.retain(|f| seen.insert(*f));
+    // Nothing is written between steps: an interval the file gives shorter than a step is one
+    // step, and the user is told.
+    let given = |f: fn(&super::spec::OutputSpec) -> Option<f64>| out_spec.as_ref().and_then(f);
+    let notes = [
+        ("trajectory_every", given(|o| o.trajectory_every)),
+        ("snapshot_every", given(|o| o.snapshot_every)),
+    ]
+    .into_iter()
+    .filter_map(|(name, v)| Some((name, v?)))
+    .filter(|&(_, v)| v < h)
+    .map(|(name, v)| {
+        cx.err(
+            out_line,
+            format!("[output] {name}"),
+            format!("{v} is shorter than the step h = {h}: every step is written instead"),
+        )
+        .to_string()
+    })
+    .collect();
     Ok(OutputSettings {
         trajectory_every: trajectory_every.max(h),
         snapshot_every: snapshot_every.max(h),
         animation_frames,
         formats,
+        notes,
     })
 }
 

@@ -2,7 +2,8 @@
 //! scene calls for. [`CrowdBuilder`] builds the same scenes in code: both fill a
 //! [`SceneSpec`], which [`Scene::build`] checks and turns into a [`BuiltScene`] step by step.
 //!
-//! The schema is documented in the README, with an annotated example; in short:
+//! The schema is documented key by key in the guide, `docs/guide/src/scene-format.md`, with an
+//! annotated example; in short:
 //!
 //! ```toml
 //! name = "tiny"
@@ -160,6 +161,9 @@ pub struct OutputSettings {
     pub animation_frames: usize,
     /// Trajectory formats to write (at least one, no repeats).
     pub formats: Vec<crate::output::TrajectoryFormat>,
+    /// What was adjusted (an interval below one step clamped to one step), one sentence each,
+    /// naming the file, line and key: for the user to be told.
+    pub notes: Vec<String>,
 }
 
 /// A scene ready to run.
@@ -324,6 +328,36 @@ impl Scene {
         })
     }
 
+    /// Checks that the scene's name can be the output directory `out/<name>/` (as
+    /// [`Scene::build`] does first): for `sweep run` to refuse it before creating anything.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] for an empty name, `.`, `..`, or one with `/`, `\`, `:` or a
+    /// control character, naming the `name` key's line when the file gives it.
+    pub fn check_name(&self) -> Result<(), SceneError> {
+        let cx = Ctx::new(&self.origin, self.text.as_deref());
+        // `name` is a top-level key: before the first table header.
+        let line = self
+            .spec
+            .name
+            .as_ref()
+            .and(self.text.as_deref())
+            .and_then(|text| {
+                text.lines()
+                    .take_while(|l| !l.trim_start().starts_with('['))
+                    .position(|l| {
+                        let l = l.trim_start();
+                        let rest = l
+                            .strip_prefix("name")
+                            .or_else(|| l.strip_prefix("\"name\""))
+                            .or_else(|| l.strip_prefix("'name'"));
+                        rest.is_some_and(|r| r.trim_start().starts_with('='))
+                    })
+                    .map(|i| i + 1)
+            });
+        build::check_name(&cx, &self.name, line)
+    }
+
     /// Where the scene came from (a file name, or what [`Scene::from_toml_str`] was given).
     pub fn origin(&self) -> &str {
         &self.origin
@@ -339,7 +373,7 @@ impl Scene {
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
         let cx = Ctx::new(&self.origin, self.text.as_deref());
         let spec = &self.spec;
-        build::check_name(&cx, &self.name)?;
+        self.check_name()?;
         let run = build::run_settings(&cx, spec, overrides)?;
         let room = build::room(&cx, spec)?;
         let (exits, walls) = build::exits_and_walls(&cx, spec, &room)?;
