@@ -222,3 +222,107 @@ fn a_small_crowd_converges_at_order_at_least_one_half() {
     assert!(svg.contains("<svg") && svg.contains("slope"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// 400 coordinates near 1000 translated at a constant velocity with a constraint far away:
+/// the scheme is exact, so every `e_h` is round-off of the reference and the run.
+fn translation() -> Result<Problem, BoxError> {
+    struct Below;
+    impl ConstraintKernel<1> for Below {
+        type Params = ();
+        fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D {
+            D::from(1e6) - z[0]
+        }
+        fn is_time_dependent(&self) -> bool {
+            false
+        }
+    }
+    let q0: Vec<f64> = (0..400).map(|i| 1000.0 + 0.37 * i as f64).collect();
+    let velocity = |_t: f64, _q: &[f64], f: &mut [f64]| {
+        for (i, v) in f.iter_mut().enumerate() {
+            *v = 0.1 + 0.013 * (i % 7) as f64;
+        }
+    };
+    Ok(Problem::new(q0, velocity).with_family(KernelFamily::single("below", Below, [0])))
+}
+
+/// Errors at round-off (above the absolute floor of 1e-12) fit a slope that is no order:
+/// the report carries a caveat and prints it in the order's place.
+#[test]
+fn round_off_errors_are_reported_with_a_caveat_not_as_an_order() {
+    let settings = ConvergenceSettings {
+        h_min: 0.01,
+        hs: vec![0.02, 0.025, 0.04, 0.05, 0.1],
+        t_end: 2.0,
+        t_short: None,
+        samples: 10,
+        parallel: true,
+    };
+    let report = converge(
+        "translation",
+        &translation,
+        &reference,
+        &StepperSettings::default(),
+        &settings,
+    )
+    .unwrap();
+    let summary = report.summary();
+    println!("{summary}");
+    assert!(
+        report.rows.iter().all(|r| r.error < r.round_off),
+        "{summary}"
+    );
+    if let Some(fit) = report.order {
+        assert!(
+            matches!(
+                fit.caveat,
+                Some(sweeping::study::FitCaveat::RoundOff { .. })
+            ),
+            "{summary}"
+        );
+    }
+    assert!(!summary.contains("R² ="), "{summary}");
+    // The numbers: round-off of a long chain, each error under its floor.
+    let fit = sweeping::study::fit_order_checked(
+        &[0.1, 0.05, 0.04, 0.02],
+        &[4e-12, 8e-11, 2e-11, 6e-12],
+        &[200, 400, 500, 1000],
+        &[1e-10; 4],
+    )
+    .unwrap();
+    assert!(fit.caveat.is_some() && fit.describe().contains("round-off"));
+}
+
+/// Step sizes that take the same number of steps (both clamp to one step of T) are refused,
+/// and a fit over such points says so instead of reporting order 0 with R² = 1.
+#[test]
+fn step_sizes_with_the_same_step_count_are_refused() {
+    let settings = ConvergenceSettings {
+        h_min: 0.01,
+        hs: vec![2.0, 5.0],
+        t_end: 1.0,
+        t_short: None,
+        samples: 10,
+        parallel: false,
+    };
+    let err = converge(
+        "translation",
+        &translation,
+        &reference,
+        &StepperSettings::default(),
+        &settings,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&err, StudyError::InvalidInput(m) if m.contains("both take 1 step")),
+        "{err}"
+    );
+    let fit =
+        sweeping::study::fit_order_checked(&[2.0, 5.0], &[0.3, 0.3], &[1, 1], &[1e-12; 2]).unwrap();
+    assert!(
+        matches!(
+            fit.caveat,
+            Some(sweeping::study::FitCaveat::RepeatedSteps { steps: 1 })
+        ),
+        "{fit:?}"
+    );
+}

@@ -73,7 +73,7 @@ fn write_outputs(report: &ConvergenceReport, out: &Path) -> anyhow::Result<()> {
         outln!("fitted order of |q_ref(tᵢ) − qⁿ(tᵢ)| at each comparison time:");
         for (t, fit) in per_time {
             match fit {
-                Some(f) => outln!("  t = {t:>8.3}: {:.3} (R² = {:.3})", f.order, f.r_squared),
+                Some(f) => outln!("  t = {t:>8.3}: {}", f.describe()),
                 None => outln!("  t = {t:>8.3}: -"),
             }
         }

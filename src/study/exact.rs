@@ -15,8 +15,8 @@
 //! [`super::converge`].
 
 use super::{
-    distance, fit_order_positive, map_runs, run_sampled, ConvergenceReport, ConvergenceRow,
-    ConvergenceSettings, ProjectorFactory, StudyError,
+    distance, map_runs, run_sampled, ConvergenceReport, ConvergenceRow, ConvergenceSettings,
+    ProjectorFactory, StudyError,
 };
 use crate::constraint::{ConstraintKernel, KernelFamily};
 use crate::crowd::{DiskPairs, Population};
@@ -430,10 +430,7 @@ pub fn true_error_study(
             ..ConvergenceRow::measured(run, super::distances(&run.samples, &exact_at))
         })
         .collect();
-    let hs_v: Vec<f64> = rows.iter().map(|r| r.h).collect();
-    let es: Vec<f64> = rows.iter().map(|r| r.error).collect();
-    let sup: Vec<f64> = rows.iter().filter_map(|r| r.error_sup).collect();
-    Ok(ConvergenceReport {
+    let mut report = ConvergenceReport {
         label: format!("{} (exact solution)", case.name()),
         settings: ConvergenceSettings {
             h_min: 0.0,
@@ -446,11 +443,13 @@ pub fn true_error_study(
         times,
         times_short: Vec::new(),
         reference: None,
-        order: fit_order_positive(&hs_v, &es),
+        order: None,
         order_short: None,
-        order_sup: fit_order_positive(&hs_v, &sup),
+        order_sup: None,
         rows,
-    })
+    };
+    report.fit();
+    Ok(report)
 }
 
 #[cfg(test)]

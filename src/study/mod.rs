@@ -56,7 +56,7 @@ pub mod work_precision;
 use crate::error::SweepError;
 use crate::problem::Problem;
 use crate::stepper::{
-    Observer, ObserverError, RunStats, StepReport, Stepper, StepperSettings, Trajectory,
+    step_count, Observer, ObserverError, RunStats, StepReport, Stepper, StepperSettings, Trajectory,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -136,12 +136,92 @@ pub struct OrderFit {
     pub r_squared: f64,
     /// Points used.
     pub points: usize,
+    /// Why the slope is not to be read as an order of convergence, if it is not.
+    #[serde(default)]
+    pub caveat: Option<FitCaveat>,
 }
+
+/// Why a fitted slope cannot be trusted as an order of convergence.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+#[non_exhaustive]
+pub enum FitCaveat {
+    /// Fewer than two errors lie above the round-off floor: the slope is fitted to rounding.
+    RoundOff {
+        /// The largest round-off floor of the points ([`round_off_floor`]).
+        floor: f64,
+        /// The largest error.
+        largest_error: f64,
+    },
+    /// Fewer than [`MIN_FIT_POINTS`] usable points: errors above the round-off floor, from
+    /// runs with different step counts.
+    TooFewPoints {
+        /// Usable points.
+        usable: usize,
+    },
+    /// Two step sizes take the same number of steps, so their runs are the same run.
+    RepeatedSteps {
+        /// The step count they share.
+        steps: usize,
+    },
+    /// The points do not lie on a power law: `R²` is below [`MIN_R_SQUARED`].
+    PoorFit {
+        /// The fit's `R²`.
+        r_squared: f64,
+    },
+}
+
+impl std::fmt::Display for FitCaveat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::RoundOff {
+                floor,
+                largest_error,
+            } => write!(
+                f,
+                "the errors are round-off (largest {largest_error:.2e}, floor {floor:.2e})"
+            ),
+            Self::TooFewPoints { usable } => write!(
+                f,
+                "{usable} usable point(s) above round-off, at least {MIN_FIT_POINTS} are needed"
+            ),
+            Self::RepeatedSteps { steps } => write!(
+                f,
+                "two step sizes both take {steps} step(s): their runs are the same run"
+            ),
+            Self::PoorFit { r_squared } => write!(
+                f,
+                "the errors do not follow a power law (R² = {r_squared:.3} < {MIN_R_SQUARED})"
+            ),
+        }
+    }
+}
+
+/// Fewest usable points for a fitted order to be trusted: two points always fit exactly.
+pub const MIN_FIT_POINTS: usize = 3;
+
+/// Lowest `R²` of a trusted fit: below it the errors are not a power law of `h`.
+pub const MIN_R_SQUARED: f64 = 0.9;
 
 impl OrderFit {
     /// The error the fit predicts at `h`: `C h^p`.
     pub fn predict(&self, h: f64) -> f64 {
         self.constant * h.powf(self.order)
+    }
+
+    /// The order with its `R²` and points, or, when the fit has a caveat, the caveat in its
+    /// place (the slope follows in parentheses, marked as no order).
+    pub fn describe(&self) -> String {
+        match self.caveat {
+            None => format!(
+                "{:.3} (R² = {:.3}, {} points)",
+                self.order, self.r_squared, self.points
+            ),
+            Some(c) => format!(
+                "no trustworthy order: {c} (slope {:.3} over {} points is not an order)",
+                self.order, self.points
+            ),
+        }
     }
 }
 
@@ -207,7 +287,94 @@ pub fn fit_order(hs: &[f64], es: &[f64]) -> Result<OrderFit, StudyError> {
         constant: intercept.exp(),
         r_squared,
         points: hs.len(),
+        caveat: None,
     })
+}
+
+/// The error below which a distance between two runs of `steps` steps in `dim` coordinates
+/// of size up to `scale` measures rounding, not discretization: `10 √dim · steps · ε · scale`,
+/// and at least [`ROUNDING_FLOOR`].
+///
+/// Each step rounds every coordinate by about `ε · scale`, and the rounding accumulates over
+/// the steps; the factor 10 leaves room for projections that round more than once per step.
+pub fn round_off_floor(steps: usize, dim: usize, scale: f64) -> f64 {
+    let floor = 10.0 * (dim as f64).sqrt() * steps as f64 * f64::EPSILON * scale.abs();
+    if floor.is_finite() {
+        floor.max(ROUNDING_FLOOR)
+    } else {
+        ROUNDING_FLOOR
+    }
+}
+
+/// [`fit_order`] over the usable points, with a [`FitCaveat`] when its slope cannot be
+/// trusted; `None` when no slope can be fitted at all.
+///
+/// Point `i` has step `hs[i]`, error `es[i]`, step count `steps[i]` and round-off floor
+/// `floors[i]`. It is usable when its error exceeds its floor and no earlier point has the
+/// same step count. With fewer than two usable points, the slope is fitted over all positive
+/// errors of distinct `h` and carries the reason ([`FitCaveat::RoundOff`] or
+/// [`FitCaveat::RepeatedSteps`]); with fewer than [`MIN_FIT_POINTS`], or an `R²` below
+/// [`MIN_R_SQUARED`], it carries that.
+///
+/// ```
+/// use sweeping::study::{fit_order_checked, FitCaveat};
+/// let hs = [0.1, 0.05, 0.025, 0.0125];
+/// let es = [2e-11, 3e-12, 8e-11, 4e-12]; // round-off, under each run's floor
+/// let fit = fit_order_checked(&hs, &es, &[100, 200, 400, 800], &[1e-10; 4]).unwrap();
+/// assert!(matches!(fit.caveat, Some(FitCaveat::RoundOff { .. })));
+/// ```
+pub fn fit_order_checked(
+    hs: &[f64],
+    es: &[f64],
+    steps: &[usize],
+    floors: &[f64],
+) -> Option<OrderFit> {
+    let n = hs.len().min(es.len()).min(steps.len()).min(floors.len());
+    let mut seen: Vec<usize> = Vec::new();
+    let mut repeated = None;
+    let (mut uh, mut ue) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        if seen.contains(&steps[i]) {
+            repeated = Some(steps[i]);
+            continue;
+        }
+        seen.push(steps[i]);
+        if es[i].is_finite() && es[i] > floors[i] {
+            uh.push(hs[i]);
+            ue.push(es[i]);
+        }
+    }
+    if uh.len() >= 2 {
+        let mut fit = fit_order(&uh, &ue).ok()?;
+        fit.caveat = if let Some(steps) = repeated.filter(|_| uh.len() < MIN_FIT_POINTS) {
+            Some(FitCaveat::RepeatedSteps { steps })
+        } else if uh.len() < MIN_FIT_POINTS {
+            Some(FitCaveat::TooFewPoints { usable: uh.len() })
+        } else if fit.r_squared < MIN_R_SQUARED {
+            Some(FitCaveat::PoorFit {
+                r_squared: fit.r_squared,
+            })
+        } else {
+            None
+        };
+        return Some(fit);
+    }
+    // Too few usable points: the slope of whatever there is, labelled with the reason.
+    let (ah, ae): (Vec<f64>, Vec<f64>) = hs[..n]
+        .iter()
+        .zip(&es[..n])
+        .filter(|(_, e)| e.is_finite() && **e > 0.0)
+        .map(|(h, e)| (*h, *e))
+        .unzip();
+    let mut fit = fit_order(&ah, &ae).ok()?;
+    fit.caveat = Some(match repeated {
+        Some(steps) => FitCaveat::RepeatedSteps { steps },
+        None => FitCaveat::RoundOff {
+            floor: floors[..n].iter().copied().fold(0.0, f64::max),
+            largest_error: max_of(&ae),
+        },
+    });
+    Some(fit)
 }
 
 /// Errors at or below this are rounding, not discretization: [`fit_order_positive`] leaves
@@ -534,6 +701,19 @@ impl ConvergenceSettings {
         if self.samples == 0 {
             return bad("at least one comparison time is needed".into());
         }
+        // Two step sizes with one step count are one run twice: their errors fit a slope of 0.
+        let span = self.t_end - t0;
+        let mut counts: Vec<(usize, f64)> = Vec::new();
+        for &h in std::iter::once(&self.h_min).chain(&self.hs) {
+            let n = step_count(span, h);
+            if let Some((_, other)) = counts.iter().find(|(m, _)| *m == n) {
+                return bad(format!(
+                    "h = {other} and h = {h} both take {n} step(s) over T − t₀ = {span}: their \
+                     runs are the same run; give step sizes with different step counts"
+                ));
+            }
+            counts.push((n, h));
+        }
         Ok(())
     }
 }
@@ -556,6 +736,9 @@ pub struct ConvergenceRow {
     pub errors_at_short: Vec<f64>,
     /// For exact solutions: `sup_t |q(t) − qⁿ(t)|` (see [`exact::true_error_study`]).
     pub error_sup: Option<f64>,
+    /// The error at or below which this row measures rounding ([`round_off_floor`]).
+    #[serde(default)]
+    pub round_off: f64,
     /// What the run cost (flattened into the row's JSON).
     #[serde(flatten)]
     pub cost: RunCost,
@@ -648,8 +831,24 @@ impl ConvergenceRow {
             errors_at,
             errors_at_short: Vec::new(),
             error_sup: None,
+            round_off: run.round_off(run.stats.steps),
             cost: RunCost::of(run),
         }
+    }
+}
+
+impl SampledRun {
+    /// The round-off floor of a distance to this run from a run of `steps` steps: the larger
+    /// step count and the largest coordinate of this run's samples ([`round_off_floor`]).
+    fn round_off(&self, steps: usize) -> f64 {
+        let scale = self
+            .samples
+            .iter()
+            .flatten()
+            .chain(self.trajectory.states.iter().flatten())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let dim = self.samples.first().map_or(0, Vec::len);
+        round_off_floor(steps.max(self.stats.steps), dim, scale)
     }
 }
 
@@ -677,25 +876,37 @@ fn distances(a: &[Vec<f64>], b: &[Vec<f64>]) -> Vec<f64> {
 
 impl ConvergenceReport {
     fn fit(&mut self) {
-        let hs: Vec<f64> = self.rows.iter().map(|r| r.h).collect();
+        let (hs, steps, floors) = self.fit_inputs();
         let es: Vec<f64> = self.rows.iter().map(|r| r.error).collect();
-        self.order = fit_order_positive(&hs, &es);
+        self.order = fit_order_checked(&hs, &es, &steps, &floors);
         let short: Option<Vec<f64>> = self.rows.iter().map(|r| r.error_short).collect();
-        self.order_short = short.and_then(|es| fit_order_positive(&hs, &es));
+        self.order_short = short.and_then(|es| fit_order_checked(&hs, &es, &steps, &floors));
         let sup: Option<Vec<f64>> = self.rows.iter().map(|r| r.error_sup).collect();
-        self.order_sup = sup.and_then(|es| fit_order_positive(&hs, &es));
+        self.order_sup = sup.and_then(|es| fit_order_checked(&hs, &es, &steps, &floors));
+    }
+
+    /// Each row's `h`, step count and round-off floor, for [`fit_order_checked`].
+    fn fit_inputs(&self) -> (Vec<f64>, Vec<usize>, Vec<f64>) {
+        let hs = self.rows.iter().map(|r| r.h).collect();
+        let steps = self.rows.iter().map(|r| r.cost.steps).collect();
+        let floors = self
+            .rows
+            .iter()
+            .map(|r| r.round_off.max(ROUNDING_FLOOR))
+            .collect();
+        (hs, steps, floors)
     }
 
     /// The fitted order of `e_h` at each comparison time `tᵢ` alone (not the max over
     /// `t ≤ tᵢ`): how the order changes along the run; `None` where it cannot be fitted.
     pub fn order_at_times(&self) -> Vec<(f64, Option<OrderFit>)> {
-        let hs: Vec<f64> = self.rows.iter().map(|r| r.h).collect();
+        let (hs, steps, floors) = self.fit_inputs();
         self.times
             .iter()
             .enumerate()
             .map(|(i, &t)| {
                 let es: Vec<f64> = self.rows.iter().map(|r| r.errors_at[i]).collect();
-                (t, fit_order_positive(&hs, &es))
+                (t, fit_order_checked(&hs, &es, &steps, &floors))
             })
             .collect()
     }
@@ -738,6 +949,9 @@ impl ConvergenceReport {
                     "# {name} = {:.4} (C = {:.4e}, R² = {:.4}, {} points)\n",
                     f.order, f.constant, f.r_squared, f.points
                 ));
+                if let Some(c) = f.caveat {
+                    s.push_str(&format!("# {name} is not an order: {c}\n"));
+                }
             }
         }
         write_file(path, &s)
@@ -847,13 +1061,8 @@ impl ConvergenceReport {
             ));
         }
         let line = |name: &str, f: Option<OrderFit>| match f {
-            Some(f) => format!(
-                "{name}: {:.3} (R² = {:.3}, {} points)\n",
-                f.order, f.r_squared, f.points
-            ),
-            None => format!(
-                "{name}: not fitted (fewer than two errors above rounding, {ROUNDING_FLOOR:e})\n"
-            ),
+            Some(f) => format!("{name}: {}\n", f.describe()),
+            None => format!("{name}: not fitted (fewer than two positive errors)\n"),
         };
         s.push_str(&line(
             &format!("fitted order, t ≤ {}", self.settings.t_end),
@@ -986,6 +1195,9 @@ pub fn converge(
             ConvergenceRow {
                 error_short: settings.t_short.map(|_| max_of(&errors_at_short)),
                 errors_at_short,
+                round_off: run
+                    .round_off(reference.stats.steps)
+                    .max(reference.round_off(run.stats.steps)),
                 ..ConvergenceRow::measured(run, at(run, &times))
             }
         })
@@ -1038,6 +1250,7 @@ mod tests {
             errors_at: vec![0.25],
             errors_at_short: Vec::new(),
             error_sup: Some(0.5),
+            round_off: 1e-12,
             cost,
         };
         let json: serde_json::Value = serde_json::to_value(&row).unwrap();
@@ -1053,6 +1266,7 @@ mod tests {
             error: 0.25,
             cost,
             failure: None,
+            infeasible: false,
         };
         let json = serde_json::to_value(&wp).unwrap();
         assert_eq!(json["iterations"], 40);

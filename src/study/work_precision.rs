@@ -35,6 +35,28 @@ impl SolverSetting {
     }
 }
 
+/// The solver tolerances a setting may ask for, inclusive: tighter than the lower bound is
+/// below rounding of `f64`, looser than the upper leaves answers that are not solutions.
+pub const TOLERANCE_RANGE: (f64, f64) = (1e-14, 1e-1);
+
+impl SolverSetting {
+    /// Checks that the tolerance, if any, lies in [`TOLERANCE_RANGE`].
+    ///
+    /// # Errors
+    /// A message naming the setting, its tolerance and the accepted range.
+    pub fn validate(&self) -> Result<(), String> {
+        let (lo, hi) = TOLERANCE_RANGE;
+        match self.tolerance {
+            Some(t) if !(t.is_finite() && (lo..=hi).contains(&t)) => Err(format!(
+                "the tolerance {t:e} of solver setting `{}` is outside the accepted range \
+                 [{lo:e}, {hi:e}]",
+                self.label()
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 impl std::str::FromStr for SolverSetting {
     type Err = String;
     /// `backend` or `backend@tolerance`, e.g. `osqp@1e-3`.
@@ -54,10 +76,12 @@ impl std::str::FromStr for SolverSetting {
                 return Err(format!("the tolerance in `{s}` must be positive"));
             }
         }
-        Ok(Self {
+        let setting = Self {
             backend: name.parse().map_err(|e: BackendError| e.to_string())?,
             tolerance: tol,
-        })
+        };
+        setting.validate()?;
+        Ok(setting)
     }
 }
 
@@ -115,6 +139,11 @@ pub struct WorkPrecisionRow {
     pub cost: RunCost,
     /// Why the run failed, if it did.
     pub failure: Option<String>,
+    /// The run's answers violate the constraints by more than the problem's own violation
+    /// tolerance (a loose solver is judged at its tolerance, so its run can complete with
+    /// them): such a row solves another problem and is never efficient.
+    #[serde(default)]
+    pub infeasible: bool,
 }
 
 /// The outcome of [`work_precision`].
@@ -138,12 +167,16 @@ pub struct WorkPrecisionReport {
 pub const ERROR_TIE: f64 = 1e-6;
 
 impl WorkPrecisionReport {
-    /// Indices of the efficient rows — no other successful row is at least as fast and at
-    /// least as accurate, and strictly better in one — sorted by CPU time. Errors within
-    /// [`ERROR_TIE`] of each other (relative) are equally accurate.
+    /// Indices of the efficient rows — no other successful, feasible row is at least as fast
+    /// and at least as accurate, and strictly better in one — sorted by CPU time. Errors
+    /// within [`ERROR_TIE`] of each other (relative) are equally accurate. Rows flagged
+    /// [`infeasible`](WorkPrecisionRow::infeasible) take no part.
     pub fn pareto(&self) -> Vec<usize> {
         let ok: Vec<usize> = (0..self.rows.len())
-            .filter(|&i| self.rows[i].failure.is_none() && self.rows[i].error.is_finite())
+            .filter(|&i| {
+                let r = &self.rows[i];
+                r.failure.is_none() && !r.infeasible && r.error.is_finite()
+            })
             .collect();
         let mut front: Vec<usize> = ok
             .iter()
@@ -169,28 +202,29 @@ impl WorkPrecisionReport {
         front
     }
 
-    /// The cheapest successful row with `error ≤ target`.
+    /// The cheapest successful, feasible row with `error ≤ target`.
     pub fn cheapest_below(&self, target: f64) -> Option<&WorkPrecisionRow> {
         self.rows
             .iter()
-            .filter(|r| r.failure.is_none() && r.error <= target)
+            .filter(|r| r.failure.is_none() && !r.infeasible && r.error <= target)
             .min_by(|a, b| a.cost.cpu_seconds.total_cmp(&b.cost.cpu_seconds))
     }
 
     /// Writes the table. Columns: `h`, `solver`, `error`, `cpu_seconds`, `wall_seconds`,
     /// `steps`, `iterations`, `max_violation`, `pareto` (1 on the efficient front),
-    /// `failure` (empty, or the error message in double quotes).
+    /// `infeasible` (1 when the answers violate the constraints beyond the problem's
+    /// tolerance), `failure` (empty, or the error message in double quotes).
     ///
     /// # Errors
     /// [`StudyError::Io`].
     pub fn write_csv(&self, path: &Path) -> Result<(), StudyError> {
         let front = self.pareto();
         let mut s = String::from(
-            "h,solver,error,cpu_seconds,wall_seconds,steps,iterations,max_violation,pareto,failure\n",
+            "h,solver,error,cpu_seconds,wall_seconds,steps,iterations,max_violation,pareto,infeasible,failure\n",
         );
         for (i, r) in self.rows.iter().enumerate() {
             s.push_str(&format!(
-                "{},{},{:.9e},{:.6},{:.6},{},{},{:.3e},{},{}\n",
+                "{},{},{:.9e},{:.6},{:.6},{},{},{:.3e},{},{},{}\n",
                 r.h,
                 r.solver,
                 r.error,
@@ -200,6 +234,7 @@ impl WorkPrecisionReport {
                 r.cost.iterations,
                 r.cost.max_violation,
                 u8::from(front.contains(&i)),
+                u8::from(r.infeasible),
                 r.failure
                     .as_deref()
                     .map(|m| format!("\"{}\"", m.replace('"', "'")))
@@ -270,7 +305,13 @@ impl WorkPrecisionReport {
                     r.error,
                     r.cost.cpu_seconds,
                     r.cost.steps,
-                    if front.contains(&i) { "*" } else { "" }
+                    if front.contains(&i) {
+                        "*".to_string()
+                    } else if r.infeasible {
+                        format!("infeasible (violation {:.1e})", r.cost.max_violation)
+                    } else {
+                        String::new()
+                    }
                 )),
                 Some(m) => s.push_str(&format!("{:>8} {:>16} failed: {m}\n", r.h, r.solver)),
             }
@@ -286,7 +327,7 @@ impl WorkPrecisionReport {
         let finite: Vec<f64> = self
             .rows
             .iter()
-            .filter(|r| r.failure.is_none() && r.error > 0.0)
+            .filter(|r| r.failure.is_none() && !r.infeasible && r.error > 0.0)
             .map(|r| r.error)
             .collect();
         if let (Some(lo), Some(hi)) = (
@@ -346,6 +387,12 @@ pub fn work_precision(
             settings.t_end
         )));
     }
+    if let Some(m) = std::iter::once(&settings.reference)
+        .chain(&settings.solvers)
+        .find_map(|s| s.validate().err())
+    {
+        return Err(StudyError::InvalidInput(m));
+    }
     let times = comparison_times(t0, settings.t_end, settings.samples);
     let mut jobs: Vec<(f64, SolverSetting)> = vec![(settings.h_min, settings.reference)];
     for &h in &settings.hs {
@@ -392,6 +439,7 @@ pub fn work_precision(
                 error: max_of(&distances(&run.samples, &reference.samples)),
                 cost: RunCost::of(&run),
                 failure: None,
+                infeasible: run.stats.max_violation > base.violation_tolerance,
             },
             Err(e) => WorkPrecisionRow {
                 h: *h,
@@ -399,6 +447,7 @@ pub fn work_precision(
                 error: f64::NAN,
                 cost: RunCost::failed(),
                 failure: Some(e.to_string()),
+                infeasible: false,
             },
         })
         .collect();
@@ -460,6 +509,7 @@ mod tests {
                         max_violation: 0.0,
                     },
                     failure: None,
+                    infeasible: false,
                 })
                 .collect(),
         }
@@ -499,5 +549,52 @@ mod tests {
             assert_eq!(options.threads, 1, "{text}");
             assert_eq!(options.tolerance, setting.tolerance, "{text}");
         }
+    }
+
+    /// A tolerance far outside sense is refused with the range it must lie in, whether
+    /// parsed or given in the settings.
+    #[test]
+    fn a_tolerance_outside_the_accepted_range_is_refused() {
+        let err = "osqp@1e30".parse::<SolverSetting>().unwrap_err();
+        assert!(
+            err.contains("1e30") && err.contains("[1e-14, 1e-1]"),
+            "{err}"
+        );
+        assert!("osqp@1e-20".parse::<SolverSetting>().is_err());
+        assert!("osqp@1e-1".parse::<SolverSetting>().is_ok());
+        let loose = SolverSetting {
+            backend: BackendChoice::Reference,
+            tolerance: Some(1e30),
+        };
+        let settings = WorkPrecisionSettings {
+            solvers: vec![loose],
+            ..report(&[]).settings
+        };
+        let make = || -> Result<crate::problem::Problem, super::super::BoxError> {
+            Ok(crate::problem::Problem::new(
+                vec![0.0],
+                |_t: f64, _q: &[f64], f: &mut [f64]| f[0] = 1.0,
+            ))
+        };
+        let err = work_precision("t", &make, &StepperSettings::default(), &settings).unwrap_err();
+        assert!(
+            matches!(&err, StudyError::InvalidInput(m) if m.contains("accepted range")),
+            "{err}"
+        );
+    }
+
+    /// A fast, accurate row whose answers overlap beyond the problem's tolerance is flagged
+    /// and kept off the efficient front and the cheapest-per-decade list.
+    #[test]
+    fn an_infeasible_row_is_never_efficient() {
+        let mut r = report(&[("native", 5.2e-2, 0.05), ("osqp@1e-3", 5.0e-2, 0.01)]);
+        r.rows[1].infeasible = true;
+        r.rows[1].cost.max_violation = 1.8e-3;
+        assert_eq!(r.pareto(), vec![0]);
+        assert_eq!(
+            r.cheapest_below(1.0).map(|x| x.solver.as_str()),
+            Some("native")
+        );
+        assert!(r.summary().contains("infeasible"), "{}", r.summary());
     }
 }
