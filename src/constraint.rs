@@ -487,6 +487,14 @@ pub trait ConstraintFamily: Send + Sync {
     /// problem's dimension before a run).
     fn min_dimension(&self) -> usize;
 
+    /// The first member whose support reads a coordinate twice or one at or beyond `dim`, with
+    /// that support: a row with a repeated column is not a valid sparse matrix for the
+    /// backends. Default `None`: the family's rows are not known before they are assembled.
+    fn invalid_support(&self, dim: usize) -> Option<(usize, Vec<usize>)> {
+        let _ = dim;
+        None
+    }
+
     /// The margin `c` of assumption A0, where the family can derive it: the distance from
     /// every `Qᵢ(t) = {gᵢ ≥ 0}` to the set where `gᵢ` stops being twice differentiable (any
     /// smaller `c > 0` satisfies A0 with `Uᵢ(t)` the points within `c` of `Qᵢ(t)`; the
@@ -710,5 +718,16 @@ impl<C: ConstraintKernel<K>, const K: usize> ConstraintFamily for KernelFamily<C
             .map(|c| c + 1)
             .max()
             .unwrap_or(0)
+    }
+
+    fn invalid_support(&self, dim: usize) -> Option<(usize, Vec<usize>)> {
+        self.instances.iter().enumerate().find_map(|(m, inst)| {
+            let s = &inst.support;
+            let bad = s
+                .iter()
+                .enumerate()
+                .any(|(i, c)| *c >= dim || s[..i].contains(c));
+            bad.then(|| (m, s.to_vec()))
+        })
     }
 }

@@ -1,7 +1,20 @@
 //! The library's error type: what went wrong, and where (step, time, constraint, agent).
 
-use crate::stepper::display_number;
+use crate::stepper::{display_number, Run, RunFailure};
 use sweeping_api::ProjectionError;
+
+/// What is wrong with a support, for [`SweepError::InvalidSupport`].
+fn support_fault(support: &[usize], dim: usize) -> String {
+    if let Some(c) = support.iter().find(|c| **c >= dim) {
+        return format!("coordinate {c} is beyond q's dimension {dim}");
+    }
+    let repeated = support
+        .iter()
+        .enumerate()
+        .find(|(i, c)| support[..*i].contains(c))
+        .map_or(0, |(_, c)| *c);
+    format!("coordinate {repeated} is read twice (a support lists distinct coordinates)")
+}
 
 /// A violated constraint, as reported in [`SweepError::InfeasibleStart`].
 #[derive(Debug, Clone, PartialEq)]
@@ -19,6 +32,17 @@ pub enum SweepError {
     /// Malformed problem or settings (dimensions, non-positive step, NaN in `q₀`…).
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// A constraint's support reads a coordinate twice or one beyond `q`'s dimension: refused
+    /// before the first step, where the backends would otherwise meet an invalid matrix.
+    #[error("constraint {constraint} has support {support:?}: {}", support_fault(support, *dim))]
+    InvalidSupport {
+        /// The family and member.
+        constraint: String,
+        /// The coordinates it reads.
+        support: Vec<usize>,
+        /// The dimension of `q`.
+        dim: usize,
+    },
     /// `q₀ ∉ Q(0)`: the constraints listed are violated.
     #[error("the initial configuration is not feasible at t = {}: {} constraint(s) violated, worst {}", display_number(*t), violations.len(), violations.first().map(|v| format!("{} = {:.3e}", v.constraint, v.value)).unwrap_or_default())]
     InfeasibleStart {
@@ -80,7 +104,7 @@ pub enum SweepError {
     /// [`StepperSettings::violation_tolerance`](crate::stepper::StepperSettings): the
     /// configuration is physically wrong (people overlap, someone is inside a wall), so the run
     /// stops instead of continuing from it.
-    #[error("step {step}, t = {t}: constraint {constraint} is violated by {violation:.3e} after the step, beyond the tolerance {tolerance:.1e}")]
+    #[error("step {step}, t = {t}: constraint {constraint} is violated by a distance of {violation:.3e} after the step, beyond the tolerance {tolerance:.1e}{}", why.as_deref().map(|w| format!("; {w}")).unwrap_or_default())]
     ViolationTooLarge {
         /// Step index.
         step: usize,
@@ -88,10 +112,14 @@ pub enum SweepError {
         t: f64,
         /// Which constraint (and people, for crowds).
         constraint: String,
-        /// `−gᵢ(t_{k+1}, q_{k+1})`.
+        /// How far the configuration is outside the constraint, in units of length:
+        /// `max(0, −gᵢ)/|∇gᵢ|` at `(t_{k+1}, q_{k+1})` (infinite where `∇gᵢ` vanishes).
         violation: f64,
         /// The tolerance it exceeds.
         tolerance: f64,
+        /// Why the scheme could end there, when known: `D²gᵢ` has a negative eigenvalue at the
+        /// point, so `gᵢ` is not convex and the linearization is not an inner approximation.
+        why: Option<String>,
     },
     /// The backend's answer does not satisfy the KKT conditions of the projection within
     /// [`StepperSettings::kkt_tolerance`](crate::stepper::StepperSettings) (relative): it is
@@ -203,6 +231,66 @@ pub enum SweepError {
         /// What it reported.
         message: String,
     },
+    /// A run failed, with what it computed before: a [`RunFailure`] converted by `?`, so that
+    /// the set-up's error and the run's share one type.
+    #[error("{error} (after {} completed steps, t = {})", partial.stats.steps, display_number(partial.t_final))]
+    RunFailed {
+        /// What went wrong.
+        error: Box<SweepError>,
+        /// What was computed before.
+        partial: Box<Run>,
+    },
+}
+
+impl SweepError {
+    /// What a failed run computed before it failed ([`SweepError::RunFailed`]); `None` for an
+    /// error that is not a run's.
+    pub fn partial_run(&self) -> Option<&Run> {
+        match self {
+            Self::RunFailed { partial, .. } => Some(partial),
+            _ => None,
+        }
+    }
+}
+
+/// `?` turns a run's failure into a [`SweepError`] that keeps the partial run, so one function
+/// can `?` both [`Stepper::new`](crate::stepper::Stepper::new) and its `run`.
+///
+/// ```
+/// use sweeping::prelude::*;
+/// use sweeping::api::conformance::ReferenceProjector;
+/// struct Floor; // x ≥ 0
+/// impl ConstraintKernel<1> for Floor {
+///     type Params = ();
+///     fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D { z[0] }
+///     fn is_affine(&self) -> bool { true }
+/// }
+/// fn fall(x0: f64) -> Result<Run, SweepError> {
+///     let problem = Problem::new(vec![x0], |_t: f64, q: &[f64], f: &mut [f64]| {
+///         f[0] = if q[0] < 0.5 { f64::NAN } else { -1.0 }
+///     })
+///     .with_constraint("floor", Floor, [0]);
+///     let settings = StepperSettings { h: 0.1, t_end: 1.0, ..Default::default() };
+///     let run = Stepper::new(&problem, settings)?.run(&mut ReferenceProjector::default(), &mut [])?;
+///     Ok(run)
+/// }
+/// assert!(fall(5.0).is_ok());
+/// let err = fall(1.0).unwrap_err(); // f turns NaN below 0.5: a failure mid-run
+/// assert!(err.partial_run().is_some_and(|run| run.stats.steps > 0), "{err}");
+/// ```
+impl From<Box<RunFailure>> for SweepError {
+    fn from(failure: Box<RunFailure>) -> Self {
+        Self::from(*failure)
+    }
+}
+
+impl From<RunFailure> for SweepError {
+    fn from(failure: RunFailure) -> Self {
+        Self::RunFailed {
+            error: Box::new(failure.error),
+            partial: Box::new(failure.partial),
+        }
+    }
 }
 
 /// Why an [`Observer`](crate::stepper::Observer) stopped a run.

@@ -285,12 +285,20 @@ impl Problem {
         best.map(|(v, id)| (v, self.describe(id)))
     }
 
-    /// Checks that no constraint family reads a coordinate beyond `q`'s dimension.
+    /// Checks that no constraint reads a coordinate twice or beyond `q`'s dimension.
     ///
     /// # Errors
-    /// [`SweepError::InvalidInput`] naming the first family that does.
+    /// [`SweepError::InvalidSupport`] naming the first constraint whose support does, and
+    /// [`SweepError::InvalidInput`] naming a family that reads beyond `q` otherwise.
     pub(crate) fn check_family_dimensions(&self) -> Result<(), SweepError> {
         for fam in &self.families {
+            if let Some((member, support)) = fam.invalid_support(self.dim()) {
+                return Err(SweepError::InvalidSupport {
+                    constraint: fam.describe(member),
+                    support,
+                    dim: self.dim(),
+                });
+            }
             if fam.min_dimension() > self.dim() {
                 return Err(SweepError::InvalidInput(format!(
                     "constraint family `{}` reads coordinate {} but q has dimension {}",
@@ -306,7 +314,9 @@ impl Problem {
     /// Checks dimensions, finiteness and `q₀ ∈ Q(t₀)` up to `tolerance` (`gᵢ ≥ −tolerance`).
     ///
     /// # Errors
-    /// [`SweepError::InvalidInput`] for a dimension mismatch or a non-finite `q₀`, and
+    /// [`SweepError::InvalidInput`] for a dimension mismatch or a non-finite `q₀`,
+    /// [`SweepError::InvalidSupport`] for a constraint reading a coordinate twice or beyond
+    /// `q`, and
     /// [`SweepError::InfeasibleStart`] listing the violated constraints (worst first).
     pub fn validate(&self, tolerance: f64) -> Result<(), SweepError> {
         if self.q0.is_empty() {

@@ -107,8 +107,9 @@ pub struct StepperSettings {
     /// Compute `∂ₜgᵢ` of every assembled row (for the run-time checks of A2). Default `false`.
     pub want_time_derivatives: bool,
     /// The run fails with [`SweepError::ViolationTooLarge`] when, after a step, some true
-    /// constraint has `gᵢ(t_{k+1}, q_{k+1}) < −violation_tolerance` (absolute, in the units of
-    /// `g`: metres for crowds). The scheme keeps the configuration inside `Q(t)` up to the
+    /// constraint is violated by more than `violation_tolerance` as a distance,
+    /// `max(0, −gᵢ)/|∇gᵢ|` at `(t_{k+1}, q_{k+1})` (in the units of `q`: metres for crowds,
+    /// whatever the scale of `gᵢ`). The scheme keeps the configuration inside `Q(t)` up to the
     /// solver's accuracy, so a larger violation means the answer is wrong. Default `1e-6`.
     pub violation_tolerance: f64,
     /// Every backend's answer `(x, λ)` is checked against the KKT conditions of the projection
@@ -118,6 +119,12 @@ pub struct StepperSettings {
     /// `max(1, ‖λ‖∞)`, complementarity against the product of the first and the last.
     /// Default `1e-6`.
     pub kkt_tolerance: f64,
+    /// A1 near contact: the run fails with [`SweepError::DegenerateConstraint`] when a row
+    /// active at a step's solution has `|∇gᵢ(t_{k+1}, q_k)| < gradient_floor` (absolute, in
+    /// units of `g` per unit of `q`). A constraint that flattens where it touches (a double
+    /// root, `g = (x − 1)²`) otherwise pins the point where `∇g` vanishes, a wrong answer
+    /// without an error. `0` disables the check. Default `1e-6`.
+    pub gradient_floor: f64,
 }
 
 impl Default for StepperSettings {
@@ -134,6 +141,7 @@ impl Default for StepperSettings {
             want_time_derivatives: false,
             violation_tolerance: 1e-6,
             kkt_tolerance: 1e-6,
+            gradient_floor: 1e-6,
         }
     }
 }
@@ -192,9 +200,9 @@ pub struct StepReport {
     pub counters: BackendCounters,
     /// Seconds per stage.
     pub times: StageTimes,
-    /// `max(0, −minᵢ gᵢ(t_{k+1}, q_{k+1}))`: how far the new configuration is outside the true
-    /// `Q(t_{k+1})` (the linearization is an inner approximation for convex `gᵢ`, so this is of
-    /// the order of the solver's tolerance).
+    /// `maxᵢ max(0, −gᵢ)/|∇gᵢ|` at `(t_{k+1}, q_{k+1})`: how far (a distance) the new
+    /// configuration is outside the true `Q(t_{k+1})` (the linearization is an inner
+    /// approximation for convex `gᵢ`, so this is of the order of the solver's tolerance).
     pub max_violation: f64,
     /// The constraint achieving `max_violation` (`None` when none is violated); named by
     /// [`Problem::describe`].
@@ -409,6 +417,8 @@ pub struct Stepper<'p> {
     rows: SparseRows,
     b: Vec<f64>,
     row_origin: Vec<(usize, usize)>,
+    /// `|∇gᵢ|` of each assembled row, for the A1 check on the active ones.
+    row_norms: Vec<f64>,
     cands: Vec<usize>,
     lin: LinearizedRow,
     scratch: LinearizeScratch,
@@ -446,6 +456,12 @@ impl<'p> Stepper<'p> {
             return Err(SweepError::InvalidInput(
                 "feasibility_tolerance and min_cutoff must be ≥ 0".into(),
             ));
+        }
+        if !(settings.gradient_floor.is_finite() && settings.gradient_floor >= 0.0) {
+            return Err(SweepError::InvalidInput(format!(
+                "gradient_floor = {} must be finite and ≥ 0 (0 disables the check)",
+                settings.gradient_floor
+            )));
         }
         for (name, v) in [
             ("violation_tolerance", settings.violation_tolerance),
@@ -489,6 +505,7 @@ impl<'p> Stepper<'p> {
             rows: SparseRows::new(dim),
             b: Vec::new(),
             row_origin: Vec::new(),
+            row_norms: Vec::new(),
             cands: Vec::new(),
             lin: LinearizedRow::default(),
             scratch: LinearizeScratch::default(),
@@ -582,6 +599,7 @@ impl<'p> Stepper<'p> {
         self.rows.clear();
         self.b.clear();
         self.row_origin.clear();
+        self.row_norms.clear();
         let want_dt = self.settings.want_time_derivatives;
         for (fi, fam) in self.problem.families().iter().enumerate() {
             let t0 = Instant::now();
@@ -622,6 +640,7 @@ impl<'p> Stepper<'p> {
                 );
                 self.b.push(-lin.value);
                 self.row_origin.push((fi, idx));
+                self.row_norms.push(norm);
             }
             times.assembly += t1.elapsed().as_secs_f64();
         }
@@ -909,8 +928,9 @@ impl<'p> Stepper<'p> {
         Ok(())
     }
 
-    /// The largest violation `max(0, −gᵢ(t, x))` of the true constraints at the new
-    /// configuration, and the constraint that has it (`NaN` when some `gᵢ` is not a number).
+    /// The largest violation of the true constraints at the new configuration, as a distance
+    /// `max(0, −gᵢ(t, x))/|∇gᵢ(t, x)|` (in the units of `q`, whatever the scale of `gᵢ`), and
+    /// the constraint that has it (`NaN` when some `gᵢ` is not a number).
     ///
     /// For a culling family only the assembled rows can be violated: an omitted member has
     /// `gᵢ(t, q) + ⟨∇gᵢ, x − q⟩ ≥ 0` by the culling proof, and `gᵢ` is convex in `q`, so
@@ -918,20 +938,41 @@ impl<'p> Stepper<'p> {
     /// second broad phase. Families that do not cull are checked member by member.
     fn true_violation(&mut self, t: f64, x: &[f64]) -> (f64, Option<ConstraintId>) {
         let families = self.problem.families();
-        // (value, family, member) of the smallest value seen; a NaN wins over everything.
+        // (distance, family, member) of the largest distance seen; a NaN wins over everything.
         let mut worst: Option<(f64, usize, usize)> = None;
-        let mut consider = |v: f64, fi: usize, idx: usize| {
+        let mut consider = |d: f64, fi: usize, idx: usize| {
             let replace = match worst {
                 None => true,
-                Some((w, _, _)) => !w.is_nan() && (v.is_nan() || v < w),
+                Some((w, _, _)) => !w.is_nan() && (d.is_nan() || d > w),
             };
             if replace {
-                worst = Some((v, fi, idx));
+                worst = Some((d, fi, idx));
+            }
+        };
+        // A flat constraint (`x³ ≥ 0` near 0) is violated by tiny values far from its set, so
+        // the value is divided by the gradient's length; a vanishing gradient is infinitely far.
+        let distance = |value: f64, norm: f64| {
+            if value.is_nan() {
+                f64::NAN
+            } else if value >= 0.0 {
+                0.0
+            } else if norm > 0.0 {
+                -value / norm
+            } else {
+                f64::INFINITY
             }
         };
         for &(fi, idx) in &self.row_origin {
             if families[fi].culls() {
-                consider(families[fi].value(idx, t, x, &mut self.lin), fi, idx);
+                let v = families[fi].value(idx, t, x, &mut self.lin);
+                // The gradient only where it is needed: the row is violated.
+                let d = if v < 0.0 {
+                    families[fi].linearize(idx, t, x, false, &mut self.lin);
+                    distance(v, self.lin.gradient_norm())
+                } else {
+                    distance(v, 1.0)
+                };
+                consider(d, fi, idx);
             }
         }
         let _ = self.problem.for_each_linearized(
@@ -941,16 +982,67 @@ impl<'p> Stepper<'p> {
             false,
             &mut self.scratch,
             |_, id, row| {
-                consider(row.value, id.family, id.member);
+                consider(
+                    distance(row.value, row.gradient_norm()),
+                    id.family,
+                    id.member,
+                );
                 Ok::<(), std::convert::Infallible>(())
             },
         );
         let id = |family, member| Some(ConstraintId { family, member });
         match worst {
-            Some((v, fi, idx)) if v.is_nan() => (f64::NAN, id(fi, idx)),
-            Some((v, fi, idx)) if v < 0.0 => (-v, id(fi, idx)),
+            Some((d, fi, idx)) if d.is_nan() => (f64::NAN, id(fi, idx)),
+            Some((d, fi, idx)) if d > 0.0 => (d, id(fi, idx)),
             _ => (0.0, None),
         }
+    }
+
+    /// A1 where it matters: a row active at the solution with `|∇gᵢ|` below
+    /// [`StepperSettings::gradient_floor`] decides the step with a normal it hardly has.
+    fn check_active_gradients(&self, sol: &Projection, t_next: f64) -> Result<(), SweepError> {
+        let floor = self.settings.gradient_floor;
+        let threshold = self.settings.active_threshold;
+        for ((&lambda, &norm), &(fi, idx)) in sol
+            .multipliers
+            .iter()
+            .zip(&self.row_norms)
+            .zip(&self.row_origin)
+        {
+            if lambda > threshold && norm < floor {
+                return Err(SweepError::DegenerateConstraint {
+                    step: self.k,
+                    t: t_next,
+                    constraint: self.problem.families()[fi].describe(idx),
+                    norm,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Why a violated constraint could be violated: `D²gᵢ` at the point has a negative
+    /// eigenvalue, so `gᵢ` is not convex there and the linearization overshoots (`None` when
+    /// it is convex there, or not a number).
+    fn convexity_failure(&self, id: ConstraintId, t: f64, x: &[f64]) -> Option<String> {
+        use crate::assumptions::{
+            concave_direction, describe_point, symmetric_min_eigenvalue, symmetric_spectral_norm,
+            CONVEXITY_MEANING, CONVEXITY_TOLERANCE,
+        };
+        let fam = &self.problem.families()[id.family];
+        let so = fam.second_order(id.member, t, x);
+        let n = so.columns.len();
+        if n == 0 || so.hessian.len() != n * n || so.hessian.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let min_eig = symmetric_min_eigenvalue(&so.hessian, n);
+        let norm = symmetric_spectral_norm(&so.hessian, n);
+        concave_direction(min_eig, norm, CONVEXITY_TOLERANCE).then(|| {
+            format!(
+                "convexity fails there: the smallest eigenvalue of D²g is {min_eig:.3e} < 0 at {}: {CONVEXITY_MEANING}",
+                describe_point(&so.columns, x)
+            )
+        })
     }
 
     /// One step: computes `q_{k+1}` from `q_k`.
@@ -1069,6 +1161,7 @@ impl<'p> Stepper<'p> {
         };
 
         let tc = Instant::now();
+        self.check_active_gradients(&solution, t_next)?;
         let max_displacement = solution
             .x
             .iter()
@@ -1089,6 +1182,8 @@ impl<'p> Stepper<'p> {
                     .unwrap_or_default(),
                 violation: max_violation,
                 tolerance: self.settings.violation_tolerance,
+                why: worst_constraint
+                    .and_then(|id| self.convexity_failure(id, t_next, &solution.x)),
             });
         }
         let tc = Instant::now();

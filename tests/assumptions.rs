@@ -443,7 +443,7 @@ fn bad_samples_are_refused() {
     ));
 }
 
-/// A family reading past `q` is refused, naming it, by the estimate as by `validate` (one
+/// A constraint reading past `q` is refused, naming it, by the estimate as by `validate` (one
 /// check serves both).
 #[test]
 fn a_family_reading_past_q_is_refused_by_the_estimate_and_by_validate() {
@@ -452,7 +452,8 @@ fn a_family_reading_past_q_is_refused_by_the_estimate_and_by_validate() {
         common::kernels::Floor,
         [4],
     ));
-    let expected = "constraint family `far` reads coordinate 4 but q has dimension 2";
+    let expected =
+        "constraint far #0 (far) has support [4]: coordinate 4 is beyond q's dimension 2";
     let estimated = estimate_problem(
         &problem,
         &[(0.0, vec![1.0, 2.0])],
@@ -461,8 +462,8 @@ fn a_family_reading_past_q_is_refused_by_the_estimate_and_by_validate() {
     );
     for result in [estimated.map(|_| ()), problem.validate(1e-9)] {
         match result {
-            Err(SweepError::InvalidInput(m)) => assert_eq!(m, expected),
-            other => panic!("expected InvalidInput, got {other:?}"),
+            Err(e @ SweepError::InvalidSupport { .. }) => assert_eq!(e.to_string(), expected),
+            other => panic!("expected InvalidSupport, got {other:?}"),
         }
     }
 }
@@ -501,6 +502,7 @@ fn error_policy_stops_the_run_and_keeps_what_it_computed() {
                 alpha: Some(1.0),
                 beta: Some(2.0),
                 m: Some(3.0),
+                reach: None,
             },
             second_order_every: 1,
             ..Default::default()
@@ -549,6 +551,7 @@ fn warn_policy_collects_and_finishes() {
                 alpha: Some(1.5), // |∇D| = √2 < 1.5: A1 fails at every check near contact
                 beta: None,
                 m: None,
+                reach: None,
             },
             max_warnings: 3,
             ..Default::default()

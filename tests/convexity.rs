@@ -365,6 +365,7 @@ fn nonsense_bounds_are_invalid_input() {
                 alpha: Some(2.0),
                 beta: Some(1.0),
                 m: None,
+                reach: None,
             },
             "α = 2 > β = 1",
         ),

@@ -189,10 +189,21 @@ fn the_true_constraint_check_on_assembled_rows_finds_the_worst_violation() {
             let Ok(report) = stepper.step(&mut Unconstrained) else {
                 break;
             };
-            let full = built
-                .problem
-                .min_constraint(report.t, stepper.state(), 0.0)
-                .map_or(0.0, |(v, _)| (-v).max(0.0));
+            // The largest violation as a distance, −g/|∇g|, over every member.
+            let mut full = 0.0f64;
+            let _ = built.problem.for_each_linearized(
+                report.t,
+                stepper.state(),
+                |_| Some(0.0),
+                false,
+                &mut sweeping::problem::LinearizeScratch::default(),
+                |_, _, row| {
+                    if row.value < 0.0 {
+                        full = full.max(-row.value / row.gradient_norm());
+                    }
+                    Ok::<(), std::convert::Infallible>(())
+                },
+            );
             assert!(
                 (report.max_violation - full).abs() <= 1e-12,
                 "seed {seed}, step {}: assembled rows give {:.6e}, every member {:.6e}\n{text}",

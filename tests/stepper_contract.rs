@@ -322,7 +322,10 @@ fn bad_input_is_a_typed_error() {
         f.fill(0.0)
     })
     .with_family(KernelFamily::single("floor", Floor, [3]));
-    expect_invalid(Stepper::new(&p, settings(0.1, 1.0)), "coordinate 3");
+    assert!(matches!(
+        Stepper::new(&p, settings(0.1, 1.0)),
+        Err(SweepError::InvalidSupport { support, .. }) if support == [3]
+    ));
     // Three people, two people's worth of coordinates.
     let pop = Population::new(vec![0.1; 3]).shared();
     let p = Problem::new(
@@ -582,4 +585,72 @@ fn culled_pairs_match_all_pairs_on_a_small_crowd() {
     assert!(a.stats.max_active >= 2, "the crowd should be in contact");
     assert!(a.stats.rows < b.stats.rows);
     assert_eq!(b.stats.max_rows, n * (n - 1) / 2);
+}
+
+/// `z₀ + z₁ ≥ −10`: a constraint on two coordinates, feasible near the origin.
+struct Sum;
+impl ConstraintKernel<2> for Sum {
+    type Params = ();
+    fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 2]) -> D {
+        z[0] + z[1] + 10.0
+    }
+    fn is_affine(&self) -> bool {
+        true
+    }
+}
+
+/// A support that repeats a coordinate, or reads one beyond `q`, is refused before the first
+/// step with the constraint named (a repeated column is an invalid matrix for the backends).
+#[test]
+fn a_support_repeating_or_beyond_a_coordinate_is_refused_naming_the_constraint() {
+    let free = |_t: f64, _q: &[f64], f: &mut [f64]| f.iter_mut().for_each(|v| *v = 0.0);
+    for (support, fault) in [([0, 0], "read twice"), ([1, 5], "beyond q's dimension 2")] {
+        let mut fam = KernelFamily::new("sums", Sum);
+        fam.push([0, 1], (), "fine");
+        fam.push(support, (), "bad one");
+        let problem = Problem::new(vec![0.0, 0.0], free).with_family(fam);
+        let Err(err) = Stepper::new(&problem, settings(0.1, 1.0)) else {
+            panic!("support {support:?} accepted");
+        };
+        match &err {
+            SweepError::InvalidSupport {
+                constraint,
+                support: s,
+                dim: 2,
+            } => {
+                assert!(constraint.contains("sums #1 (bad one)"), "{err}");
+                assert_eq!(s, &support.to_vec());
+            }
+            other => panic!("expected InvalidSupport, got {other:?}"),
+        }
+        assert!(err.to_string().contains(fault), "{err}");
+    }
+}
+
+/// The set-up's error and the run's convert into one `SweepError` by `?`; the run's keeps the
+/// steps computed before the failure.
+#[test]
+fn set_up_and_run_failures_share_sweep_error_through_question_mark() {
+    fn run(x0: f64, h: f64) -> Result<Run, SweepError> {
+        let p = Problem::new(vec![x0], |t: f64, _q: &[f64], f: &mut [f64]| {
+            f[0] = if t > 0.35 { f64::NAN } else { -1.0 }
+        })
+        .with_family(KernelFamily::single("floor", Floor, [0]));
+        let run =
+            Stepper::new(&p, settings(h, 1.0))?.run(&mut ReferenceProjector::default(), &mut [])?;
+        Ok(run)
+    }
+    let err = run(10.0, 0.1).unwrap_err();
+    match &err {
+        SweepError::RunFailed { error, partial } => {
+            assert!(matches!(**error, SweepError::NonFinite { step: 4, .. }));
+            check_partial(partial, 4, 0.1);
+        }
+        other => panic!("expected RunFailed, got {other:?}"),
+    }
+    assert!(err.partial_run().is_some());
+    assert!(err.to_string().contains("after 4 completed steps"), "{err}");
+    // A set-up error stays what it was, with no run.
+    let err = run(10.0, -1.0).unwrap_err();
+    assert!(matches!(err, SweepError::InvalidInput(_)) && err.partial_run().is_none());
 }

@@ -421,6 +421,12 @@ pub(crate) fn concave_direction(min_eig: f64, norm: f64, relative_tolerance: f64
     min_eig < -relative_tolerance * norm.max(1.0)
 }
 
+/// A1 counts as failed when the measured `α` is below `ALPHA_RELATIVE_FLOOR · β` (β of A1, the
+/// largest `|∇gᵢ|` sampled): near contact the constraint is then flat to six digits of the
+/// problem's own scale, so its linearization pins points where `∇gᵢ` vanishes instead of
+/// following `Q(t)`.
+pub const ALPHA_RELATIVE_FLOOR: f64 = 1e-6;
+
 /// What a failed convexity check means, for messages.
 pub(crate) const CONVEXITY_MEANING: &str = "g is not convex in q there (section 2 of the paper \
     requires it), so the linearized set is not an inner approximation of Q(t): steps may end \
@@ -991,6 +997,22 @@ impl Scan {
         if a1_reported > 10 {
             self.failures
                 .push(format!("A1: … {a1_reported} vanishing gradients in all"));
+        }
+        // A gradient tiny against the problem's own scale fails A1 as surely as a zero one.
+        if let (Some(a), Some(b)) = (&self.alpha.best, &self.beta_grad.best) {
+            if a1_reported == 0 && a.value < ALPHA_RELATIVE_FLOOR * b.value {
+                self.failures.push(format!(
+                    "A1: α = {} < {ALPHA_RELATIVE_FLOOR:e} · β = {} (|∇g| at t = {}, sample {}, \
+                     for {}): the constraint is flat near contact, so its linearization stops \
+                     points where ∇g vanishes instead of following Q(t), and η, Θ, r (which \
+                     divide by α) are meaningless",
+                    fmt_num(a.value),
+                    fmt_num(b.value),
+                    crate::stepper::display_number(a.t),
+                    a.sample,
+                    a.constraint
+                ));
+            }
         }
         let infeasible_reported = self.infeasible_reported;
         if infeasible_reported > 10 {

@@ -58,6 +58,12 @@ pub struct Bounds {
     pub beta: Option<f64>,
     /// A3 and A4: `|∂ₜ∇gᵢ| ≤ M` and `|D²gᵢ| ≤ M` (spectral norm).
     pub m: Option<f64>,
+    /// Where the bounds hold: constraints with `gᵢ ≤ reach`, the neighbourhood of activity
+    /// they were measured in (`max(neighbourhood, ρ)` of the estimate, for
+    /// [`Bounds::from_report`]); farther constraints are not compared with them, at the start
+    /// as at every step. `None`: the bounds hold everywhere, and at the start every member of
+    /// a family that does not cull is compared with them.
+    pub reach: Option<f64>,
 }
 
 impl Bounds {
@@ -87,6 +93,11 @@ impl Bounds {
                 return bad("M (A3, A4)", m, "finite and ≥ 0");
             }
         }
+        if let Some(r) = self.reach {
+            if !(r.is_finite() && r >= 0.0) {
+                return bad("reach", r, "finite and ≥ 0");
+            }
+        }
         if let (Some(a), Some(b)) = (self.alpha, self.beta) {
             if a > b {
                 return Err(SweepError::InvalidInput(format!(
@@ -98,13 +109,20 @@ impl Bounds {
     }
 
     /// The bounds measured by [`super::estimate_problem`], widened by the relative `slack`
-    /// (`α/(1 + slack)`, `β(1 + slack)`, `M(1 + slack)`).
+    /// (`α/(1 + slack)`, `β(1 + slack)`, `M(1 + slack)`), holding within the neighbourhood
+    /// the estimate sampled ([`Bounds::reach`]).
     pub fn from_report(report: &AssumptionReport, slack: f64) -> Self {
         Self {
             alpha: report.alpha.as_ref().map(|w| w.value / (1.0 + slack)),
             beta: report.beta.map(|b| b * (1.0 + slack)),
             m: report.m.map(|m| m * (1.0 + slack)),
+            reach: Some(report.neighbourhood.max(report.rho)),
         }
+    }
+
+    /// Whether a constraint of value `g` lies where the bounds hold (within [`Self::reach`]).
+    fn reaches(&self, g: f64) -> bool {
+        self.reach.is_none_or(|r| !not_within(g, r))
     }
 }
 
@@ -438,6 +456,13 @@ impl<'p> BoundsMonitor<'p> {
                     return Ok(());
                 }
                 self.checks += 1;
+                if second {
+                    self.near.push((row.value, fi, idx));
+                }
+                // Bounds measured near contact say nothing of a constraint far from it.
+                if !b.reaches(row.value) {
+                    return Ok(());
+                }
                 let grad = row.gradient_norm();
                 let dt = row.dt.unwrap_or(0.0).abs();
                 let mk = |assumption: &str, quantity: &str, bound_name: &str, bound, value| {
@@ -466,9 +491,6 @@ impl<'p> BoundsMonitor<'p> {
                         found.push(mk("A2", "|∂ₜg|", "β", be, dt));
                     }
                 }
-                if second {
-                    self.near.push((row.value, fi, idx));
-                }
                 Ok::<(), std::convert::Infallible>(())
             },
         );
@@ -493,7 +515,7 @@ impl<'p> BoundsMonitor<'p> {
         if !start {
             self.near.truncate(self.settings.second_order_max);
         }
-        for &(_, fi, idx) in &self.near {
+        for &(value, fi, idx) in &self.near {
             let fam = &problem.families()[fi];
             if fam.is_affine() && !fam.is_time_dependent() {
                 // D²g = 0 and ∂ₜ∇g = 0: nothing to bound (the affine claim itself is
@@ -503,7 +525,7 @@ impl<'p> BoundsMonitor<'p> {
             self.second_order_checks += 1;
             let so = fam.second_order(idx, t, q);
             let n = second_order_norms(fam.as_ref(), &so);
-            if let Some(m) = b.m {
+            if let Some(m) = b.m.filter(|_| b.reaches(value)) {
                 for (assumption, quantity, value) in [
                     ("A4", "|D²g| (spectral)", n.hess),
                     ("A3", "|∂ₜ∇g|", n.dt_grad),
