@@ -46,17 +46,19 @@ use serde::{Deserialize, Serialize};
 ///
 /// ```compile_fail
 /// use sweeping::prelude::*;
-/// fn inside_unit_disk<D: Scalar>(u: D, w: D) -> D {
-///     1.0 - (u * u + w * w) // error[E0277]: cannot subtract `D` from `{float}`
+/// /// g(u, w) = 1 − u − w ≥ 0: below a line (affine, so convex as the theory asks).
+/// fn below_the_line<D: Scalar>(u: D, w: D) -> D {
+///     1.0 - u - w // error[E0277]: cannot subtract `D` from `{float}`
 /// }
 /// ```
 ///
 /// ```
 /// use sweeping::prelude::*;
-/// fn inside_unit_disk<D: Scalar>(u: D, w: D) -> D {
-///     -(u * u + w * w) + 1.0 // or: D::from(1.0) - (u * u + w * w), or (u * u + w * w).rsub(1.0)
+/// /// g(u, w) = 1 − u − w ≥ 0: below a line (affine, so convex as the theory asks).
+/// fn below_the_line<D: Scalar>(u: D, w: D) -> D {
+///     -u - w + 1.0 // or: D::from(1.0) - u - w, or (u + w).rsub(1.0)
 /// }
-/// assert_eq!(inside_unit_disk(0.6, 0.0), 0.64);
+/// assert_eq!(below_the_line(0.25, 0.5), 0.25);
 /// ```
 pub trait Scalar: DualNum<Primitive = f64> + Copy {
     /// `c − self`: the constant on the left, spelled as a method.

@@ -124,7 +124,7 @@ pub enum SweepError {
     /// The backend's answer does not satisfy the KKT conditions of the projection within
     /// [`StepperSettings::kkt_tolerance`](crate::stepper::StepperSettings) (relative): it is
     /// not the projection, whatever status the solver reported.
-    #[error("step {step}, t = {t}: the answer of backend {backend} fails the KKT check ({residuals}; tolerance {tolerance:.1e} relative to terms up to {scale:.3e})")]
+    #[error("step {step}, t = {t}: the answer of backend {backend} fails the KKT check ({residuals}; tolerance {tolerance:.1e} relative to terms up to {scale:.3e}); a backend set loose on purpose (OsqpSettings::loose, ClarabelSettings::loose) needs StepperSettings::kkt_tolerance raised to match")]
     KktCheckFailed {
         /// Step index.
         step: usize,

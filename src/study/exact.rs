@@ -346,11 +346,11 @@ pub fn standard_cases() -> Vec<Box<dyn ExactCase>> {
 /// the kinks.
 const SUP_SUBDIVISIONS: usize = 8;
 
-/// `sup_t |q(t) − qⁿ(t)|` over a recorded run: at every step end, at `SUP_SUBDIVISIONS − 1`
-/// interior points of every step, and at the kinks. When the exact solution is piecewise
-/// linear with its breaks among the kinks (as for [`TwoDisksOnALine`]), the difference is
-/// piecewise linear with breaks at the step ends and kinks, so this is the exact sup;
-/// otherwise it is the sup over a grid `SUP_SUBDIVISIONS` times finer than the step.
+/// `sup_t |q(t) − qⁿ(t)|` over a recorded run: at every step end, at seven interior points of
+/// every step (a grid eight times finer than the step), and at the kinks. When the exact
+/// solution is piecewise linear with its breaks among the kinks (as for [`TwoDisksOnALine`]),
+/// the difference is piecewise linear with breaks at the step ends and kinks, so this is the
+/// exact sup; otherwise it is the sup over that grid.
 pub fn sup_error(case: &dyn ExactCase, trajectory: &Trajectory) -> f64 {
     let kinks = case.kinks();
     let mut worst = 0.0f64;

@@ -176,7 +176,9 @@ impl Default for OsqpSettings {
 impl OsqpSettings {
     /// OSQP's own C defaults for every solver knob (`eps_abs = eps_rel = 1e-3`,
     /// `eps_prim_inf = 1e-4`, `max_iter = 4000`, no polishing), for work–precision studies.
-    /// Fast, but answers may be off by ~10⁻² on crowds: not fit for cross-validation. The
+    /// Fast, but answers may be off by ~10⁻² on crowds: not fit for cross-validation, and a
+    /// run needs `StepperSettings::kkt_tolerance` of about `1e-2` to accept them (the default
+    /// `1e-6` refuses them with `SweepError::KktCheckFailed`). The
     /// fields that are ours ([`accept_inaccurate`](Self::accept_inaccurate),
     /// [`warm_start`](Self::warm_start), [`verbose`](Self::verbose),
     /// [`time_limit`](Self::time_limit)) keep their defaults.
