@@ -5,7 +5,8 @@
 //! turns the whole kit into one `#[test]` per check for a backend crate:
 //!
 //! ```ignore
-//! sweeping_api::conformance_tests!(MyBackend::default(), sweeping_api::conformance::Tolerances::default());
+//! // In a crate that depends on `sweeping` (the library re-exports this crate as `sweeping::api`):
+//! sweeping::api::conformance_tests!(MyBackend::default(), sweeping::api::conformance::Tolerances::default());
 //! ```
 //!
 //! The checks test answers by what a projection *is* — the KKT conditions and idempotence —
