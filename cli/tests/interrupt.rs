@@ -13,26 +13,7 @@ mod support;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-use support::sweep_run_command;
-
-/// 100 people for 1000 s: far longer than the test waits.
-const LONG: &str = r#"
-name = "long"
-[room]
-rectangle = [0.0, 0.0, 10.0, 10.0]
-[[crowds]]
-count = 100
-radius = 0.2
-seed = 2
-[desired]
-kind = "point"
-point = [5.0, 5.0]
-[run]
-h = 0.01
-t_end = 1000.0
-[output]
-trajectory_every = 0.01
-"#;
+use support::{long_scene, sweep_run_command};
 
 #[test]
 fn ctrl_c_stops_the_run_with_its_files_finished() {
@@ -69,7 +50,7 @@ fn sighup_ignored() -> bool {
 /// checks that it stopped as asked, saying `said` when the signal came.
 fn stop_with(signal: &str, said: &str) {
     let name = format!("interrupt-{}", signal.to_lowercase());
-    let (mut command, out) = sweep_run_command(&name, LONG, &["--threads", "1"]);
+    let (mut command, out) = sweep_run_command(&name, &long_scene(100), &["--threads", "1"]);
     let child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -127,7 +108,8 @@ fn stop_with(signal: &str, said: &str) {
 /// Under `nohup` SIGHUP stays ignored: the run goes on when its terminal closes.
 #[test]
 fn a_run_under_nohup_goes_on_after_sighup() {
-    let (command, out) = sweep_run_command("interrupt-nohup", LONG, &["--threads", "1"]);
+    let (command, out) =
+        sweep_run_command("interrupt-nohup", &long_scene(100), &["--threads", "1"]);
     let mut nohup = std::process::Command::new("nohup");
     nohup.arg(command.get_program()).args(command.get_args());
     let Ok(mut child) = nohup.stdout(Stdio::null()).stderr(Stdio::piped()).spawn() else {

@@ -14,26 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use support::{sweep_run, sweep_run_command};
-
-/// 30 people for 1000 s: far longer than a test waits.
-const LONG: &str = r#"
-name = "long"
-[room]
-rectangle = [0.0, 0.0, 10.0, 10.0]
-[[crowds]]
-count = 30
-radius = 0.2
-seed = 2
-[desired]
-kind = "point"
-point = [5.0, 5.0]
-[run]
-h = 0.01
-t_end = 1000.0
-[output]
-trajectory_every = 0.01
-"#;
+use support::{long_scene, sweep_run, sweep_run_command};
 
 /// `sweep run` of the scene beside `out` (as `sweep_run_command` wrote it) into `out`.
 fn rerun(out: &Path, name: &str, args: &[&str]) -> (bool, String) {
@@ -67,7 +48,7 @@ fn wait_for_rows(csv: &Path) {
 
 #[test]
 fn a_second_run_into_a_folder_in_use_is_refused_and_a_killed_runs_lock_is_not_left() {
-    let (mut command, out) = sweep_run_command("out-lock", LONG, &["--threads", "1"]);
+    let (mut command, out) = sweep_run_command("out-lock", &long_scene(30), &["--threads", "1"]);
     let mut first = command
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -112,7 +93,7 @@ fn files(dir: &Path) -> Vec<String> {
 
 #[test]
 fn a_folder_holding_other_files_is_refused_and_left_as_it_was() {
-    let (_, out) = sweep_run_command("out-theirs", LONG, &[]);
+    let (_, out) = sweep_run_command("out-theirs", &long_scene(30), &[]);
     std::fs::create_dir_all(out.join("snapshots")).unwrap();
     for name in [
         "trajectory.sqlite",
@@ -138,7 +119,11 @@ fn a_folder_holding_other_files_is_refused_and_left_as_it_was() {
 
 #[test]
 fn a_run_into_an_earlier_runs_folder_leaves_the_files_it_did_not_write() {
-    let first = sweep_run("out-ours", LONG, &["--threads", "1", "--t-end", "0.2"]);
+    let first = sweep_run(
+        "out-ours",
+        &long_scene(30),
+        &["--threads", "1", "--t-end", "0.2"],
+    );
     assert!(first.success, "{}", first.output);
     std::fs::write(first.out.join("notes.txt"), "mine").unwrap();
     let (ok, said) = rerun(&first.out, "out-ours", &["--t-end", "0.1"]);
@@ -174,7 +159,7 @@ impl Drop for Tmpfs {
 
 #[test]
 fn a_full_disk_reports_the_first_file_it_could_not_write_and_leaves_no_empty_file() {
-    let (_, out) = sweep_run_command("out-full", LONG, &[]);
+    let (_, out) = sweep_run_command("out-full", &long_scene(30), &[]);
     let Some(disk) = Tmpfs::mount(out.with_file_name("disk"), "64k") else {
         eprintln!("skipped: a tmpfs cannot be mounted here (not root?)");
         return;

@@ -52,3 +52,28 @@ pub fn sweep_run(name: &str, scene: &str, args: &[&str]) -> CliRun {
         out,
     }
 }
+
+/// A scene of `count` people walking to the centre of a 10 m room for 1000 s, a frame every
+/// step: far longer than a test waits, for tests that stop a run or race it.
+#[allow(dead_code)]
+pub fn long_scene(count: usize) -> String {
+    format!(
+        r#"
+name = "long"
+[room]
+rectangle = [0.0, 0.0, 10.0, 10.0]
+[[crowds]]
+count = {count}
+radius = 0.2
+seed = 2
+[desired]
+kind = "point"
+point = [5.0, 5.0]
+[run]
+h = 0.01
+t_end = 1000.0
+[output]
+trajectory_every = 0.01
+"#
+    )
+}
