@@ -65,6 +65,25 @@ impl ConstraintKernel<1> for DoubleRoot {
     }
 }
 
+/// The assumptions' estimate on the states of a run of `problem` (the reference backend).
+fn estimate_along_a_run(
+    problem: &Problem,
+    settings: StepperSettings,
+) -> sweeping::assumptions::AssumptionReport {
+    let run = Stepper::new(problem, settings)
+        .unwrap()
+        .run(&mut ReferenceProjector::default(), &mut [])
+        .unwrap();
+    let samples = sweeping::assumptions::samples_from_trajectory(&run.trajectory);
+    estimate_problem(
+        problem,
+        &samples,
+        &EstimateSettings::default(),
+        &mut ReferenceProjector::default(),
+    )
+    .unwrap()
+}
+
 fn falling_through_a_double_root() -> Problem {
     Problem::new(vec![2.0], |_t: f64, _q: &[f64], f: &mut [f64]| f[0] = -1.0).with_constraint(
         "double root",
@@ -112,18 +131,7 @@ fn the_estimate_reports_a_tiny_alpha_as_a_failed_a1() {
         gradient_floor: 0.0,
         ..Default::default()
     };
-    let run = Stepper::new(&problem, settings)
-        .unwrap()
-        .run(&mut ReferenceProjector::default(), &mut [])
-        .unwrap();
-    let samples = sweeping::assumptions::samples_from_trajectory(&run.trajectory);
-    let report = estimate_problem(
-        &problem,
-        &samples,
-        &EstimateSettings::default(),
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap();
+    let report = estimate_along_a_run(&problem, settings);
     assert!(
         report.failures.iter().any(|f| f.starts_with("A1: α")),
         "{}",
@@ -157,18 +165,7 @@ fn bounds_from_an_estimate_are_checked_at_the_start_where_they_were_measured() {
         t_end: 6.0,
         ..Default::default()
     };
-    let run = Stepper::new(&problem, settings.clone())
-        .unwrap()
-        .run(&mut ReferenceProjector::default(), &mut [])
-        .unwrap();
-    let samples = sweeping::assumptions::samples_from_trajectory(&run.trajectory);
-    let report = estimate_problem(
-        &problem,
-        &samples,
-        &EstimateSettings::default(),
-        &mut ReferenceProjector::default(),
-    )
-    .unwrap();
+    let report = estimate_along_a_run(&problem, settings.clone());
     let bounds = Bounds::from_report(&report, 0.01);
     assert!(bounds.beta.unwrap() < 10.0, "{bounds:?}");
     let mut monitor = BoundsMonitor::new(
