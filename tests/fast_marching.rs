@@ -217,3 +217,18 @@ fn a_cell_that_is_not_a_positive_finite_number_is_refused() {
         assert!(matches!(e, FastMarchingError::BadCell(_)), "{cell}: {e}");
     }
 }
+
+#[test]
+fn a_region_walled_off_from_the_exits_has_no_route() {
+    let mut domain = square_with_exit();
+    domain.segments = vec![([5.0, 0.0], [5.0, 10.0])];
+    let field = DistanceField::compute(&domain, 0.1).unwrap();
+    assert!(field.reaches_exit([7.0, 5.0]));
+    assert!(field.reaches_exit([5.3, 9.9]));
+    assert!(!field.reaches_exit([2.0, 5.0]));
+    assert!(!field.reaches_exit([4.8, 0.1]));
+    // A gap in the wall opens the route.
+    domain.segments = vec![([5.0, 0.0], [5.0, 9.0])];
+    let field = DistanceField::compute(&domain, 0.1).unwrap();
+    assert!(field.reaches_exit([2.0, 5.0]));
+}

@@ -125,6 +125,8 @@ pub struct DistanceField {
     values: Vec<f64>,
     gradients: Vec<[f64; 2]>,
     free: Vec<bool>,
+    /// Free nodes from which an exit is reached through free nodes (the first march's).
+    routed: Vec<bool>,
 }
 
 #[derive(PartialEq)]
@@ -241,6 +243,7 @@ impl DistanceField {
         // First march: over free nodes only.
         let allowed: Vec<bool> = free.clone();
         march(&grid, &mut values, &mut known, &allowed);
+        let routed: Vec<bool> = known.iter().zip(&free).map(|(k, f)| *k && *f).collect();
         // Second march: extend into every remaining node with slope 1.
         let allowed = vec![true; n];
         march(&grid, &mut values, &mut known, &allowed);
@@ -250,6 +253,7 @@ impl DistanceField {
             values,
             gradients,
             free,
+            routed,
         })
     }
 
@@ -261,6 +265,27 @@ impl DistanceField {
     /// Whether node `(i, j)` is free (inside the room, outside every obstacle).
     pub fn is_free(&self, i: usize, j: usize) -> bool {
         self.free[self.grid.index(i, j)]
+    }
+
+    /// Whether an exit can be reached from `p` without crossing an obstacle or a wall: a free
+    /// node of the grid cell holding `p` (or, when none of its four is free, of the cells
+    /// around it) is joined to an exit by free nodes. Beyond the free nodes the field is
+    /// extended with slope 1 through the obstacles, so a person cut off from every exit is led
+    /// into what cuts them off, and stops there.
+    pub fn reaches_exit(&self, p: [f64; 2]) -> bool {
+        let (i, j, _, _) = self.locate(p);
+        let g = &self.grid;
+        let window = |reach: usize| {
+            let (i0, j0) = (i.saturating_sub(reach), j.saturating_sub(reach));
+            let (i1, j1) = ((i + 1 + reach).min(g.nx - 1), (j + 1 + reach).min(g.ny - 1));
+            (i0..=i1).flat_map(move |a| (j0..=j1).map(move |b| g.index(a, b)))
+        };
+        for reach in [0, 1] {
+            if window(reach).any(|k| self.free[k]) {
+                return window(reach).any(|k| self.routed[k]);
+            }
+        }
+        true
     }
 
     /// The value at node `(i, j)`.

@@ -48,6 +48,7 @@ mod build;
 mod builder;
 mod effect;
 mod error;
+mod notes;
 pub mod spec;
 
 pub use builder::CrowdBuilder;
@@ -161,8 +162,10 @@ pub struct OutputSettings {
     pub animation_frames: usize,
     /// Trajectory formats to write (at least one, no repeats).
     pub formats: Vec<crate::output::TrajectoryFormat>,
-    /// What was adjusted (an interval below one step clamped to one step), one sentence each,
-    /// naming the file, line and key: for the user to be told.
+    /// What the user is told before a run, one sentence each: what was adjusted (an interval
+    /// below one step clamped to one step, naming the file, line and key), and what is allowed
+    /// but rarely meant (nobody moving, people cut off from every exit, a run of very many
+    /// steps, a very large trajectory).
     pub notes: Vec<String>,
 }
 
@@ -410,6 +413,11 @@ impl Scene {
             .with_room(room.room.clone())
             .shared();
         let distance_field = build::geodesic_field(&cx, spec, &terms, &room, &exits, &obstacles)?;
+        let heading_out: Vec<usize> = terms
+            .iter()
+            .filter(|(d, _)| d.kind == DesiredKind::Exit)
+            .flat_map(|(_, who)| who.iter().copied())
+            .collect();
         let mut effects = Vec::new();
         let velocity = build::desired_velocity(
             &population,
@@ -430,7 +438,19 @@ impl Scene {
             .validate(1e-9)
             .map_err(|e| cx.err(None, "initial configuration", e.to_string()))?;
 
-        let output = build::output_settings(&cx, spec, run.h, run.t_end)?;
+        let mut output = build::output_settings(&cx, spec, run.h, run.t_end)?;
+        let facts = notes::SceneFacts {
+            positions: &people.positions,
+            still,
+            heading_out: &heading_out,
+            has_exits,
+            moving_obstacles: obstacles.iter().any(|(o, _, _)| !o.motion.is_static()),
+            field: distance_field.as_deref(),
+            h: run.h,
+            t_end: run.t_end,
+        };
+        let scene_notes = notes::scene_notes(&facts, &output);
+        output.notes.extend(scene_notes);
         let settings = build::stepper_settings(run.h, run.t_end, &obstacles);
         let (bx0, by0, bx1, by1) = room.bbox;
         let margin = 2.0 * population.max_radius() + 0.05 * room.scale;
