@@ -92,6 +92,8 @@ pub mod guide_doctests {
     pub struct SceneFormat;
     #[doc = include_str!("../docs/guide/src/analysing-a-run.md")]
     pub struct AnalysingARun;
+    #[doc = include_str!("../docs/guide/src/rimea.md")]
+    pub struct Rimea;
     #[doc = include_str!("../docs/guide/src/backends.md")]
     pub struct Backends;
     #[doc = include_str!("../docs/guide/src/performance.md")]
