@@ -10,19 +10,12 @@ use anyhow::{bail, Context, Result};
 use std::fs::TryLockError;
 use std::io::{ErrorKind, Write};
 use std::path::Path;
-use sweeping::output::TrajectoryFormat;
+use sweeping::output::{TrajectoryFormat, DISAGREEMENT_FILE, LARGEST_GAP_FILE};
 
 /// The file a run holds locked while it writes in its output directory. Left in place after
 /// the run, it marks the directory as `sweep run`'s; the lock itself ends with the process,
 /// however the process ends.
 pub const LOCK_FILE: &str = ".sweep.lock";
-
-/// Where a cross-checked run that stopped on a disagreement keeps the problem and both answers.
-pub const DISAGREEMENT_FILE: &str = "disagreement.json";
-
-/// Where a cross-checked run keeps the problem of the largest gap between its backends that
-/// passed, and both answers.
-pub const LARGEST_GAP_FILE: &str = "largest-gap.json";
 
 /// The prefix of the file [`sweeping::output::prepare_output_dir`] writes and removes at once to
 /// check that the directory can be written: another run's, seen in passing, is not a user's.

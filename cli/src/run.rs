@@ -2,20 +2,20 @@
 //! summary, snapshots and animation.
 
 use crate::interrupt::Interrupt;
-use crate::out_dir::{self, DISAGREEMENT_FILE, LARGEST_GAP_FILE};
+use crate::out_dir;
 use crate::resume;
 use crate::stdout::{errln, outln};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
-use std::path::PathBuf;
-use sweeping::backends::{make_projector_with, threads_phrase, BackendChoice, ProjectorOptions};
+use std::path::{Path, PathBuf};
+use sweeping::backends::{threads_phrase, BackendChoice};
 use sweeping::error::SweepError;
 use sweeping::output::{
-    csv_interval_note, prepare_output_dir, steps_between, AnimationWriter, RunSummary,
-    SnapshotWriter, SummaryCollector, TrajectoryFormat, TrajectoryWriter,
+    prepare_output_dir, run_scene, ResumedFrom, RunHooks, RunOptions, RunSceneError, RunSummary,
+    SceneRun, TrajectoryFormat,
 };
-use sweeping::scene::{Overrides, Scene};
+use sweeping::scene::{BuiltScene, Overrides, Scene};
 use sweeping::stepper::{Observer, ObserverError, StepReport};
 
 /// Arguments of `sweep run`.
@@ -67,6 +67,29 @@ struct Progress {
     people: usize,
     population: std::sync::Arc<sweeping::crowd::Population>,
     lines: Option<ProgressLines>,
+}
+
+impl Progress {
+    /// A bar of `n_steps` on a terminal, else plain lines.
+    fn new(n_steps: u64, population: std::sync::Arc<sweeping::crowd::Population>) -> Self {
+        let (bar, lines) = if std::io::stderr().is_terminal() {
+            let bar = ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr());
+            (bar, None)
+        } else {
+            let lines = ProgressLines::new(usize::try_from(n_steps).unwrap_or(usize::MAX));
+            (ProgressBar::hidden(), Some(lines))
+        };
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} steps [{elapsed} < {eta}] {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        Self {
+            bar,
+            people: population.len(),
+            population,
+            lines,
+        }
+    }
 }
 
 /// When [`Progress`] writes a plain line: at every tenth of the run's steps, and at least
@@ -135,50 +158,101 @@ impl Observer for Progress {
     }
 }
 
-/// Writes the problem on which a cross-checked run's backends disagreed, with both answers
-/// (a [`CrossCheckDisagreement`](sweeping::api::CrossCheckDisagreement)), to
-/// `out/disagreement.json`, so that the step can be decided afterwards (against a projection
-/// computed independently) without running again to it. Returns the path written, if any.
-fn write_disagreement(
-    out: &std::path::Path,
-    stats: Option<&sweeping::api::CrossCheckStats>,
-) -> Result<Option<PathBuf>> {
-    write_case(
-        out,
-        DISAGREEMENT_FILE,
-        stats.and_then(|s| s.disagreement.as_deref()),
-    )
+/// What `sweep run` adds to the library's run: the notes and the line saying what runs, on
+/// stderr; the progress display; and the interrupt that stops the run cleanly.
+struct Terminal {
+    /// The line said before the first step.
+    running: String,
+    n_steps: u64,
+    population: std::sync::Arc<sweeping::crowd::Population>,
+    progress: Option<Progress>,
+    interrupt: Option<Interrupt>,
 }
 
-/// Writes the problem of the largest gap that passed, with both answers
-/// ([`CrossCheckStats::largest_passed_gap`](sweeping::api::CrossCheckStats::largest_passed_gap)),
-/// to `out/largest-gap.json`: a run's closest call, decided the same way as a disagreement.
-/// Returns the path written, if any.
-fn write_largest_gap(
-    out: &std::path::Path,
-    stats: Option<&sweeping::api::CrossCheckStats>,
-) -> Result<Option<PathBuf>> {
-    write_case(
-        out,
-        LARGEST_GAP_FILE,
-        stats.and_then(|s| s.largest_passed_gap.as_deref()),
-    )
+impl RunHooks for Terminal {
+    fn note(&mut self, note: &str) {
+        errln!("note: {note}");
+    }
+
+    fn before_first_step(&mut self) {
+        self.progress = Some(Progress::new(self.n_steps, self.population.clone()));
+        errln!("{}", self.running);
+    }
+
+    fn observers(&mut self) -> Vec<&mut dyn Observer> {
+        let mut observers: Vec<&mut dyn Observer> = Vec::new();
+        if let Some(progress) = self.progress.as_mut() {
+            observers.push(progress);
+        }
+        // Last, so that every other observer has seen the step it stops after.
+        self.interrupt = Interrupt::install();
+        if let Some(interrupt) = self.interrupt.as_mut() {
+            observers.push(interrupt);
+        }
+        observers
+    }
 }
 
-fn write_case(
-    out: &std::path::Path,
-    name: &str,
-    case: Option<&sweeping::api::CrossCheckDisagreement>,
-) -> Result<Option<PathBuf>> {
-    let Some(case) = case else {
-        return Ok(None);
-    };
-    let path = out.join(name);
-    let file =
-        std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
-    serde_json::to_writer(std::io::BufWriter::new(file), case)
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(Some(path))
+/// An earlier run to go on from: its directory, its trajectory and what was read there.
+struct Resume {
+    dir: PathBuf,
+    path: PathBuf,
+    saved: resume::Saved,
+}
+
+/// The state the run in `dir` left, read before any work: a missing or malformed file is an
+/// error now.
+fn read_resume(dir: &Path) -> Result<Resume> {
+    let path = dir.join(resume::TRAJECTORY);
+    let sqlite = TrajectoryFormat::Sqlite.file_name();
+    if !path.exists() && dir.join(sqlite).exists() {
+        // The SQLite trajectory leaves out who had left and rounds the time to its
+        // frame: not a state to go on from to the bit.
+        anyhow::bail!(
+            "--resume {}: the run wrote no {} but a {sqlite}, which keeps only the \
+             people still inside; --resume reads the CSV (every position to the bit, \
+             and who had left): run with --format csv or --format csv,sqlite to be \
+             able to resume",
+            dir.display(),
+            resume::TRAJECTORY
+        );
+    }
+    let saved = resume::read(&path)
+        .with_context(|| format!("--resume {}: reading the run's last state", dir.display()))?;
+    Ok(Resume {
+        dir: dir.to_path_buf(),
+        path,
+        saved,
+    })
+}
+
+/// Sets `built` to the state `resume` read, once it is known to be a state of this scene;
+/// returns its time.
+fn resume_scene(built: &mut BuiltScene, resume: Resume) -> Result<f64> {
+    let Resume { dir, path, saved } = resume;
+    let t = saved.state.t;
+    let (listed, people) = (saved.state.departed.len(), built.population.len());
+    if listed != people {
+        anyhow::bail!(
+            "--resume {}: {}: its last frame (t = {}) lists {listed} people, the scene \
+             has {people}: a frame cut short (a run killed while writing it) or a run \
+             of another scene",
+            dir.display(),
+            path.display(),
+            sweeping::stepper::display_number(t)
+        );
+    }
+    resume::check_start(&saved, &path, built.problem.t0(), built.problem.q0())
+        .with_context(|| format!("--resume {}", dir.display()))?;
+    // An error about one person points at their row of the last frame.
+    let last_line = saved.last.line;
+    built.resume_at(saved.state).map_err(|e| {
+        let row = e
+            .person()
+            .map_or(String::new(), |i| format!(":{}", last_line + i));
+        anyhow::anyhow!("--resume {}: {}{row}: {e}", dir.display(), path.display())
+    })?;
+    Ok(t)
 }
 
 /// Entry point of `sweep run`.
@@ -193,42 +267,19 @@ pub fn main(args: RunArgs) -> Result<()> {
         backend: args.backend,
         threads: args.threads,
     };
-    // The state to resume from, read before any work (a missing or malformed file is an
-    // error now), and the run's directory, which must not be the one it resumes.
-    let resume = match &args.resume {
-        Some(dir) => {
-            let path = dir.join(resume::TRAJECTORY);
-            let sqlite = TrajectoryFormat::Sqlite.file_name();
-            if !path.exists() && dir.join(sqlite).exists() {
-                // The SQLite trajectory leaves out who had left and rounds the time to its
-                // frame: not a state to go on from to the bit.
-                anyhow::bail!(
-                    "--resume {}: the run wrote no {} but a {sqlite}, which keeps only the \
-                     people still inside; --resume reads the CSV (every position to the bit, \
-                     and who had left): run with --format csv or --format csv,sqlite to be \
-                     able to resume",
-                    dir.display(),
-                    resume::TRAJECTORY
-                );
-            }
-            let saved = resume::read(&path).with_context(|| {
-                format!("--resume {}: reading the run's last state", dir.display())
-            })?;
-            Some((dir.clone(), path, saved))
-        }
-        None => None,
-    };
+    // The run's directory must not be the one it resumes.
+    let resume = args.resume.as_deref().map(read_resume).transpose()?;
     let out = match (&args.out, &resume) {
         (Some(out), _) => out.clone(),
-        (None, Some((dir, _, saved))) => resume::default_out(dir, saved.state.t),
+        (None, Some(r)) => resume::default_out(&r.dir, r.saved.state.t),
         (None, None) => PathBuf::from("out").join(&scene.name),
     };
-    if let Some((dir, _, _)) = &resume {
-        if resume::same_dir(dir, &out) {
+    if let Some(r) = &resume {
+        if resume::same_dir(&r.dir, &out) {
             anyhow::bail!(
                 "--resume {} --out {}: a resumed run writes to another directory than the \
                  run it resumes (whose trajectory it would overwrite)",
-                dir.display(),
+                r.dir.display(),
                 out.display()
             );
         }
@@ -237,142 +288,62 @@ pub fn main(args: RunArgs) -> Result<()> {
     prepare_output_dir(&out)?;
     let mut built = scene.build(&overrides)?;
     let resumed_at = match resume {
-        Some((dir, path, saved)) => {
-            let t = saved.state.t;
-            let (listed, people) = (saved.state.departed.len(), built.population.len());
-            if listed != people {
-                anyhow::bail!(
-                    "--resume {}: {}: its last frame (t = {}) lists {listed} people, the scene \
-                     has {people}: a frame cut short (a run killed while writing it) or a run \
-                     of another scene",
-                    dir.display(),
-                    path.display(),
-                    sweeping::stepper::display_number(t)
-                );
-            }
-            resume::check_start(&saved, &path, built.problem.t0(), built.problem.q0())
-                .with_context(|| format!("--resume {}", dir.display()))?;
-            // An error about one person points at their row of the last frame.
-            let last_line = saved.last.line;
-            built.resume_at(saved.state).map_err(|e| {
-                let row = e
-                    .person()
-                    .map_or(String::new(), |i| format!(":{}", last_line + i));
-                anyhow::anyhow!("--resume {}: {}{row}: {e}", dir.display(), path.display())
-            })?;
-            Some((dir, t))
+        Some(r) => {
+            let dir = r.dir.clone();
+            Some((dir, resume_scene(&mut built, r)?))
         }
         None => None,
     };
     let built = built;
-    let mut formats = if args.formats.is_empty() {
-        built.output.formats.clone()
-    } else {
-        args.formats.clone()
+    let options = RunOptions {
+        out: Some(out.clone()),
+        formats: args.formats.clone(),
+        resumed_from: resumed_at.as_ref().map(|(dir, t)| ResumedFrom {
+            run: dir.display().to_string(),
+            t: *t,
+        }),
     };
-    let mut seen = std::collections::HashSet::new();
-    formats.retain(|f| seen.insert(*f));
+    let formats = options.trajectory_formats(&built);
     // Held until the run ends: a second run into `out` is refused rather than mixed in.
     let _out_dir = out_dir::claim(&out, &formats)?;
-    let h = built.settings.h;
-    let t_end = built.settings.t_end;
-    let backend_name = built.backend.to_string();
-
-    for note in &built.output.notes {
-        errln!("note: {note}");
-    }
-    if formats.contains(&TrajectoryFormat::Csv) {
-        if let Some(note) = csv_interval_note(built.output.trajectory_every, h) {
-            errln!("note: {note}");
-        }
-    }
-    // The trajectory writers, created before the run so that their errors come first (the
-    // SQLite file gets its schema and walkable area now).
-    let mut csv = formats.contains(&TrajectoryFormat::Csv).then(|| {
-        TrajectoryWriter::new(
-            out.join(TrajectoryFormat::Csv.file_name()),
-            built.population.clone(),
-            steps_between(built.output.trajectory_every, h),
-        )
-    });
-    let mut sqlite = if formats.contains(&TrajectoryFormat::Sqlite) {
-        Some(
-            sqlite_writer(&built, &out)
-                .with_context(|| format!("{} (--format sqlite)", args.scene.display()))?,
-        )
-    } else {
-        None
-    };
-
-    let mut summary = SummaryCollector::new(
-        &built.name,
-        &built.problem,
-        built.population.clone(),
-        &backend_name,
-        h,
-        t_end,
-    );
-    if let Some((dir, t)) = &resumed_at {
-        summary.record_resumed_from(dir, *t);
-    }
-    let summary_path = out.join("summary.json");
-    let options = ProjectorOptions {
-        threads: built.threads,
-        ..ProjectorOptions::default()
-    };
-    let mut projector = match make_projector_with(built.backend, options) {
-        Ok(p) => p,
-        Err(e) => {
-            summary.mark_failed(&e.to_string());
-            let _ = summary.write_json(&summary_path);
-            anyhow::bail!("{e}");
-        }
-    };
-    let mut snapshots = SnapshotWriter::new(
-        out.join("snapshots"),
-        built.geometry.clone(),
-        built.population.clone(),
-        built.group_of.clone(),
-        &built.name,
-        built.output.snapshot_every,
-    );
-    // A resumed run covers [t₀, T]: its frames are spread over that span.
-    let t_start = built.problem.t0();
-    let mut animation = AnimationWriter::new(
-        out.join("animation.html"),
-        built.geometry.clone(),
-        built.population.clone(),
-        built.group_of.clone(),
-        &built.name,
-        t_end - t_start,
-        h,
-        built.output.animation_frames,
-    );
-    let n_steps = sweeping::stepper::step_count(t_end - t_start, h) as u64;
-    let (bar, lines) = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr());
-        (bar, None)
-    } else {
-        let lines = ProgressLines::new(usize::try_from(n_steps).unwrap_or(usize::MAX));
-        (ProgressBar::hidden(), Some(lines))
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} steps [{elapsed} < {eta}] {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let mut progress = Progress {
-        bar,
-        people: built.population.len(),
+    let mut terminal = Terminal {
+        running: running_line(&built, &out, resumed_at.as_ref()),
+        n_steps: sweeping::stepper::step_count(
+            built.settings.t_end - built.problem.t0(),
+            built.settings.h,
+        ) as u64,
         population: built.population.clone(),
-        lines,
+        progress: None,
+        interrupt: None,
     };
-    errln!(
-        "running `{}`: {} people, h = {h:?}, T = {t_end:?}, backend {backend_name}{}{} → {}",
+    let scene_run = match run_scene(&built, &options, &mut terminal) {
+        Ok(scene_run) => scene_run,
+        Err(RunSceneError::SqliteTrajectory(e)) => {
+            return Err(anyhow::Error::new(e)
+                .context(format!("{} (--format sqlite)", args.scene.display())));
+        }
+        Err(e) => anyhow::bail!("{e}"),
+    };
+    print_summary(&scene_run.summary, &out, &formats);
+    if let Some(path) = &scene_run.largest_gap {
+        outln!(
+            "  the largest gap that passed, its problem and both answers: {}",
+            path.display()
+        );
+    }
+    outcome(scene_run, &out)
+}
+
+/// What the run is, said before its first step.
+fn running_line(built: &BuiltScene, out: &Path, resumed_at: Option<&(PathBuf, f64)>) -> String {
+    let (h, t_end) = (built.settings.h, built.settings.t_end);
+    format!(
+        "running `{}`: {} people, h = {h:?}, T = {t_end:?}, backend {}{}{} → {}",
         built.name,
         built.population.len(),
+        built.backend,
         threads_phrase(built.threads),
         resumed_at
-            .as_ref()
             .map(|(dir, t)| format!(
                 ", resuming {} from t = {}",
                 dir.display(),
@@ -380,59 +351,26 @@ pub fn main(args: RunArgs) -> Result<()> {
             ))
             .unwrap_or_default(),
         out.display()
-    );
-    let mut observers: Vec<&mut dyn Observer> = Vec::new();
-    if let Some(w) = csv.as_mut() {
-        observers.push(w);
-    }
-    if let Some(w) = sqlite.as_mut() {
-        observers.push(w);
-    }
-    observers.extend([
-        &mut summary as &mut dyn Observer,
-        &mut snapshots,
-        &mut animation,
-        &mut progress,
-    ]);
-    // Last, so that every other observer has seen the step it stops after.
-    let mut interrupt = Interrupt::install();
-    if let Some(i) = interrupt.as_mut() {
-        observers.push(i);
-    }
-    let result = built.run(projector.as_mut(), &mut observers);
-    summary.record_cross_check(projector.cross_check());
-    // Every file is tried whatever failed before it, and the first failure is the one
-    // reported: on a full disk the trajectory fails first and says the most.
-    let mut later_errors = Vec::new();
-    let disagreement = write_disagreement(&out, projector.cross_check()).unwrap_or_else(|e| {
-        later_errors.push(format!("{e:#}"));
-        None
-    });
-    let largest_gap = write_largest_gap(&out, projector.cross_check()).unwrap_or_else(|e| {
-        later_errors.push(format!("{e:#}"));
-        None
-    });
-    if let Err(e) = summary.write_json(&summary_path) {
-        later_errors.push(format!("writing {}: {e}", summary_path.display()));
-    }
-    if result.is_err() || !later_errors.is_empty() {
-        remove_empty_outputs(&out);
-    }
-    print_summary(summary.summary(), &out, &formats);
-    if let Some(path) = largest_gap {
-        outln!(
-            "  the largest gap that passed, its problem and both answers: {}",
-            path.display()
-        );
-    }
-    let later = later_errors.join("; then ");
-    match result {
+    )
+}
+
+/// How `sweep run` ends: the run's failure, with where what it computed is, and the files
+/// that could not be written after it.
+fn outcome(scene_run: SceneRun, out: &Path) -> Result<()> {
+    let later = scene_run
+        .write_errors
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join("; then ");
+    match scene_run.result {
         Ok(_) if later.is_empty() => Ok(()),
         Ok(_) => Err(anyhow::anyhow!("{later}")),
         Err(failure) => Err(anyhow::anyhow!(
             "{failure}; what was computed is in {}{}{}",
             out.display(),
-            disagreement
+            scene_run
+                .disagreement
                 .map(|path| format!(
                     " (the problem the backends disagreed on, with both answers: {})",
                     path.display()
@@ -447,54 +385,7 @@ pub fn main(args: RunArgs) -> Result<()> {
     }
 }
 
-/// Removes the files of `out` left empty by a run that failed (a full disk): an empty
-/// trajectory, summary or picture would pass for a result.
-fn remove_empty_outputs(out: &std::path::Path) {
-    let mut paths: Vec<PathBuf> = [
-        TrajectoryFormat::Csv.file_name(),
-        TrajectoryFormat::Sqlite.file_name(),
-        "summary.json",
-        "animation.html",
-        DISAGREEMENT_FILE,
-        LARGEST_GAP_FILE,
-    ]
-    .iter()
-    .map(|name| out.join(name))
-    .collect();
-    if let Ok(entries) = std::fs::read_dir(out.join("snapshots")) {
-        paths.extend(entries.flatten().map(|entry| entry.path()));
-    }
-    for path in paths {
-        // `symlink_metadata`: a link is the user's doing, and not an empty file.
-        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file() && m.len() == 0) {
-            let _ = std::fs::remove_file(&path);
-        }
-    }
-}
-
-#[cfg(feature = "sqlite")]
-fn sqlite_writer(
-    built: &sweeping::scene::BuiltScene,
-    out: &std::path::Path,
-) -> Result<sweeping::output::SqliteTrajectoryWriter> {
-    let walkable = sweeping::output::WalkableArea::of_scene(&built.geometry, &built.population)?;
-    for note in &walkable.notes {
-        errln!("note: trajectory.sqlite: {note}");
-    }
-    Ok(sweeping::output::SqliteTrajectoryWriter::for_scene(
-        out.join(TrajectoryFormat::Sqlite.file_name()),
-        &walkable,
-        built,
-    )?)
-}
-
-/// Without the `sqlite` feature there is no SQLite writer: asking for one is an error before
-/// the run. (The observer type only has to exist; it is never built.)
-#[cfg(not(feature = "sqlite"))]
-fn sqlite_writer(_: &sweeping::scene::BuiltScene, _: &std::path::Path) -> Result<()> {
-    Err(sweeping::output::OutputError::Unavailable("sqlite").into())
-}
-
+/// The summary on stdout, and where the outputs are.
 fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFormat]) {
     outln!("scene `{}` ({}, backend {})", s.scene, s.status, s.backend);
     if let Some(r) = &s.resumed_from {
@@ -575,44 +466,4 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
         out.display(),
         files.join(", ")
     );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use sweeping::api::{CrossCheck, ProjectionProblem, Projector, SparseRows};
-
-    #[test]
-    fn a_disagreement_is_written_with_its_problem_and_both_answers_and_nothing_else_is() {
-        use sweeping::api::conformance::ReferenceProjector;
-        let dir = std::env::temp_dir().join(format!("sweep-disagreement-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        // Two backends that agree: nothing written.
-        let mut agree = CrossCheck::new(
-            ReferenceProjector::default(),
-            ReferenceProjector::default(),
-            1e-9,
-        );
-        let a = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 1.0)]]);
-        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0]).unwrap();
-        agree.project(&p).unwrap();
-        assert_eq!(write_disagreement(&dir, agree.cross_check()).unwrap(), None);
-        assert_eq!(write_disagreement(&dir, None).unwrap(), None);
-        assert!(!dir.join(DISAGREEMENT_FILE).exists());
-        // A cross-check at a tolerance of −1 disagrees with itself on every problem.
-        let mut apart = CrossCheck::new(
-            ReferenceProjector::default(),
-            ReferenceProjector::default(),
-            -1.0,
-        );
-        assert!(apart.project(&p).is_err());
-        let path = write_disagreement(&dir, apart.cross_check())
-            .unwrap()
-            .unwrap();
-        let text = std::fs::read_to_string(&path).unwrap();
-        let back: sweeping::api::CrossCheckDisagreement = serde_json::from_str(&text).unwrap();
-        assert_eq!(back.problem, p);
-        assert!((back.first.x[0] - 0.5).abs() < 1e-9 && (back.second.x[1] - 0.5).abs() < 1e-9);
-        std::fs::remove_dir_all(&dir).unwrap();
-    }
 }

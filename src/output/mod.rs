@@ -12,14 +12,20 @@
 //! * [`SnapshotWriter`] — SVG pictures every `snapshot_every` seconds and at the end;
 //! * [`AnimationWriter`] — one HTML page with inline SVG and a few lines of JavaScript
 //!   (play/pause, time slider, speed).
+//!
+//! [`run_scene`] runs a scene with all of them in one output directory, as `sweep run` does.
 
 mod html;
+mod run;
 #[cfg(feature = "sqlite")]
 mod sqlite;
 mod svg;
 mod walkable;
 
 pub use html::AnimationWriter;
+pub use run::{
+    run_scene, RunHooks, RunOptions, RunSceneError, SceneRun, DISAGREEMENT_FILE, LARGEST_GAP_FILE,
+};
 #[cfg(feature = "sqlite")]
 pub use sqlite::{SqliteTrajectoryWriter, DEFAULT_FRAMES_PER_COMMIT, JUPEDSIM_DATABASE_VERSION};
 pub use svg::{render_svg, SnapshotWriter};
@@ -66,6 +72,16 @@ pub enum OutputError {
     /// The scene's walkable area cannot be written as one polygon with holes.
     #[error("walkable area: {0}")]
     WalkableArea(String),
+    /// A file of the run's results could not be created or written.
+    #[error("{operation} {}: {message}", path.display())]
+    WriteFailed {
+        /// What was being done: `creating` or `writing`.
+        operation: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
     /// The format was left out of this build.
     #[error("the `{0}` trajectory format needs the cargo feature `{0}`, which this build lacks")]
     Unavailable(&'static str),

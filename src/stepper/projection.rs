@@ -1,0 +1,165 @@
+//! The projection stage: one QP per solve, in the displacement `u = x − q_k`, solved again
+//! with larger cutoffs until the culling proof holds.
+
+use super::{StageTimes, Stepper};
+use crate::error::SweepError;
+use std::time::Instant;
+use sweeping_api::{BackendCounters, Projection, ProjectionProblem, Projector, RowKey};
+
+/// The projection a step keeps, and what the solves that led to it cost.
+pub(super) struct Solved {
+    /// The projection onto every row, as the point `q_{k+1}` (not the displacement).
+    pub(super) solution: Projection,
+    /// Solves of the step (1 + re-solves after a failed culling proof).
+    pub(super) solves: usize,
+    /// Solver iterations, summed over the solves.
+    pub(super) iterations: u32,
+    /// How the backend reached its answers, summed over the solves.
+    pub(super) counters: BackendCounters,
+}
+
+impl Stepper<'_> {
+    /// Assembles, projects and checks until the culling proof holds (module docs): the
+    /// result is the projection onto every row.
+    pub(super) fn project_until_proven(
+        &mut self,
+        projector: &mut dyn Projector,
+        t_next: f64,
+        times: &mut StageTimes,
+    ) -> Result<Solved, SweepError> {
+        let mut solves = 0usize;
+        let mut iterations = 0u32;
+        let mut counters = BackendCounters::default();
+        loop {
+            self.assemble(t_next, times)?;
+            let tp = Instant::now();
+            let (qp, mut sol) = self.project_rows(projector, t_next)?;
+            times.projection += tp.elapsed().as_secs_f64();
+            solves += 1;
+            iterations += sol.stats.iterations;
+            counters.add(&sol.stats.counters);
+            self.check_finite_projection(&sol, t_next)?;
+            let tc = Instant::now();
+            self.check_kkt(&qp, &sol, t_next)?;
+            times.check += tc.elapsed().as_secs_f64();
+            // From the displacement to the point.
+            sol.x.iter_mut().zip(&self.q).for_each(|(x, q)| *x += q);
+
+            let tc = Instant::now();
+            let proven = self.culling_proven(t_next, &sol.x);
+            times.check += tc.elapsed().as_secs_f64();
+            if proven {
+                return Ok(Solved {
+                    solution: sol,
+                    solves,
+                    iterations,
+                    counters,
+                });
+            }
+            if solves > self.settings.max_cull_retries {
+                return Err(SweepError::CullingFailed {
+                    step: self.k,
+                    t: t_next,
+                    solves,
+                });
+            }
+        }
+    }
+
+    /// The QP of the assembled rows and the backend's answer to it, in the displacement.
+    fn project_rows(
+        &self,
+        projector: &mut dyn Projector,
+        t_next: f64,
+    ) -> Result<(ProjectionProblem, Projection), SweepError> {
+        // Each row keyed by its constraint (family, candidate index), stable across steps,
+        // so that backends can warm-start from the previous step's active rows.
+        let keys = self
+            .row_origin
+            .iter()
+            .map(|&(fi, idx)| RowKey {
+                family: fi as u32,
+                member: idx as u64,
+            })
+            .collect();
+        // The projection of the displacement: `u = x − q_k` is the projection of `h f`
+        // onto `∇gᵢ · u ≥ −gᵢ`, the scheme's step written relative to `q_k`. Its numbers
+        // are those of the step, wherever the scene lies: written in `x`, a room at 10⁶
+        // put six digits before the ones that matter in `y` and `b`, and tolerances
+        // relative to the data's size let overlaps of 7e-7 through.
+        let qp = ProjectionProblem::new(self.dy.clone(), self.rows.clone(), self.b.clone())
+            .and_then(|p| p.with_row_keys(keys))
+            .map_err(|e| SweepError::Projection {
+                step: self.k,
+                t: t_next,
+                rows: self.b.len(),
+                source: e,
+            })?;
+        let sol = match projector.project(&qp) {
+            Ok(sol) => sol,
+            Err(e) => self.rescaled_projection(projector, &qp, e, t_next)?,
+        };
+        Ok((qp, sol))
+    }
+
+    /// A failed solve of a far prediction, retried once on the same QP (already written in
+    /// the displacement `u = x − q_k`) scaled by `s = ‖h f‖∞`: `min ½‖v − h f/s‖²` s.t.
+    /// `A v ≥ b/s`, then `u = s v`, `λ = s μ`. Done only when `u = 0` satisfies every row
+    /// (`gᵢ(t_{k+1}, q_k) ≥ 0`, true for constraints that do not move) to within the
+    /// `violation_tolerance` the stepper accepted `q_k` with: the set is then not empty (up to
+    /// that), so an "infeasible" answer is the solver's scaling, not the problem's: a step
+    /// accurate relative to a huge travel can leave a person slightly inside a wall, and a
+    /// solver then calls the next step's set empty. The answer is KKT-checked on the original
+    /// QP like any other; when the retry fails too, the error says that the prediction is too
+    /// far to be resolved.
+    fn rescaled_projection(
+        &self,
+        projector: &mut dyn Projector,
+        qp: &ProjectionProblem,
+        first: sweeping_api::ProjectionError,
+        t_next: f64,
+    ) -> Result<Projection, SweepError> {
+        let fail = |source| SweepError::Projection {
+            step: self.k,
+            t: t_next,
+            rows: qp.n_rows(),
+            source,
+        };
+        let far = qp.y().iter().fold(0.0, |m: f64, d| m.max(d.abs()));
+        // Only when q_k satisfies every row (as far as the stepper asks) is the set known to
+        // be non-empty (with a moving constraint g(t_{k+1}, q_k) may be negative, and a
+        // squeezed person makes it empty).
+        let b_scale = qp.b().iter().fold(1f64, |m, b| m.max(b.abs()));
+        // At u = 0 each row reads 0 ≥ bᵢ = −gᵢ(t_{k+1}, q_k).
+        let violation_at_q = qp.b().iter().copied().fold(0.0, sweeping_api::max_or_nan);
+        let q_in_set = violation_at_q <= 1e-9 * b_scale + self.settings.violation_tolerance;
+        if !(far > 1.0 && far.is_finite() && q_in_set)
+            || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
+        {
+            return Err(fail(first));
+        }
+        let b: Vec<f64> = qp.b().iter().map(|b| b / far).collect();
+        let y: Vec<f64> = qp.y().iter().map(|d| d / far).collect();
+        // The same rows, so the same keys: a warm-starting backend keeps its memory.
+        let scaled = ProjectionProblem::new(y, qp.a().clone(), b)
+            .and_then(|p| match qp.row_keys() {
+                Some(keys) => p.with_row_keys(keys.to_vec()),
+                None => Ok(p),
+            })
+            .map_err(fail)?;
+        match projector.project(&scaled) {
+            Ok(mut sol) => {
+                sol.x.iter_mut().for_each(|x| *x *= far);
+                sol.multipliers.iter_mut().for_each(|l| *l *= far);
+                Ok(sol)
+            }
+            Err(second) => Err(SweepError::PredictionTooFar {
+                step: self.k,
+                t: t_next,
+                distance: far,
+                first: first.to_string(),
+                second: second.to_string(),
+            }),
+        }
+    }
+}

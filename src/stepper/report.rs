@@ -1,0 +1,119 @@
+//! What a step reports, stage times included, and the totals of a run.
+
+use crate::constraint::ConstraintId;
+use serde::{Deserialize, Serialize};
+use sweeping_api::{BackendCounters, SolveStats};
+
+/// Wall-clock seconds spent in each stage of a step (or summed over a run).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageTimes {
+    /// The prediction `y`.
+    pub effects: f64,
+    /// Candidate selection, and the drift bound that sizes the step's first cutoff.
+    pub broad_phase: f64,
+    /// Linearization and row assembly.
+    pub assembly: f64,
+    /// The QP (building the problem and the backend's solve).
+    pub projection: f64,
+    /// The moving-constraint check, the KKT check, the culling proof and the true-constraint
+    /// check.
+    pub check: f64,
+}
+
+impl StageTimes {
+    /// Sum of all stages.
+    pub fn total(&self) -> f64 {
+        self.effects + self.broad_phase + self.assembly + self.projection + self.check
+    }
+
+    /// Adds another step's times, stage by stage.
+    pub fn add(&mut self, o: &StageTimes) {
+        self.effects += o.effects;
+        self.broad_phase += o.broad_phase;
+        self.assembly += o.assembly;
+        self.projection += o.projection;
+        self.check += o.check;
+    }
+}
+
+/// What one step did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepReport {
+    /// Step index `k` (this step computed `q_{k+1}`).
+    pub step: usize,
+    /// `t_{k+1}`.
+    pub t: f64,
+    /// The step length used (`h`, or less for a last shortened step).
+    pub h: f64,
+    /// Rows assembled in the final solve.
+    pub rows: usize,
+    /// Rows whose multiplier exceeds the active threshold at the solution.
+    pub active: usize,
+    /// Solves of this step (1 + re-solves after a failed culling proof).
+    pub solves: usize,
+    /// Solver iterations, summed over the solves.
+    pub iterations: u32,
+    /// How the backend reached its answers, summed over the solves.
+    #[serde(default)]
+    pub counters: BackendCounters,
+    /// Seconds per stage.
+    pub times: StageTimes,
+    /// `maxᵢ max(0, −gᵢ)/|∇gᵢ|` at `(t_{k+1}, q_{k+1})`: how far (a distance) the new
+    /// configuration is outside the true `Q(t_{k+1})` (the linearization is an inner
+    /// approximation for convex `gᵢ`, so this is of the order of the solver's tolerance).
+    pub max_violation: f64,
+    /// The constraint achieving `max_violation` (`None` when none is violated); named by
+    /// [`Problem::describe`](crate::problem::Problem::describe).
+    pub worst_constraint: Option<ConstraintId>,
+    /// `‖q_{k+1} − q_k‖∞`.
+    pub max_displacement: f64,
+    /// Statistics of the final solve.
+    pub solve: SolveStats,
+}
+
+/// Totals and extremes over a run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunStats {
+    /// Steps completed.
+    pub steps: usize,
+    /// Time per stage, summed.
+    pub times: StageTimes,
+    /// Solver iterations, summed.
+    pub iterations: u64,
+    /// How the backend reached its answers, summed.
+    #[serde(default)]
+    pub counters: BackendCounters,
+    /// Solves, summed (more than `steps` when culling proofs failed).
+    pub solves: u64,
+    /// Rows assembled, summed over steps.
+    pub rows: u64,
+    /// Largest number of rows in one step.
+    pub max_rows: usize,
+    /// Largest number of active rows in one step.
+    pub max_active: usize,
+    /// Largest violation of the true constraints after any step.
+    pub max_violation: f64,
+    /// The constraint of that violation (named by [`Problem::describe`](crate::problem::Problem::describe)).
+    pub worst_constraint: Option<ConstraintId>,
+    /// The time of that violation.
+    pub worst_time: f64,
+}
+
+impl RunStats {
+    /// Adds one step: sums its times and counters, keeps the extremes.
+    pub fn absorb(&mut self, r: &StepReport) {
+        self.steps += 1;
+        self.times.add(&r.times);
+        self.iterations += u64::from(r.iterations);
+        self.counters.add(&r.counters);
+        self.solves += r.solves as u64;
+        self.rows += r.rows as u64;
+        self.max_rows = self.max_rows.max(r.rows);
+        self.max_active = self.max_active.max(r.active);
+        if r.max_violation > self.max_violation {
+            self.max_violation = r.max_violation;
+            self.worst_constraint = r.worst_constraint;
+            self.worst_time = r.t;
+        }
+    }
+}
