@@ -2,7 +2,7 @@
 //! previous step's support, or by the interior point (and finished from its support when
 //! that is cheap); every answer certified.
 
-use crate::active_set::{self, Failure, Orderings, Start};
+use crate::active_set::{self, Failure, Memory, Options, Orderings, Start};
 use crate::ipm::{self, Tolerance};
 use crate::normal::{Layout, NormalMatrix};
 use std::time::Instant;
@@ -451,7 +451,16 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         } else {
             settings.active_set_iterations
         };
-        let res = active_set::solve_remembering(p, start, cap, orderings, &block.cols);
+        let memory = Memory {
+            orderings: &mut *orderings,
+            unknowns: &block.cols,
+        };
+        let options = Options {
+            cap,
+            memory: Some(memory),
+            ..Options::default()
+        };
+        let res = active_set::solve(p, start, options);
         match res {
             Ok(outcome) if certified(&outcome.x, &outcome.lambda) => {
                 return Ok(BlockAnswer {
@@ -503,13 +512,16 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                     .finish_iterations
                     .saturating_mul(UNCONVERGED_FINISH)
             };
-            let res = active_set::first_pass_remembering(
-                p,
-                finish_start(&it, &r, p),
+            let memory = Memory {
+                orderings: &mut *orderings,
+                unknowns: &block.cols,
+            };
+            let options = Options {
                 cap,
-                orderings,
-                &block.cols,
-            );
+                first_pass_only: true,
+                memory: Some(memory),
+            };
+            let res = active_set::solve(p, finish_start(&it, &r, p), options);
             let agrees = |x: &[f64]| {
                 let apart = x
                     .iter()
