@@ -27,7 +27,7 @@ use serde::Deserialize;
 use sweeping::api::conformance::max_gap;
 use sweeping::api::{ProjectionProblem, Projector};
 use sweeping::backends::{native_projector, ClarabelProjector};
-use sweeping_qp::active_set::{self, Start};
+use sweeping_qp::active_set::{self, Options, Start};
 
 /// How far an answer may be from the certified projection, and from the other backend's.
 /// The answers at the stops were 1.3e-9 to 3.2e-8 from it.
@@ -172,7 +172,8 @@ fn the_method_from_either_answer_ends_at_the_projection(name: &str) -> Vec<(u32,
             join: lambda.iter().map(|l| l.max(f64::MIN_POSITIVE)).collect(),
             join_at_most: Some(1),
         };
-        let outcome = active_set::solve(p, start, cap).expect("the method converges");
+        let outcome =
+            active_set::solve(p, start, Options::capped(cap)).expect("the method converges");
         let off = max_gap(&outcome.x, &x_star);
         eprintln!(
             "{name}: from the {who} answer, {} iterations, {off:.2e} from the projection, \

@@ -19,7 +19,7 @@
 //! row joining alone, as the native engine finishes its interior points.
 
 use sweeping_api::{Blocks, ProjectionProblem};
-use sweeping_qp::active_set::{self, Start};
+use sweeping_qp::active_set::{self, Options, Start};
 
 /// Most active-set iterations on a block of `m` rows: `ITERATIONS + m/2`.
 const ITERATIONS: u32 = 40;
@@ -125,7 +125,11 @@ fn polish_block(
     let mut outcome = if over_complete {
         Err(Cap(0))
     } else {
-        active_set::solve(block, start_at(guess.clone(), z, None), cap)
+        active_set::solve(
+            block,
+            start_at(guess.clone(), z, None),
+            Options::capped(cap),
+        )
     };
     // Rows joining together that depend on the support make its equations inconsistent, and
     // they leave again one per iteration; on a jam whose guess holds more rows than unknowns
@@ -133,12 +137,20 @@ fn polish_block(
     // `docs/lab/2026-11-24-clarabel-jam-polish-one-row-at-a-time.md`). Tried second, because
     // joining every violated row at once is what saves iterations when the guess is good.
     if matches!(outcome, Err(Cap(_) | Cycling(_))) {
-        outcome = active_set::solve(block, start_at(guess.clone(), z, Some(1)), cap);
+        outcome = active_set::solve(
+            block,
+            start_at(guess.clone(), z, Some(1)),
+            Options::capped(cap),
+        );
         // Room for every row of the block to join and leave once: on a jam both tries above
         // can run out where one row at a time under this cap finishes (measured:
         // `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
         if matches!(outcome, Err(Cap(_))) {
-            outcome = active_set::solve(block, start_at(guess.clone(), z, Some(1)), long_cap(m));
+            outcome = active_set::solve(
+                block,
+                start_at(guess.clone(), z, Some(1)),
+                Options::capped(long_cap(m)),
+            );
         }
     }
     // A guess far beyond the block's unknowns can make every try above run out, where the
@@ -147,7 +159,11 @@ fn polish_block(
     if matches!(outcome, Err(Cap(_) | Cycling(_))) && over_complete {
         let point_slack: Vec<f64> = (0..m).map(point_slack).collect();
         let surest = surest(&guess, z, &point_slack, block.dim());
-        outcome = active_set::solve(block, start_at(surest, z, Some(1)), long_cap(m));
+        outcome = active_set::solve(
+            block,
+            start_at(surest, z, Some(1)),
+            Options::capped(long_cap(m)),
+        );
     }
     // The try skipped above is still worth its time where the answer is unfinished: on a
     // sliver, one row at a time can leave an answer unfinished that every row at once
@@ -155,7 +171,8 @@ fn polish_block(
     // only if finished: two unfinished answers are both off by about the tolerance of the
     // rung that stood, which does not say which is nearer.
     if over_complete && outcome.as_ref().is_ok_and(|o| o.unfinished.is_some()) {
-        if let Ok(first) = active_set::solve(block, start_at(guess, z, None), cap) {
+        if let Ok(first) = active_set::solve(block, start_at(guess, z, None), Options::capped(cap))
+        {
             if first.unfinished.is_none() {
                 outcome = Ok(first);
             }
@@ -294,7 +311,11 @@ mod tests {
         // alone needs 7 iterations, the 20 together 59): a single cap of 40 runs out.
         let support: Vec<usize> = (0..z.len()).filter(|&i| z[i] > s[i]).collect();
         assert!(matches!(
-            active_set::solve(&problem, start_at(support, &z, None), ITERATIONS),
+            active_set::solve(
+                &problem,
+                start_at(support, &z, None),
+                Options::capped(ITERATIONS)
+            ),
             Err(active_set::Failure::Cap(_))
         ));
         // Block by block, every chain is finished: x_j = j − 2.5, the copies inactive.
@@ -344,7 +365,7 @@ mod tests {
                 active_set::solve(
                     &problem,
                     start_at(guess.clone(), &z, join_at_most),
-                    short_cap(m),
+                    Options::capped(short_cap(m)),
                 )
                 .unwrap()
             });
@@ -395,11 +416,18 @@ mod tests {
         let guess: Vec<usize> = (0..z.len()).filter(|&i| z[i] > s[i]).collect();
         let m = problem.n_rows();
         assert_eq!(short_cap(m), 40 + 60);
-        assert!(
-            active_set::solve(&problem, start_at(guess.clone(), &z, None), short_cap(m)).is_ok()
-        );
+        assert!(active_set::solve(
+            &problem,
+            start_at(guess.clone(), &z, None),
+            Options::capped(short_cap(m))
+        )
+        .is_ok());
         assert!(matches!(
-            active_set::solve(&problem, start_at(guess, &z, None), ITERATIONS + 1),
+            active_set::solve(
+                &problem,
+                start_at(guess, &z, None),
+                Options::capped(ITERATIONS + 1)
+            ),
             Err(active_set::Failure::Cap(_))
         ));
     }
@@ -461,7 +489,7 @@ mod tests {
             join: z.clone(),
             join_at_most: Some(1),
         };
-        let second = active_set::solve(&problem, one_at_a_time, 240).unwrap();
+        let second = active_set::solve(&problem, one_at_a_time, Options::capped(240)).unwrap();
         assert_eq!(px, second.x);
         // Polished, not the iterate: rows left the support with a zero multiplier.
         assert!(pl.iter().filter(|l| **l == 0.0).count() > 30);
@@ -484,7 +512,7 @@ mod tests {
                 active_set::solve(
                     &problem,
                     start_at(support.clone(), &z, join_at_most),
-                    short_cap(m)
+                    Options::capped(short_cap(m))
                 ),
                 Err(active_set::Failure::Cap(_))
             ));

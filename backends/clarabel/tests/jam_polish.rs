@@ -14,7 +14,7 @@
 mod certified;
 use certified::assert_is_the_projection;
 use sweeping_api::ProjectionProblem;
-use sweeping_qp::active_set::{self, Failure, Start};
+use sweeping_qp::active_set::{self, Failure, Options, Start};
 
 /// The block, the interior point's `x` and `z`, and the slacks `s = A x − b`.
 fn jam() -> (ProjectionProblem, Vec<f64>, Vec<f64>, Vec<f64>) {
@@ -61,10 +61,10 @@ fn on_a_jam_the_polish_finishes_when_the_most_violated_row_joins_alone() {
     // The polish's cap on a block of 400 rows: 40 + 400/2.
     let cap = 240;
     assert!(matches!(
-        active_set::solve(&problem, guess(&z, &s, None), cap),
+        active_set::solve(&problem, guess(&z, &s, None), Options::capped(cap)),
         Err(Failure::Cap(_))
     ));
-    let outcome = active_set::solve(&problem, guess(&z, &s, Some(1)), cap)
+    let outcome = active_set::solve(&problem, guess(&z, &s, Some(1)), Options::capped(cap))
         .expect("one row joining at a time finishes within the cap");
     let kkt = problem.kkt_residuals(&outcome.x, &outcome.lambda).max();
     assert!(kkt <= 1e-12, "KKT residual {kkt:.3e}");

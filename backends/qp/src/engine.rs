@@ -2,7 +2,7 @@
 //! previous step's support, or by the interior point (and finished from its support when
 //! that is cheap); every answer certified.
 
-use crate::active_set::{self, Failure, Orderings, Start};
+use crate::active_set::{self, Failure, Memory, Options, Orderings, Start};
 use crate::ipm::{self, Tolerance};
 use crate::normal::{Layout, NormalMatrix};
 use std::time::Instant;
@@ -441,17 +441,23 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
     let r = p.shortfall(p.y());
     let (start, streak, warm) = warm_start(context, p, &r);
     let mut iterations = 0;
-    let certified = |x: &[f64], lambda: &[f64]| {
-        let k = p.kkt_residuals(x, lambda).max();
-        k.is_finite() && k <= context.tol
-    };
+    let certified = |x: &[f64], lambda: &[f64]| certified(context, p, x, lambda);
     if settings.active_set_iterations > 0 && !skips_active_set(streak) {
         let cap = if m >= LARGE_BLOCK_ROWS {
             settings.active_set_iterations.min(LARGE_BLOCK_ITERATIONS)
         } else {
             settings.active_set_iterations
         };
-        let res = active_set::solve_remembering(p, start, cap, orderings, &block.cols);
+        let memory = Memory {
+            orderings: &mut *orderings,
+            unknowns: &block.cols,
+        };
+        let options = Options {
+            cap,
+            memory: Some(memory),
+            ..Options::default()
+        };
+        let res = active_set::solve(p, start, options);
         match res {
             Ok(outcome) if certified(&outcome.x, &outcome.lambda) => {
                 return Ok(BlockAnswer {
@@ -485,45 +491,9 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         let missed = !violated.is_empty();
         iterations = iterations.saturating_add(it.iterations);
         if settings.finish_iterations > 0 {
-            // The interior point's support, finished exactly when the active set gets there
-            // within its cap: rows reached only like `√μ` are then where they belong. On a
-            // jam (more tight rows than unknowns) it runs out, and the interior point's answer
-            // stands. The finish's tests are at `1e-12`, and on a sliver of a feasible set an
-            // answer that passes them can lie `1e-8` from the projection, farther than the
-            // interior point: it is kept only where it agrees with the interior point's
-            // answer. An interior point too far short of its tolerance to be kept leaves the
-            // finish as the way to an answer: the finish then gets more iterations. (Nearer,
-            // its answer stands: on a sliver a longer finish ends farther from the projection.)
-            let cap = if it.converged
-                || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy
-            {
-                settings.finish_iterations
-            } else {
-                settings
-                    .finish_iterations
-                    .saturating_mul(UNCONVERGED_FINISH)
-            };
-            let res = active_set::first_pass_remembering(
-                p,
-                finish_start(&it, &r, p),
-                cap,
-                orderings,
-                &block.cols,
-            );
-            let agrees = |x: &[f64]| {
-                let apart = x
-                    .iter()
-                    .zip(p.y().iter().zip(&it.d))
-                    .map(|(a, (y, d))| (a - (y + d)).abs())
-                    .fold(0.0, f64::max);
-                apart <= AGREEMENT * it.accuracy.max(settings.interior_point.accuracy) * it.length
-            };
-            match res {
-                // An answer of the screened rows that violates a left-out row is no answer to
-                // agree with: the finish, which takes every row, stands on its certificate.
-                Ok(outcome)
-                    if certified(&outcome.x, &outcome.lambda) && (missed || agrees(&outcome.x)) =>
-                {
+            let finished = finish_interior_point(context, orderings, block, (&it, &r), missed);
+            match finished {
+                Finished::Answer(outcome) => {
                     return Ok(BlockAnswer {
                         x: outcome.x,
                         lambda: outcome.lambda,
@@ -533,16 +503,8 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                         short_of: None,
                     });
                 }
-                Ok(outcome) => iterations = iterations.saturating_add(outcome.iterations),
-                // A converged interior point says the set has points: a certificate of the
-                // finish's tests would be rounding of a set of zero width.
-                Err(Failure::Infeasible { rows }) if !it.converged => {
-                    return Err(BlockFailure::Infeasible(rows))
-                }
-                Err(Failure::Cap(n) | Failure::Cycling(n)) => {
-                    iterations = iterations.saturating_add(n)
-                }
-                Err(Failure::Infeasible { .. } | Failure::Numerical(_)) => {}
+                Finished::Infeasible(rows) => return Err(BlockFailure::Infeasible(rows)),
+                Finished::Spent(n) => iterations = iterations.saturating_add(n),
             }
         }
         if missed {
@@ -588,6 +550,86 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                 )
             },
         ));
+    }
+}
+
+/// What the active set's finish of an interior point came to.
+enum Finished {
+    /// An answer to keep.
+    Answer(active_set::Outcome),
+    /// A certificate that the block's rows are empty.
+    Infeasible(Vec<usize>),
+    /// No answer to keep, after this many iterations.
+    Spent(u32),
+}
+
+/// The block's KKT residuals certify `(x, λ)` to the engine's tolerance.
+fn certified(context: &Context<'_>, p: &ProjectionProblem, x: &[f64], lambda: &[f64]) -> bool {
+    let k = p.kkt_residuals(x, lambda).max();
+    k.is_finite() && k <= context.tol
+}
+
+/// The active set from the support of the interior point's iterate `it` (of the block whose
+/// `y` falls short of its rows by `r`), its first pass alone; `missed` when the iterate, of
+/// screened rows, violates a row left out.
+fn finish_interior_point(
+    context: &Context<'_>,
+    orderings: &mut Orderings,
+    block: &Block,
+    (it, r): (&ipm::Iterate, &[f64]),
+    missed: bool,
+) -> Finished {
+    let p = &block.problem;
+    let settings = context.settings;
+    // The interior point's support, finished exactly when the active set gets there
+    // within its cap: rows reached only like `√μ` are then where they belong. On a
+    // jam (more tight rows than unknowns) it runs out, and the interior point's answer
+    // stands. The finish's tests are at `1e-12`, and on a sliver of a feasible set an
+    // answer that passes them can lie `1e-8` from the projection, farther than the
+    // interior point: it is kept only where it agrees with the interior point's
+    // answer. An interior point too far short of its tolerance to be kept leaves the
+    // finish as the way to an answer: the finish then gets more iterations. (Nearer,
+    // its answer stands: on a sliver a longer finish ends farther from the projection.)
+    let cap = if it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy {
+        settings.finish_iterations
+    } else {
+        settings
+            .finish_iterations
+            .saturating_mul(UNCONVERGED_FINISH)
+    };
+    let memory = Memory {
+        orderings: &mut *orderings,
+        unknowns: &block.cols,
+    };
+    let options = Options {
+        cap,
+        first_pass_only: true,
+        memory: Some(memory),
+    };
+    let res = active_set::solve(p, finish_start(it, r, p), options);
+    let agrees = |x: &[f64]| {
+        let apart = x
+            .iter()
+            .zip(p.y().iter().zip(&it.d))
+            .map(|(a, (y, d))| (a - (y + d)).abs())
+            .fold(0.0, f64::max);
+        apart <= AGREEMENT * it.accuracy.max(settings.interior_point.accuracy) * it.length
+    };
+    match res {
+        // An answer of the screened rows that violates a left-out row is no answer to
+        // agree with: the finish, which takes every row, stands on its certificate.
+        Ok(outcome)
+            if certified(context, p, &outcome.x, &outcome.lambda)
+                && (missed || agrees(&outcome.x)) =>
+        {
+            Finished::Answer(outcome)
+        }
+        Ok(outcome) => Finished::Spent(outcome.iterations),
+        // A converged interior point says the set has points: a certificate of the
+        // finish's tests would be rounding of a set of zero width.
+        Err(Failure::Infeasible { rows }) if !it.converged => Finished::Infeasible(rows),
+        Err(Failure::Cap(n) | Failure::Cycling(n)) => Finished::Spent(n),
+        Err(Failure::Infeasible { .. } | Failure::Numerical(_)) => Finished::Spent(0),
     }
 }
 

@@ -259,6 +259,170 @@ fn starting_point(run: &mut Run<'_>, d: &mut [f64]) -> (Vec<f64>, Vec<f64>) {
     (slack, lambda)
 }
 
+/// The measures of an iterate the stopping test reads.
+struct Measured {
+    /// The largest of the primal residuals (as distances) and the dual residual.
+    residual: f64,
+    /// The duality measure `μ = sᵀλ/m`.
+    mu: f64,
+    /// The largest product `λᵢ sᵢ`.
+    largest_product: f64,
+}
+
+impl Residuals {
+    /// The residuals `r_d = d − Aᵀλ` and `r_p = A d − s − r` of the iterate `(d, λ, s)`,
+    /// kept, and the measures of the stopping test (`row_norm`: each row's length).
+    fn measure(
+        &mut self,
+        a: &SparseRows,
+        r: &[f64],
+        row_norm: &[f64],
+        (d, lambda, slack): (&[f64], &[f64], &[f64]),
+    ) -> Measured {
+        let m = slack.len();
+        a.mul_transpose_vec(lambda, &mut self.dual);
+        self.dual.iter_mut().zip(d).for_each(|(v, di)| *v = di - *v);
+        a.mul_vec(d, &mut self.primal);
+        for i in 0..m {
+            self.primal[i] -= slack[i] + r[i];
+        }
+        let primal_off = (0..m)
+            .filter(|&i| row_norm[i] > 0.0)
+            .map(|i| self.primal[i].abs() / row_norm[i])
+            .fold(0.0, f64::max);
+        let residual = primal_off.max(inf_norm(&self.dual));
+        let mu = slack.iter().zip(lambda).map(|(s, l)| s * l).sum::<f64>() / m as f64;
+        let largest_product = slack
+            .iter()
+            .zip(lambda)
+            .map(|(s, l)| s * l)
+            .fold(0.0, f64::max);
+        Measured {
+            residual,
+            mu,
+            largest_product,
+        }
+    }
+}
+
+/// The most accurate iterate so far, and whether the run still makes progress.
+struct Progress {
+    /// The best iterate, with its rank `(not certifiable, off)`.
+    best: Option<((bool, f64), Iterate)>,
+    /// The residuals and `μ` at the last progress.
+    least: f64,
+    /// Iterations since then.
+    since: u32,
+}
+
+impl Progress {
+    /// Keeps the iterate `(d, λ, s)` of rank `(not certifiable, off)` when it ranks before the
+    /// best so far. The best iterate is the most accurate of those the certificate would
+    /// accept (or of all, while none would): past the point where the directions lose
+    /// accuracy, a later iterate can have a smaller last direction and a residual the check
+    /// refuses.
+    fn offer(
+        &mut self,
+        rank: (bool, f64),
+        (d, lambda, slack): (&[f64], &[f64], &[f64]),
+        iterations: u32,
+        length: f64,
+    ) {
+        if !self.best.as_ref().is_none_or(|b| rank < b.0) {
+            return;
+        }
+        let off = rank.1;
+        // Copied into the vectors of the last best, not allocated again.
+        let mut kept = self.best.take().map_or_else(
+            || Iterate {
+                d: d.to_vec(),
+                lambda: lambda.to_vec(),
+                slack: slack.to_vec(),
+                iterations,
+                converged: false,
+                accuracy: off,
+                length,
+            },
+            |(_, kept)| kept,
+        );
+        kept.d.copy_from_slice(d);
+        kept.lambda.copy_from_slice(lambda);
+        kept.slack.copy_from_slice(slack);
+        kept.iterations = iterations;
+        kept.accuracy = off;
+        self.best = Some((rank, kept));
+    }
+
+    /// Counts `progress` (the residuals and `μ`, against the length scale): whether [`STALLED`]
+    /// iterations have now passed without it halving. Progress is the residuals and `μ`
+    /// falling; the last direction comes and goes (a random instance sat at one residual for
+    /// five iterations and then converged).
+    fn stalled(&mut self, progress: f64) -> bool {
+        if progress < 0.5 * self.least {
+            self.least = progress;
+            self.since = 0;
+        } else {
+            self.since += 1;
+        }
+        self.since >= STALLED
+    }
+}
+
+/// The complementarity target and the direction `(Δd, Δλ, Δs)` of an iteration.
+struct Step {
+    r_c: Vec<f64>,
+    dd: Vec<f64>,
+    dl: Vec<f64>,
+    ds: Vec<f64>,
+}
+
+impl Run<'_> {
+    /// Mehrotra's predictor–corrector direction at the iterate `(λ, s)` (weights factored) into
+    /// `step`, and the step length along it (a fraction [`TO_BOUNDARY`] of the way to the
+    /// boundary, at most 1); `None` when either is not finite.
+    fn predictor_corrector(
+        &mut self,
+        (lambda, slack): (&[f64], &[f64]),
+        res: &Residuals,
+        mu: f64,
+        refine: bool,
+        step: &mut Step,
+    ) -> Option<f64> {
+        let m = slack.len();
+        let Step { r_c, dd, dl, ds } = step;
+        // Predictor: the affine-scaling direction (target λ ∘ s = 0).
+        for i in 0..m {
+            r_c[i] = slack[i] * lambda[i];
+        }
+        self.direction((lambda, slack), res, r_c, refine, (dd, dl, ds));
+        let alpha = step_to_boundary(slack, ds)
+            .min(step_to_boundary(lambda, dl))
+            .min(1.0);
+        let mu_affine = slack
+            .iter()
+            .zip(ds.iter())
+            .zip(lambda.iter().zip(dl.iter()))
+            .map(|((s, dsi), (l, dli))| (s + alpha * dsi) * (l + alpha * dli))
+            .sum::<f64>()
+            / m as f64;
+        let sigma = (mu_affine / mu).clamp(0.0, 1.0).powi(3);
+        // Corrector: the second-order term of the predictor, and centring.
+        for i in 0..m {
+            r_c[i] = slack[i] * lambda[i] + ds[i] * dl[i] - sigma * mu;
+        }
+        self.direction((lambda, slack), res, r_c, refine, (dd, dl, ds));
+        let alpha =
+            (TO_BOUNDARY * step_to_boundary(slack, ds).min(step_to_boundary(lambda, dl))).min(1.0);
+        let finite = alpha.is_finite()
+            && dd
+                .iter()
+                .chain(ds.iter())
+                .chain(dl.iter())
+                .all(|v| v.is_finite());
+        finite.then_some(alpha)
+    }
+}
+
 /// Runs the method on `min ½‖d‖²` s.t. `A d ≥ r` (`normal` built from `a`) until `tolerance`
 /// is met or `max_iterations` have run, or until the normal matrix can no longer be factored,
 /// a direction is no longer finite, or [`STALLED`] iterations pass without the residuals or
@@ -303,8 +467,12 @@ pub(crate) fn solve(
         dual: vec![0.0; n],
         primal: vec![0.0; m],
     };
-    let mut r_c = vec![0.0; m];
-    let (mut dd, mut dl, mut ds) = (vec![0.0; n], vec![0.0; m], vec![0.0; m]);
+    let mut step = Step {
+        r_c: vec![0.0; m],
+        dd: vec![0.0; n],
+        dl: vec![0.0; m],
+        ds: vec![0.0; m],
+    };
     // The residuals shrink by `1 − α` per iteration in exact arithmetic; once they grow the
     // directions are no longer accurate (weights spanning many orders of magnitude), and from
     // then on each solve is refined once; so they are from the late iterations on, where the
@@ -313,29 +481,18 @@ pub(crate) fn solve(
     let mut refine = false;
     let mut last_residual = f64::INFINITY;
     let mut last_direction = f64::INFINITY;
-    let mut best: Option<((bool, f64), Iterate)> = None;
-    let mut best_progress = f64::INFINITY;
-    let mut since_progress = 0;
+    let mut progress = Progress {
+        best: None,
+        least: f64::INFINITY,
+        since: 0,
+    };
     let mut iterations = 0;
     loop {
-        // Residuals: r_d = d − Aᵀλ, r_p = A d − s − r.
-        a.mul_transpose_vec(&lambda, &mut res.dual);
-        res.dual.iter_mut().zip(&d).for_each(|(v, di)| *v = di - *v);
-        a.mul_vec(&d, &mut res.primal);
-        for i in 0..m {
-            res.primal[i] -= slack[i] + r[i];
-        }
-        let primal_off = (0..m)
-            .filter(|&i| row_norm[i] > 0.0)
-            .map(|i| res.primal[i].abs() / row_norm[i])
-            .fold(0.0, f64::max);
-        let residual = primal_off.max(inf_norm(&res.dual));
-        let mu = slack.iter().zip(&lambda).map(|(s, l)| s * l).sum::<f64>() / m as f64;
-        let largest_product = slack
-            .iter()
-            .zip(&lambda)
-            .map(|(s, l)| s * l)
-            .fold(0.0, f64::max);
+        let Measured {
+            residual,
+            mu,
+            largest_product,
+        } = res.measure(a, r, &row_norm, (&d, &lambda, &slack));
         let certifiable = residual.max(largest_product) <= kkt;
         let off = residual.max(last_direction).max(mu / length) / length;
         if !(residual.is_finite() && mu.is_finite()) {
@@ -352,41 +509,10 @@ pub(crate) fn solve(
                 length,
             });
         }
-        // The best iterate is the most accurate of those the certificate would accept (or of
-        // all, while none would): past the point where the directions lose accuracy, a later
-        // iterate can have a smaller last direction and a residual the check refuses.
-        let rank = (!certifiable, off);
-        if best.as_ref().is_none_or(|b| rank < b.0) {
-            // Copied into the vectors of the last best, not allocated again.
-            let mut kept = best.take().map_or_else(
-                || Iterate {
-                    d: d.clone(),
-                    lambda: lambda.clone(),
-                    slack: slack.clone(),
-                    iterations,
-                    converged: false,
-                    accuracy: off,
-                    length,
-                },
-                |(_, kept)| kept,
-            );
-            kept.d.copy_from_slice(&d);
-            kept.lambda.copy_from_slice(&lambda);
-            kept.slack.copy_from_slice(&slack);
-            kept.iterations = iterations;
-            kept.accuracy = off;
-            best = Some((rank, kept));
-        }
-        // Progress is the residuals and `μ` falling; the last direction comes and goes (a
-        // random instance sat at one residual for five iterations and then converged).
-        let progress = residual.max(mu / length);
-        if progress < 0.5 * best_progress {
-            best_progress = progress;
-            since_progress = 0;
-        } else {
-            since_progress += 1;
-        }
-        if iterations >= max_iterations || since_progress >= STALLED {
+        let iterate = (&d[..], &lambda[..], &slack[..]);
+        progress.offer((!certifiable, off), iterate, iterations, length);
+        let stalled = progress.stalled(residual.max(mu / length));
+        if iterations >= max_iterations || stalled {
             break;
         }
         iterations += 1;
@@ -400,61 +526,26 @@ pub(crate) fn solve(
         if run.normal.factor(&run.w).is_err() {
             break;
         }
-        // Predictor: the affine-scaling direction (target λ ∘ s = 0).
-        for i in 0..m {
-            r_c[i] = slack[i] * lambda[i];
-        }
-        run.direction(
-            (&lambda, &slack),
-            &res,
-            &r_c,
-            refine,
-            (&mut dd, &mut dl, &mut ds),
-        );
-        let alpha = step_to_boundary(&slack, &ds)
-            .min(step_to_boundary(&lambda, &dl))
-            .min(1.0);
-        let mu_affine = slack
-            .iter()
-            .zip(&ds)
-            .zip(lambda.iter().zip(&dl))
-            .map(|((s, dsi), (l, dli))| (s + alpha * dsi) * (l + alpha * dli))
-            .sum::<f64>()
-            / m as f64;
-        let sigma = (mu_affine / mu).clamp(0.0, 1.0).powi(3);
-        // Corrector: the second-order term of the predictor, and centring.
-        for i in 0..m {
-            r_c[i] = slack[i] * lambda[i] + ds[i] * dl[i] - sigma * mu;
-        }
-        run.direction(
-            (&lambda, &slack),
-            &res,
-            &r_c,
-            refine,
-            (&mut dd, &mut dl, &mut ds),
-        );
-        let alpha = (TO_BOUNDARY
-            * step_to_boundary(&slack, &ds).min(step_to_boundary(&lambda, &dl)))
-        .min(1.0);
-        if !(alpha.is_finite() && dd.iter().chain(&ds).chain(&dl).all(|v| v.is_finite())) {
+        let Some(alpha) = run.predictor_corrector((&lambda, &slack), &res, mu, refine, &mut step)
+        else {
             break;
-        }
-        last_direction = alpha * inf_norm(&dd);
-        for j in 0..n {
-            d[j] += alpha * dd[j];
-        }
+        };
+        last_direction = alpha * inf_norm(&step.dd);
+        d.iter_mut()
+            .zip(&step.dd)
+            .for_each(|(dj, ddj)| *dj += alpha * ddj);
         // Kept off zero by a floor far below any accuracy asked for: a slack rounded to zero
         // makes its weight infinite and the next direction not finite.
         let floor = FLOOR * length;
         for i in 0..m {
-            slack[i] = (slack[i] + alpha * ds[i]).max(floor);
-            lambda[i] = (lambda[i] + alpha * dl[i]).max(floor);
+            slack[i] = (slack[i] + alpha * step.ds[i]).max(floor);
+            lambda[i] = (lambda[i] + alpha * step.dl[i]).max(floor);
         }
     }
     // A diverging run (an empty set) keeps its last multipliers, which point along a Farkas
     // certificate; otherwise the most accurate iterate is the one worth having.
-    let got_close = best.as_ref().is_some_and(|(b, _)| b.1 < 1e-3);
-    match best {
+    let got_close = progress.best.as_ref().is_some_and(|(b, _)| b.1 < 1e-3);
+    match progress.best {
         Some((_, it)) if got_close => Some(Iterate { iterations, ..it }),
         _ => Some(Iterate {
             d,
