@@ -64,7 +64,7 @@ impl Default for EngineSettings {
 /// Which method answered a block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
-    /// The active set, from the warm start (exact to its tests).
+    /// The active set, from the warm start (its tests at `1e-12`).
     ActiveSet,
     /// The interior point, finished by the active set or answered as it stood.
     InteriorPoint,
@@ -452,10 +452,14 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
             orderings: &mut *orderings,
             unknowns: &block.cols,
         };
+        // The answer of the tests at `1e-12`, on its KKT certificate: the active set's second
+        // pass at `1e-15` moves the congested scenes' answers by far less than the scheme's
+        // own error, and on a jam that stands still it cycles through its finishing ladder at
+        // every step (measured: `docs/lab/2026-12-04-warm-active-set-first-pass.md`).
         let options = Options {
             cap,
+            first_pass_only: true,
             memory: Some(memory),
-            ..Options::default()
         };
         let res = active_set::solve(p, start, options);
         match res {

@@ -8,7 +8,7 @@
 //!    bordered as rows join and leave) from the previous projection's support, matched by
 //!    [`sweeping_api::RowKey`], for at most [`EngineSettings::active_set_iterations`]. A crowd
 //!    walking, or a queue moving, changes its support by a few rows a step: one to a few
-//!    iterations, exact. A block that went to the interior point at its last three
+//!    iterations, its tests at `1e-12`. A block that went to the interior point at its last three
 //!    projections or more skips this attempt (but at powers of two).
 //! 2. otherwise **the interior point** (Mehrotra's predictor–corrector on the normal equations
 //!    `(I + AᵀWA) Δd = …`, one sparse Cholesky factorization an iteration, the pattern

@@ -147,8 +147,7 @@ pub struct Options<'a> {
     pub cap: u32,
     /// The first pass's answer as it is, of the tests at `1e-12`, without the passes that
     /// finish it at `1e-15`: on a sliver of a feasible set it can lie `1e-8` from the
-    /// projection (the engine checks such answers against its interior point's before it
-    /// keeps them). Default `false`.
+    /// projection. Default `false`.
     pub first_pass_only: bool,
     /// Where sparse factorizations are ordered from, and remembered ([`Memory`]); `None`
     /// orders each by AMD. Default `None`.
