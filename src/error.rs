@@ -3,6 +3,9 @@
 use crate::stepper::{display_number, Run, RunFailure};
 use sweeping_api::ProjectionError;
 
+/// Most constraints [`SweepError::EmptySet`] names; the rest are counted.
+pub const EMPTY_SET_NAMED: usize = 8;
+
 /// What is wrong with a support, for [`SweepError::InvalidSupport`].
 fn support_fault(support: &[usize], dim: usize) -> String {
     if let Some(c) = support.iter().find(|c| **c >= dim) {
@@ -86,6 +89,24 @@ pub enum SweepError {
         #[source]
         source: ProjectionError,
     },
+    /// The projection's set is empty, and the backend named the rows that make it so (a
+    /// Farkas certificate): no position satisfies their linearizations together after the
+    /// step — a moving obstacle or wall squeezing people against each other or a wall, say.
+    #[error("step {step}, t = {}: no position satisfies these constraints together after the step: {}{}; {source}", display_number(*t), constraints.join("; "), if *more > 0 { format!("; and {more} more") } else { String::new() })]
+    EmptySet {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// The constraints of the certificate (people, walls and obstacles, for crowds), at
+        /// most [`EMPTY_SET_NAMED`] of them.
+        constraints: Vec<String>,
+        /// How many more the certificate holds.
+        more: usize,
+        /// The backend's error.
+        #[source]
+        source: Box<ProjectionError>,
+    },
     /// A run-time assumption check failed under the `error` policy.
     #[error("step {step}, t = {}: assumption {assumption} violated by {constraint}: {detail}", display_number(*t))]
     AssumptionViolated {
@@ -124,7 +145,7 @@ pub enum SweepError {
     /// The backend's answer does not satisfy the KKT conditions of the projection within
     /// [`StepperSettings::kkt_tolerance`](crate::stepper::StepperSettings) (relative): it is
     /// not the projection, whatever status the solver reported.
-    #[error("step {step}, t = {t}: the answer of backend {backend} fails the KKT check ({residuals}; tolerance {tolerance:.1e} relative to terms up to {scale:.3e}); a backend set loose on purpose (OsqpSettings::loose, ClarabelSettings::loose) needs StepperSettings::kkt_tolerance raised to match")]
+    #[error("step {step}, t = {t}: the answer of backend {backend} fails the KKT check ({residuals}; tolerance {tolerance:.1e} relative to terms up to {scale:.3e}); {hint}")]
     KktCheckFailed {
         /// Step index.
         step: usize,
@@ -138,6 +159,10 @@ pub enum SweepError {
         tolerance: f64,
         /// The largest of the term sizes the residuals are compared with.
         scale: f64,
+        /// What to do about it: with a prediction far larger than the distances to the
+        /// constraints, a shorter step or lower speeds; otherwise, a backend set loose on
+        /// purpose needs the tolerance raised to match.
+        hint: String,
     },
     /// A moving constraint moves farther in one step than the linearization can follow
     /// (the rule of the README, from the paper's `h < c/K_L` with `K_L ≤ β/α` by A1–A2): the

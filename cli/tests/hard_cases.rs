@@ -340,6 +340,71 @@ t_end = 0.05
     let _ = Obstacle::Disk([0.0, 0.0], 1.0, still());
 }
 
+/// A disk obstacle sweeps a person into the wall behind them: the step's set is empty, and
+/// the error names the person, the obstacle and the wall of the certificate, not row numbers.
+#[test]
+fn a_squeezed_person_is_named_with_what_squeezes_them() {
+    let scene = r#"
+[room]
+rectangle = [0.0, 0.0, 5.0, 5.0]
+[[obstacles]]
+disk = { center = [3.0, 2.5], radius = 0.5 }
+path = [[0.0, 0.0, 0.0], [2.0, -2.0, 0.0]]
+[[people]]
+position = [0.5, 2.5]
+radius = 0.3
+[run]
+t_end = 2.0
+"#;
+    for backend in ["native", "clarabel"] {
+        let run = sweep_run(
+            &format!("squeeze-{backend}"),
+            scene,
+            &["--backend", backend],
+        );
+        assert!(!run.success, "{}", run.output);
+        if backend == "native" {
+            for named in [
+                "no position satisfies these constraints together",
+                "person 0 against obstacles #0 (disk of radius 0.5",
+                "person 0 against walls #3 (segment (0, 5)–(0, 0))",
+            ] {
+                assert!(run.output.contains(named), "{named}: {}", run.output);
+            }
+        }
+        assert!(!run.output.contains("rows [1, 0]") || run.output.contains("person 0"));
+    }
+}
+
+/// At speeds of 1e12 m/s a failed KKT check says that the prediction is beyond what the
+/// projection resolves, not that a backend was set loose on purpose.
+#[test]
+fn a_kkt_failure_at_absurd_speeds_says_why() {
+    let scene = r#"
+[room]
+rectangle = [0, 0, 5, 5]
+[[crowds]]
+count = 40
+radius = 0.2
+desired = { kind = "constant", velocity = [-1e12, -1e12] }
+[run]
+t_end = 0.05
+"#;
+    let run = sweep_run("kkt-hint", scene, &["--backend", "native"]);
+    assert!(!run.success, "{}", run.output);
+    assert!(run.output.contains("fails the KKT check"), "{}", run.output);
+    assert!(
+        run.output.contains("use a shorter step or lower speeds"),
+        "{}",
+        run.output
+    );
+    assert!(
+        !run.output.contains("set loose on purpose"),
+        "{}",
+        run.output
+    );
+}
+
 /// Item 4: a snapshot interval of 1e-12 s (below h) is clamped and the run ends.
 #[test]
 fn tiny_snapshot_interval_terminates() {

@@ -40,6 +40,7 @@ impl Stepper<'_> {
         if tol.is_infinite() {
             return Ok(());
         }
+        let hint = kkt_hint(qp);
         let wrong = |residuals: String, scale: f64| SweepError::KktCheckFailed {
             step: self.k,
             t: t_next,
@@ -47,6 +48,7 @@ impl Stepper<'_> {
             residuals,
             tolerance: tol,
             scale,
+            hint: hint.clone(),
         };
         if sol.x.len() != qp.dim() || sol.multipliers.len() != qp.n_rows() {
             return Err(wrong(
@@ -251,5 +253,29 @@ impl Stepper<'_> {
                 describe_point(&so.columns, x)
             )
         })
+    }
+}
+
+/// A prediction this many times farther than the farthest constraint's distance is beyond
+/// what the projection resolves in double precision, whatever the backend.
+const FAR_PREDICTION: f64 = 1e4;
+
+/// What a failed KKT check asks of the user (see [`SweepError::KktCheckFailed`]): the QP is in
+/// the displacement `u = x − q_k`, so `‖y‖∞` is the step's travel and `|bᵢ|` the distances
+/// to the constraints.
+fn kkt_hint(qp: &ProjectionProblem) -> String {
+    let travel = qp.y().iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+    let reach = qp.b().iter().fold(1.0, |m: f64, v| m.max(v.abs()));
+    if travel > FAR_PREDICTION * reach {
+        format!(
+            "the prediction moves people up to {travel:.3e} in one step, {:.1e} times the \
+             farthest constraint's distance ({reach:.3e}): the projection cannot be resolved \
+             at that scale; use a shorter step or lower speeds",
+            travel / reach
+        )
+    } else {
+        "a backend set loose on purpose (OsqpSettings::loose, ClarabelSettings::loose) needs \
+         StepperSettings::kkt_tolerance raised to match"
+            .to_string()
     }
 }

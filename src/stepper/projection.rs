@@ -102,6 +102,34 @@ impl Stepper<'_> {
         Ok((qp, sol))
     }
 
+    /// A backend's certificate that the step's set is empty, said by the constraints it rests
+    /// on (people, walls, obstacles), or the error back when it names no rows.
+    fn empty_set(
+        &self,
+        error: sweeping_api::ProjectionError,
+        t_next: f64,
+    ) -> Result<SweepError, sweeping_api::ProjectionError> {
+        let sweeping_api::ProjectionError::Infeasible { rows, .. } = &error else {
+            return Err(error);
+        };
+        let named: Vec<String> = rows
+            .iter()
+            .filter_map(|&r| self.row_origin.get(r))
+            .take(crate::error::EMPTY_SET_NAMED)
+            .map(|&(fi, idx)| self.problem.families()[fi].describe(idx))
+            .collect();
+        if named.is_empty() {
+            return Err(error);
+        }
+        Ok(SweepError::EmptySet {
+            step: self.k,
+            t: t_next,
+            more: rows.len() - named.len(),
+            constraints: named,
+            source: Box::new(error),
+        })
+    }
+
     /// A failed solve of a far prediction, retried once on the same QP (already written in
     /// the displacement `u = x − q_k`) scaled by `s = ‖h f‖∞`: `min ½‖v − h f/s‖²` s.t.
     /// `A v ≥ b/s`, then `u = s v`, `λ = s μ`. Done only when `u = 0` satisfies every row
@@ -136,7 +164,7 @@ impl Stepper<'_> {
         if !(far > 1.0 && far.is_finite() && q_in_set)
             || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
         {
-            return Err(fail(first));
+            return Err(self.empty_set(first, t_next).unwrap_or_else(fail));
         }
         let b: Vec<f64> = qp.b().iter().map(|b| b / far).collect();
         let y: Vec<f64> = qp.y().iter().map(|d| d / far).collect();

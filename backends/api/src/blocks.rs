@@ -323,6 +323,7 @@ impl<P: Projector> Projector for Blocked<P> {
                     "row {r} has no non-zero entry and b[{r}] = {} > 0",
                     problem.b()[r]
                 ),
+                rows: vec![r],
             });
         }
         let answers = blocks

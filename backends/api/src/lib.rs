@@ -452,6 +452,10 @@ pub enum ProjectionError {
         backend: String,
         /// Backend status or certificate summary.
         detail: String,
+        /// The rows (indices into the problem's rows) of the certificate, when the backend
+        /// names them: a non-negative combination of them reads `0 ≥ positive`. Empty when it
+        /// gives only a status.
+        rows: Vec<usize>,
     },
     /// The backend stopped before reaching its tolerances.
     #[error("{backend}: not converged after {iterations} iterations (status {status})")]

@@ -335,6 +335,7 @@ impl ClarabelProjector {
                 Err(ProjectionError::Infeasible {
                     backend: NAME.to_string(),
                     detail: format!("{name} after {iterations} iterations"),
+                    rows: Vec::new(),
                 })
             }
             SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible => {
@@ -434,6 +435,7 @@ impl Projector for ClarabelProjector {
                     "row {r} has no non-zero entry and b[{r}] = {} > 0",
                     problem.b()[r]
                 ),
+                rows: vec![r],
             });
         }
         let p = CscMatrix::identity(n);

@@ -667,6 +667,7 @@ fn read_status(status: Status<'_>) -> (Outcome, u32) {
         Outcome::Error(ProjectionError::Infeasible {
             backend: NAME.to_string(),
             detail: detail.to_string(),
+            rows: Vec::new(),
         })
     };
     let failure = |message: &str| Outcome::Error(OsqpProjector::backend_error(message));
@@ -759,6 +760,9 @@ impl Projector for OsqpProjector {
             return Err(ProjectionError::Infeasible {
                 backend: NAME.to_string(),
                 detail: "no coordinates, and a row requires 0 ≥ b with b > 0".into(),
+                rows: (0..problem.n_rows())
+                    .filter(|&i| problem.b()[i] > 0.0)
+                    .collect(),
             });
         }
         if let Some(i) = l.iter().position(|v| v.is_nan() || *v >= UPPER_BOUND) {

@@ -182,6 +182,7 @@ impl Engine {
                     "row {r} has no non-zero entry and b[{r}] = {} > 0",
                     problem.b()[r]
                 ),
+                rows: vec![r],
             });
         }
         self.orderings.forget_older();
@@ -219,11 +220,14 @@ impl Engine {
                             "Farkas certificate on rows {global:?} (block {index}): a \
                              non-negative combination of them reads 0 ≥ positive"
                         ),
+                        rows: global,
                     });
                 }
                 Err(BlockFailure::Unsolved { iterations, reason }) => match fallback.as_mut() {
                     Some(fallback) => {
-                        let mut answer = fallback.project(&block.problem)?;
+                        let mut answer = fallback
+                            .project(&block.problem)
+                            .map_err(|e| through_fallback(e, name, index, block, &reason))?;
                         answer.stats.counters.fallbacks =
                             answer.stats.counters.fallbacks.saturating_add(1);
                         methods.push(None);
@@ -376,6 +380,39 @@ impl Engine {
                 );
             }
         }
+    }
+}
+
+/// The error of a fallback that failed on block `index` too, said as this backend's (`name`):
+/// the block, why it went to the fallback, and the fallback's own error; a certificate's rows
+/// in the whole problem's numbering.
+fn through_fallback(
+    error: ProjectionError,
+    name: &str,
+    index: usize,
+    block: &Block,
+    reason: &str,
+) -> ProjectionError {
+    let handed = format!(
+        "block {index} ({} rows, {} unknowns) went to its fallback ({reason})",
+        block.rows.len(),
+        block.cols.len()
+    );
+    match error {
+        ProjectionError::Infeasible {
+            backend,
+            detail,
+            rows,
+        } => ProjectionError::Infeasible {
+            backend: name.to_string(),
+            detail: format!("{handed}, and {backend} found: {detail}"),
+            rows: rows.iter().map(|&r| block.rows[r]).collect(),
+        },
+        ProjectionError::InvalidInput { .. } => error,
+        other => ProjectionError::Backend {
+            backend: name.to_string(),
+            message: format!("{handed}, which failed too: {other}"),
+        },
     }
 }
 
