@@ -107,6 +107,23 @@ pub enum SweepError {
         #[source]
         source: Box<ProjectionError>,
     },
+    /// The backend stopped short of its tolerances on a step's projection (OSQP, a
+    /// first-order method, can stall on a jam's dependent contacts): the error names the
+    /// constraints the prediction violates most, where the step got stuck.
+    #[error("step {step}, t = {}: {source}, on the projection of {rows} rows; the prediction violates most: {}; a backend that stops short on people pressed together (OSQP) can be replaced by the native backend or Clarabel, which solve such steps exactly", display_number(*t), constraints.join("; "))]
+    ProjectionStalled {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// Rows in the QP.
+        rows: usize,
+        /// The constraints most violated at the prediction, at most [`EMPTY_SET_NAMED`].
+        constraints: Vec<String>,
+        /// The backend's error.
+        #[source]
+        source: Box<ProjectionError>,
+    },
     /// A run-time assumption check failed under the `error` policy.
     #[error("step {step}, t = {}: assumption {assumption} violated by {constraint}: {detail}", display_number(*t))]
     AssumptionViolated {

@@ -232,3 +232,22 @@ fn a_region_walled_off_from_the_exits_has_no_route() {
     let field = DistanceField::compute(&domain, 0.1).unwrap();
     assert!(field.reaches_exit([2.0, 5.0]));
 }
+
+/// A thin wall meeting the room's edge at an end of an exit (a corridor's wall ending at the
+/// corridor's exit): the people behind it are led around it, not into it. The exit's seeds
+/// once reached the nodes beside its end, behind the wall, at a distance of a cell.
+#[test]
+fn a_wall_ending_at_an_exit_is_walked_around() {
+    let mut domain = MarchingDomain {
+        room: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
+        exits: vec![([10.0, 4.0], [10.0, 6.0])],
+        ..Default::default()
+    };
+    domain.segments = vec![([5.0, 4.0], [10.0, 4.0])];
+    let field = DistanceField::compute(&domain, 0.05).unwrap();
+    // Around the wall's free end at (5, 4): about 4.9 + 5.0.
+    let behind = field.distance([9.9, 3.9]);
+    assert!(behind > 9.0, "{behind}");
+    // In front of the exit, the distance is the straight one.
+    assert!((field.distance([9.0, 5.0]) - 1.0).abs() < 0.1);
+}

@@ -1,6 +1,6 @@
 //! The RiMEA verification tests (RiMEA guideline, Annex 1) that a model of people in one plane
 //! can run, on the scenes shipped in `examples/scenes/rimea/`, each with the suite's own pass
-//! criterion checked on the trajectory. Tests 1, 6 and 12 run in the default test run; test 9
+//! criterion checked on the trajectory. Tests 1, 5, 6, 7, 10 and 12 run in the default test run; test 9
 //! (2 × 1000 people) is ignored here and run by `scripts/rimea`. The guide's page "The RiMEA
 //! tests" says which tests pass, which cannot be written yet, and why.
 
@@ -122,6 +122,79 @@ fn rimea_1_the_walking_speed_is_kept_in_a_corridor() {
     assert!((26.0..=34.0).contains(&travel), "40 m in {travel} s");
 }
 
+/// Test 5: ten people with reaction times of 10, 20, …, 100 s start walking at those times
+/// (the community's suite allows two frames at 8 per second, 0.25 s).
+#[test]
+fn rimea_5_people_start_at_their_reaction_times() {
+    let built = scene("test-05-pre-movement.toml");
+    assert_eq!(built.population.len(), 10);
+    let (summary, recorder) = run(&built, true);
+    assert_eq!(summary.people_remaining, 0, "{summary:?}");
+    let start = &recorder.frames[0].q;
+    let mut worst: f64 = 0.0;
+    for i in 0..10 {
+        let reaction = 10.0 * (i + 1) as f64;
+        let moved = recorder
+            .frames
+            .iter()
+            .find(|f| (f.q[2 * i] - start[2 * i]).hypot(f.q[2 * i + 1] - start[2 * i + 1]) > 1e-9)
+            .map(|f| f.t)
+            .expect("everybody moves");
+        // The position at `t` is that after the step ending at `t`: a person who starts at
+        // `reaction` has moved at the end of the step that begins there.
+        let error = moved - built.settings.h - reaction;
+        worst = worst.max(error.abs());
+        assert!(
+            (-1e-9..=0.25).contains(&error),
+            "person {i}: reaction time {reaction} s, moved at {moved} s"
+        );
+    }
+    eprintln!("RiMEA 5: every start within {worst:.3} s of its reaction time (pass: 0.25 s)");
+}
+
+/// Test 7: walking speeds drawn per age group lie in the group's range, and every measured
+/// walking speed (distance over time from the start to 40 m on) within the ranges' union,
+/// 0.46 to 1.61 m/s (the community's suite's criterion).
+#[test]
+fn rimea_7_speeds_drawn_per_group_are_kept() {
+    let built = scene("test-07-speeds.toml");
+    let ranges = [[0.58, 1.61], [1.41, 1.54], [0.68, 1.41], [0.46, 0.76]];
+    assert_eq!(built.population.len(), 200);
+    for (i, &v) in built.speeds.iter().enumerate() {
+        let [lo, hi] = ranges[built.group_of[i]];
+        assert!(
+            (lo..=hi).contains(&v),
+            "person {i}: speed {v} outside [{lo}, {hi}]"
+        );
+    }
+    // The draws spread over each range rather than sitting on one value.
+    for (g, [lo, hi]) in ranges.iter().enumerate() {
+        let group: Vec<f64> = (0..200)
+            .filter(|&i| built.group_of[i] == g)
+            .map(|i| built.speeds[i])
+            .collect();
+        let (min, max) = group
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(
+            max - min > 0.2 * (hi - lo),
+            "group {g}: speeds {min} to {max}"
+        );
+    }
+    let (summary, recorder) = run(&built, true);
+    assert_eq!(summary.people_remaining, 0, "{summary:?}");
+    let (mut slowest, mut fastest) = (f64::INFINITY, 0.0f64);
+    for i in 0..200 {
+        let x0 = recorder.frames[0].q[2 * i];
+        let t = recorder.crossing_x(i, x0 + 40.0).expect("walks 40 m");
+        let v = 40.0 / t;
+        slowest = slowest.min(v);
+        fastest = fastest.max(v);
+    }
+    eprintln!("RiMEA 7: measured speeds {slowest:.3} to {fastest:.3} m/s (pass: 0.46 to 1.61)");
+    assert!(slowest >= 0.46 && fastest <= 1.61, "{slowest} to {fastest}");
+}
+
 /// Test 6: 20 people walk around a corner; nobody is ever in the square inside the corner
 /// (`[0, 10] × [2, 12]`), and everybody leaves.
 #[test]
@@ -146,6 +219,39 @@ fn rimea_6_nobody_cuts_the_corner() {
             );
         }
     }
+}
+
+/// Test 10: 23 people in twelve rooms off a corridor leave by the exit each is assigned (the
+/// lower rooms' by exit 2 at the corridor's right end, the upper rooms' by exit 1 at its left
+/// end), not by the nearest.
+#[test]
+fn rimea_10_everybody_uses_their_assigned_exit() {
+    let built = scene("test-10-assigned-exits.toml");
+    let n = built.population.len();
+    assert_eq!(n, 23);
+    let (summary, recorder) = run(&built, true);
+    assert_eq!(summary.people_remaining, 0, "{summary:?}");
+    let start = &recorder.frames[0].q;
+    for i in 0..n {
+        let gone = recorder
+            .frames
+            .iter()
+            .find(|f| !f.present[i])
+            .expect("everybody leaves");
+        let (x, y) = (gone.q[2 * i], gone.q[2 * i + 1]);
+        let assigned_right = start[2 * i + 1] < 5.0;
+        let by_right = x > 23.0 && (4.0..=6.0).contains(&y);
+        let by_left = x < 1.0 && (4.0..=6.0).contains(&y);
+        assert!(
+            if assigned_right { by_right } else { by_left },
+            "person {i} (assigned exit {}) left at ({x}, {y})",
+            if assigned_right { 2 } else { 1 }
+        );
+    }
+    eprintln!(
+        "RiMEA 10: all {n} people left by their assigned exits, the last at {:.2} s",
+        summary.evacuation_time.unwrap_or(f64::NAN)
+    );
 }
 
 /// Test 12: 150 people leave through a corridor 1 m wide into a second room with an exit

@@ -71,12 +71,14 @@ fn from_code() -> CrowdBuilder {
             position: [1.0, 1.0],
             radius: 0.25,
             speed: Some(1.3),
+            pre_movement: None,
             desired: None,
         })
         .person_with(sweeping::scene::spec::PersonSpec {
             position: [1.0, 4.0],
             radius: 0.2,
             speed: None,
+            pre_movement: None,
             desired: Some(DesiredSpec::point([4.0, 4.0])),
         })
         .crowd(
@@ -205,4 +207,36 @@ fn the_file_names_the_line_the_builder_cannot() {
         .unwrap();
     assert_eq!(e.line(), Some(6));
     assert!(e.to_string().contains("the two people overlap at t = 0"));
+}
+
+/// Speeds and pre-movement times drawn per person come from streams of the crowd's seed of
+/// their own: the same seed draws the same values, and adding a distribution does not move
+/// anybody.
+#[test]
+fn drawn_speeds_and_times_are_reproducible_and_leave_the_placement_alone() {
+    let crowd = |extra: &str| {
+        let text = format!(
+            "[room]\nrectangle = [0.0, 0.0, 10.0, 10.0]\n[[crowds]]\ncount = 30\nradius = 0.2\n\
+             seed = 5\n{extra}"
+        );
+        sweeping::scene::Scene::from_toml_str(&text, "crowd.toml")
+            .and_then(|s| s.build(&sweeping::scene::Overrides::default()))
+            .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let plain = crowd("");
+    let drawn = crowd(
+        "speed = { normal = [1.3, 0.2], within = [0.8, 1.8] }\n\
+         pre_movement = { uniform = [0.0, 5.0] }\n",
+    );
+    let again = crowd(
+        "speed = { normal = [1.3, 0.2], within = [0.8, 1.8] }\n\
+         pre_movement = { uniform = [0.0, 5.0] }\n",
+    );
+    assert_eq!(plain.problem.q0(), drawn.problem.q0());
+    assert_eq!(drawn.speeds, again.speeds);
+    assert!(plain.speeds.iter().all(|&v| v == 1.0));
+    assert!(drawn.speeds.iter().all(|v| (0.8..=1.8).contains(v)));
+    let distinct: std::collections::BTreeSet<u64> =
+        drawn.speeds.iter().map(|v| v.to_bits()).collect();
+    assert!(distinct.len() > 20, "{:?}", drawn.speeds);
 }

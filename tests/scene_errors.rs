@@ -685,3 +685,83 @@ fn a_name_with_a_control_character_is_refused_at_its_line() {
         &["name", "control characters", "--out"],
     );
 }
+
+#[test]
+fn bad_distributions_of_a_crowd() {
+    let crowd =
+        |speed: &str| format!("{ROOM}[[crowds]]\ncount = 3\nradius = 0.2\nspeed = {speed}\n");
+    for (speed, fragment) in [
+        (
+            "{ normal = [1.3, 0.2] }",
+            "speed: a normal distribution needs `within = [min, max]`",
+        ),
+        (
+            "{ uniform = [1.5, 1.0] }",
+            "speed: uniform = [min, max] needs 0 ≤ min ≤ max",
+        ),
+        (
+            "{ uniform = [-1.0, 1.0] }",
+            "speed: uniform = [min, max] needs 0 ≤ min ≤ max",
+        ),
+        (
+            "{ uniform = [1.0, 1.2], normal = [1.3, 0.2] }",
+            "give exactly one of",
+        ),
+        (
+            "{ normal = [1.3, 0.01], within = [3.0, 4.0] }",
+            "the window lies too far in the tail",
+        ),
+        ("-0.5", "speed: must be ≥ 0 and finite, got -0.5"),
+    ] {
+        assert_message(&error_of(&crowd(speed)), 3, &["[[crowds]] #1", fragment]);
+    }
+    // Not a distribution at all: the parser's error, at the key.
+    assert_message(
+        &error_of(&crowd("{ uniform = [1.0] }")),
+        6,
+        &["a number, or a distribution: { uniform = [min, max] }"],
+    );
+}
+
+#[test]
+fn a_negative_pre_movement_time() {
+    let text =
+        format!("{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\npre_movement = -1.0\n");
+    assert_message(
+        &error_of(&text),
+        3,
+        &["pre_movement: must be ≥ 0 and finite, got -1"],
+    );
+}
+
+#[test]
+fn exits_of_a_desire_must_exist_and_go_with_kind_exit() {
+    let scene = |desired: &str| {
+        format!(
+            "{ROOM}[[exits]]\nfrom = [4.0, 1.0]\nto = [4.0, 2.0]\n[[people]]\nposition = [1.0, 1.0]\n\
+             radius = 0.2\ndesired = {desired}\n"
+        )
+    };
+    for (desired, fragment) in [
+        (
+            "{ kind = \"exit\", exits = [2] }",
+            "exit 2 does not exist; the scene's [[exits]] are numbered 1 to 1",
+        ),
+        ("{ kind = \"exit\", exits = [0] }", "exit 0 does not exist"),
+        ("{ kind = \"exit\", exits = [1, 1] }", "names exit 1 twice"),
+        (
+            "{ kind = \"exit\", exits = [] }",
+            "exits = [] heads nowhere",
+        ),
+        (
+            "{ kind = \"point\", point = [2.0, 2.0], exits = [1] }",
+            "`exits` goes only with kind = \"exit\"",
+        ),
+    ] {
+        assert_message(
+            &error_of(&scene(desired)),
+            6,
+            &["[[people]] #1 desired", fragment],
+        );
+    }
+}

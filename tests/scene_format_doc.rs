@@ -562,7 +562,18 @@ fn the_walk_finds_the_schema() {
     assert!(schema.values["run.backend"].contains(&"cross-native"));
     // Where the walk cannot see inside a value, a key could hide: each such place is listed
     // here once someone has checked that it holds no table.
-    let seen_as_opaque: BTreeSet<&str> = ["crowds[].radius"].into();
+    let seen_as_opaque: BTreeSet<&str> =
+        ["crowds[].radius", "crowds[].speed", "crowds[].pre_movement"].into();
+    // A speed or pre-movement time may be a distribution, whose keys the walk cannot see:
+    // the page names them.
+    let text = read(PAGE);
+    for key in [
+        "uniform = [min, max]",
+        "normal = [mean, sd]",
+        "within = [min, max]",
+    ] {
+        assert!(text.contains(key), "the page does not name {key}");
+    }
     for path in &schema.opaque {
         assert!(
             seen_as_opaque.contains(path.as_str()),

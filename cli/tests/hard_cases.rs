@@ -376,6 +376,45 @@ t_end = 2.0
     }
 }
 
+/// Item 7: a door exactly one diameter wide with a queue behind it. The native backend and
+/// Clarabel run it; OSQP stops short on the jam at the door, and its error names the people
+/// and walls where the step got stuck and the backends that solve such steps.
+#[test]
+fn a_queue_at_a_door_one_diameter_wide_runs_or_names_where_it_stuck() {
+    let scene = r#"
+[room]
+rectangle = [0.0, 0.0, 10.0, 10.0]
+[[exits]]
+from = [10.0, 4.8]
+to = [10.0, 5.2]
+[[crowds]]
+count = 100
+region = [5.0, 2.0, 9.5, 8.0]
+radius = 0.2
+speed = 1.5
+seed = 3
+[desired]
+kind = "exit"
+[run]
+t_end = 1.0
+"#;
+    let native = sweep_run("door-one-diameter-native", scene, &["--backend", "native"]);
+    assert!(native.success, "{}", native.output);
+    let osqp = sweep_run("door-one-diameter-osqp", scene, &["--backend", "osqp"]);
+    // Should OSQP one day solve the jam, check its run instead of its error.
+    assert!(!osqp.success, "{}", osqp.output);
+    {
+        for named in [
+            "osqp: not converged",
+            "the prediction violates most: ",
+            "against walls #",
+            "the native backend or Clarabel",
+        ] {
+            assert!(osqp.output.contains(named), "{named}: {}", osqp.output);
+        }
+    }
+}
+
 /// At speeds of 1e12 m/s a failed KKT check says that the prediction is beyond what the
 /// projection resolves, not that a backend was set loose on purpose.
 #[test]

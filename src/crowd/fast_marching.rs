@@ -197,7 +197,10 @@ impl DistanceField {
                 free[grid.index(i, j)] = !blocked;
             }
         }
-        // Seeds: free nodes within 1.5 cells of an exit get their exact distance to it.
+        // Seeds: free nodes within 1.5 cells of an exit, in front of its opening, get their
+        // exact distance to it. Only in front: a node beside an end of the exit can lie behind
+        // a thin wall that meets the room's edge there (a corridor's wall ending at its exit),
+        // and a seed there would lead the people behind that wall into it.
         // Blocked nodes just outside an exit, behind its opening, get minus their distance, so
         // the field carries people through the door rather than stopping them on it. Only
         // behind the opening: a blocked node beside an end of the exit is in or behind the wall
@@ -216,6 +219,7 @@ impl DistanceField {
                     let d = domain
                         .exits
                         .iter()
+                        .filter(|(a, b)| foot_is_on_segment(p, *a, *b))
                         .map(|(a, b)| segment_distance(p, *a, *b))
                         .fold(f64::INFINITY, f64::min);
                     if d <= band {

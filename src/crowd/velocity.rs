@@ -73,6 +73,8 @@ impl VelocityField for TowardsPoint {
 pub struct TowardsExits {
     /// The distance field.
     pub field: Arc<DistanceField>,
+    /// The exits the field leads to, by index from 0 (`None`: every exit), for reports.
+    pub exits: Option<Vec<usize>>,
 }
 
 impl VelocityField for TowardsExits {
@@ -81,8 +83,16 @@ impl VelocityField for TowardsExits {
         [d[0] * speed, d[1] * speed]
     }
     fn describe(&self) -> String {
+        let which = match &self.exits {
+            None => "the nearest exit".to_string(),
+            Some(e) if e.len() == 1 => format!("exit {}", e[0] + 1),
+            Some(e) => {
+                let numbers: Vec<String> = e.iter().map(|k| (k + 1).to_string()).collect();
+                format!("the nearest of exits {}", numbers.join(", "))
+            }
+        };
         format!(
-            "towards the nearest exit (geodesic, fast marching on a {}×{} grid of cell {})",
+            "towards {which} (geodesic, fast marching on a {}×{} grid of cell {})",
             self.field.grid().nx,
             self.field.grid().ny,
             self.field.grid().cell
@@ -120,6 +130,8 @@ pub struct DesiredVelocity {
     speeds: Vec<f64>,
     terms: Vec<(Box<dyn VelocityField>, Vec<usize>)>,
     exits: Vec<ExitSegment>,
+    /// When each person starts walking (empty: everybody at once).
+    starts: Vec<f64>,
 }
 
 impl DesiredVelocity {
@@ -131,7 +143,19 @@ impl DesiredVelocity {
             speeds,
             terms: Vec::new(),
             exits,
+            starts: Vec::new(),
         }
+    }
+
+    /// Person `i` stands still (desired velocity zero) while `t < starts[i]`: a pre-movement
+    /// (reaction) time. People pushed by others or by obstacles still move.
+    ///
+    /// # Panics
+    /// When `starts` has not one entry per person.
+    pub fn with_start_times(mut self, starts: Vec<f64>) -> Self {
+        assert_eq!(starts.len(), self.speeds.len(), "one start time per person");
+        self.starts = starts;
+        self
     }
 
     /// Adds a term driving `people`.
@@ -156,10 +180,13 @@ impl DesiredVelocity {
 }
 
 impl Perturbation for DesiredVelocity {
-    fn eval(&self, _t: f64, q: &[f64], out: &mut [f64]) {
+    fn eval(&self, t: f64, q: &[f64], out: &mut [f64]) {
         out.iter_mut().for_each(|v| *v = 0.0);
         for (field, people) in &self.terms {
             for &i in people {
+                if self.starts.get(i).is_some_and(|&start| t < start) {
+                    continue;
+                }
                 let p = Population::position(q, i);
                 let speed = self.speeds[i];
                 // Who has left keeps walking out, even where that path crosses the room again.
@@ -177,6 +204,6 @@ impl Perturbation for DesiredVelocity {
     }
 
     fn is_time_dependent(&self) -> bool {
-        false
+        self.starts.iter().any(|&start| start > 0.0)
     }
 }

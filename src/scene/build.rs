@@ -4,7 +4,8 @@
 //! outputs, stepper settings. Each step checks its own part of the spec and returns typed
 //! values; the only state passed along is what a later step needs.
 
-use super::spec::{CrowdSpec, DesiredKind, DesiredSpec, RadiusSpec, RunSpec, SceneSpec};
+use super::drawn;
+use super::spec::{CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec};
 use super::{
     bbox, check_desired, check_resolution, finite, fmt_pt, meeting_edges, polygon_area, Ctx,
     Effect, Obstacle, ObstacleShape, Origin, OutputSettings, Overrides, SceneError, SpatialHash,
@@ -463,8 +464,8 @@ pub(super) struct Clearance<'a> {
     pub room: &'a RoomPlan,
     pub walls: &'a [Wall],
     pub obstacles: &'a [Placed],
-    /// Whether a desire `kind = "exit"` is possible.
-    pub has_exits: bool,
+    /// How many exits a desire `kind = "exit"` can head for.
+    pub exit_count: usize,
 }
 
 impl Clearance<'_> {
@@ -523,6 +524,8 @@ pub(super) struct People {
     pub speeds: Vec<f64>,
     /// The speed as the scene file gave it (`None`: the default).
     pub speeds_given: Vec<Option<f64>>,
+    /// When each person starts walking (their pre-movement time).
+    pub starts: Vec<f64>,
     pub desired: Vec<Option<DesiredSpec>>,
     pub origins: Vec<Origin>,
     pub group_of: Vec<usize>,
@@ -535,6 +538,7 @@ impl People {
         p: [f64; 2],
         r: f64,
         (speed, given): (f64, Option<f64>),
+        start: f64,
         d: Option<DesiredSpec>,
         origin: Origin,
     ) {
@@ -542,6 +546,7 @@ impl People {
         self.radii.push(r);
         self.speeds.push(speed);
         self.speeds_given.push(given);
+        self.starts.push(start);
         self.desired.push(d);
         self.origins.push(origin);
         self.group_of.push(self.groups.len());
@@ -571,7 +576,7 @@ pub(super) fn explicit_people(
     spec: &SceneSpec,
     clear: &Clearance<'_>,
 ) -> Result<People, SceneError> {
-    let has_exits = clear.has_exits;
+    let exit_count = clear.exit_count;
     // Checked before any person: a million checks would come first, for an error in the end.
     if let Some(p) = spec.people.get(MAX_PEOPLE) {
         return Err(cx.err(
@@ -603,8 +608,19 @@ pub(super) fn explicit_people(
             ));
         }
         let speed = check_speed(cx, line, &item, ps.speed)?;
+        let start = match drawn::check(
+            cx,
+            line,
+            &item,
+            &drawn::PRE_MOVEMENT,
+            ps.pre_movement.map(Drawn::Fixed).as_ref(),
+            0.0,
+        )? {
+            drawn::Checked::Fixed(v) => v,
+            _ => unreachable!("a number is checked as a number"),
+        };
         if let Some(d) = &ps.desired {
-            check_desired(cx, line, &item, d, has_exits)?;
+            check_desired(cx, line, &item, d, exit_count)?;
         }
         clear
             .walls(ps.position, ps.radius)
@@ -620,6 +636,7 @@ pub(super) fn explicit_people(
             ps.position,
             ps.radius,
             (speed, ps.speed),
+            start,
             ps.desired.clone(),
             origin,
         );
@@ -666,7 +683,7 @@ pub(super) fn place_crowd(
     clear: &Clearance<'_>,
     people: &mut People,
 ) -> Result<(), SceneError> {
-    let (room, has_exits) = (clear.room, clear.has_exits);
+    let (room, exit_count) = (clear.room, clear.exit_count);
     let line = cx.line_of(c);
     let item = format!("[[crowds]] #{}", g + 1);
     let cs = c.get_ref();
@@ -695,9 +712,17 @@ pub(super) fn place_crowd(
             },
         ));
     }
-    let speed = check_speed(cx, line, &item, cs.speed)?;
+    let speed = drawn::check(cx, line, &item, &drawn::SPEED, cs.speed.as_ref(), 1.0)?;
+    let pre_movement = drawn::check(
+        cx,
+        line,
+        &item,
+        &drawn::PRE_MOVEMENT,
+        cs.pre_movement.as_ref(),
+        0.0,
+    )?;
     if let Some(d) = &cs.desired {
-        check_desired(cx, line, &item, d, has_exits)?;
+        check_desired(cx, line, &item, d, exit_count)?;
     }
     let (bx0, by0, bx1, by1) = room.bbox;
     let region = cs.region.unwrap_or([bx0, by0, bx1, by1]);
@@ -726,6 +751,26 @@ pub(super) fn place_crowd(
             format!("{total} people: a scene holds at most {MAX_PEOPLE}"),
         ));
     }
+    // Drawn after the count is bounded: a count far beyond the room is refused, not
+    // allocated.
+    let speeds = drawn::draw(
+        cx,
+        line,
+        &item,
+        &drawn::SPEED,
+        speed,
+        cs.count,
+        &mut drawn::source(seed, 1),
+    )?;
+    let starts = drawn::draw(
+        cx,
+        line,
+        &item,
+        &drawn::PRE_MOVEMENT,
+        pre_movement,
+        cs.count,
+        &mut drawn::source(seed, 2),
+    )?;
     let max_attempts = cs.count.saturating_mul(2000).saturating_add(10_000);
     let mut placed = 0usize;
     let mut attempts = 0usize;
@@ -764,7 +809,16 @@ pub(super) fn place_crowd(
             item: format!("{item}, person {}", placed + 1),
             line,
         };
-        people.push(p, r, (speed, cs.speed), cs.desired.clone(), origin);
+        // A speed the file gives, drawn or not, is checked against a constant desire.
+        let given = cs.speed.map(|_| speeds[placed]);
+        people.push(
+            p,
+            r,
+            (speeds[placed], given),
+            starts[placed],
+            cs.desired.clone(),
+            origin,
+        );
         placed += 1;
     }
     people.groups.push(format!("{item} ({} people)", cs.count));
@@ -818,16 +872,30 @@ pub(super) fn desire_terms(
     Ok((terms, still))
 }
 
-/// The geodesic distance to the exits by fast marching, only when somebody heads for them
-/// (`[geodesic] cell` is checked either way); static obstacles are holes in its domain.
-pub(super) fn geodesic_field(
+/// The geodesic fields the desires call for, one per distinct set of exits (by index from 0,
+/// sorted; `None`: every exit).
+pub(super) type ExitFields = Vec<(Option<Vec<usize>>, Arc<DistanceField>)>;
+
+/// The exits a desire `kind = "exit"` heads for, by index from 0 and sorted (`None`: all).
+pub(super) fn chosen_exits(d: &DesiredSpec) -> Option<Vec<usize>> {
+    d.exits.as_ref().map(|e| {
+        let mut e: Vec<usize> = e.iter().map(|n| n - 1).collect();
+        e.sort_unstable();
+        e
+    })
+}
+
+/// The geodesic distance to the exits by fast marching, one field per set of exits that
+/// somebody heads for, only when somebody does (`[geodesic] cell` is checked either way);
+/// static obstacles are holes in its domain.
+pub(super) fn geodesic_fields(
     cx: &Ctx<'_>,
     spec: &SceneSpec,
     terms: &[(DesiredSpec, Vec<usize>)],
     room: &RoomPlan,
     exits: &[ExitSegment],
     obstacles: &[Placed],
-) -> Result<Option<Arc<DistanceField>>, SceneError> {
+) -> Result<ExitFields, SceneError> {
     let cell = spec
         .geodesic
         .as_ref()
@@ -842,8 +910,15 @@ pub(super) fn geodesic_field(
             format!("the cell size must be positive and finite, got {cell}"),
         ));
     }
-    if !terms.iter().any(|(d, _)| d.kind == DesiredKind::Exit) {
-        return Ok(None);
+    let mut wanted: Vec<Option<Vec<usize>>> = Vec::new();
+    for (d, _) in terms.iter().filter(|(d, _)| d.kind == DesiredKind::Exit) {
+        let chosen = chosen_exits(d);
+        if !wanted.contains(&chosen) {
+            wanted.push(chosen);
+        }
+    }
+    if wanted.is_empty() {
+        return Ok(Vec::new());
     }
     // A grid coarser than the room (or than a door) cannot represent the routes: the field
     // would point people anywhere. Refuse it rather than run with it.
@@ -874,9 +949,14 @@ pub(super) fn geodesic_field(
             .filter(|(o, _, _)| o.motion.is_static())
             .map(|(o, _, _)| &o.shape)
     };
-    let domain = MarchingDomain {
+    let domain = |chosen: &Option<Vec<usize>>| MarchingDomain {
         room: room.vertices.clone(),
-        exits: exits.iter().map(|e| (e.a, e.b)).collect(),
+        exits: exits
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| chosen.as_ref().is_none_or(|c| c.contains(k)))
+            .map(|(_, e)| (e.a, e.b))
+            .collect(),
         disks: fixed()
             .filter_map(|s| match s {
                 ObstacleShape::Disk { center, radius } => Some((*center, *radius)),
@@ -896,9 +976,14 @@ pub(super) fn geodesic_field(
             })
             .collect(),
     };
-    let field = DistanceField::compute(&domain, cell)
-        .map_err(|e| cx.err(geodesic_line, "[geodesic]", e.to_string()))?;
-    Ok(Some(Arc::new(field)))
+    wanted
+        .into_iter()
+        .map(|chosen| {
+            let field = DistanceField::compute(&domain(&chosen), cell)
+                .map_err(|e| cx.err(geodesic_line, "[geodesic]", e.to_string()))?;
+            Ok((chosen, Arc::new(field)))
+        })
+        .collect()
 }
 
 /// The perturbation `f`: each person's desired velocity, one term per distinct desire.
@@ -908,16 +993,26 @@ pub(super) fn desired_velocity(
     exits: &[ExitSegment],
     terms: Vec<(DesiredSpec, Vec<usize>)>,
     still: usize,
-    distance_field: &Option<Arc<DistanceField>>,
+    starts: &[f64],
+    fields: &ExitFields,
     effects: &mut Vec<Effect>,
 ) -> DesiredVelocity {
     let mut velocity = DesiredVelocity::new(population.clone(), speeds.to_vec(), exits.to_vec());
+    if starts.iter().any(|&s| s > 0.0) {
+        velocity = velocity.with_start_times(starts.to_vec());
+    }
     for (d, people) in terms {
         let field: Box<dyn VelocityField> = match d.kind {
-            DesiredKind::Exit => match distance_field {
-                Some(f) => Box::new(TowardsExits { field: f.clone() }),
-                None => continue,
-            },
+            DesiredKind::Exit => {
+                let chosen = chosen_exits(&d);
+                match fields.iter().find(|(c, _)| *c == chosen) {
+                    Some((_, f)) => Box::new(TowardsExits {
+                        field: f.clone(),
+                        exits: chosen,
+                    }),
+                    None => continue,
+                }
+            }
             DesiredKind::Point => Box::new(TowardsPoint {
                 point: d.point.unwrap_or_default(),
             }),

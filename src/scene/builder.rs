@@ -125,6 +125,7 @@ impl CrowdBuilder {
             position,
             radius,
             speed: None,
+            pre_movement: None,
             desired: None,
         })
     }
@@ -234,6 +235,16 @@ impl DesiredSpec {
             kind: super::spec::DesiredKind::Exit,
             point: None,
             velocity: None,
+            exits: None,
+        }
+    }
+
+    /// Towards the nearest of the exits numbered `exits` (from 1, in the order they were
+    /// added), around the obstacles.
+    pub fn exits(exits: Vec<usize>) -> Self {
+        DesiredSpec {
+            exits: Some(exits),
+            ..Self::exit()
         }
     }
 
@@ -243,6 +254,7 @@ impl DesiredSpec {
             kind: super::spec::DesiredKind::Point,
             point: Some(point),
             velocity: None,
+            exits: None,
         }
     }
 
@@ -252,6 +264,7 @@ impl DesiredSpec {
             kind: super::spec::DesiredKind::Constant,
             point: None,
             velocity: Some(velocity),
+            exits: None,
         }
     }
 }
@@ -265,6 +278,7 @@ impl CrowdSpec {
             region: None,
             radius,
             speed: None,
+            pre_movement: None,
             seed: None,
             desired: None,
         }
@@ -284,7 +298,19 @@ impl CrowdSpec {
 
     /// The desired speed.
     pub fn speed(mut self, speed: f64) -> Self {
-        self.speed = Some(speed);
+        self.speed = Some(super::spec::Drawn::Fixed(speed));
+        self
+    }
+
+    /// Desired speeds drawn per person (see [`Drawn`](super::spec::Drawn)).
+    pub fn speeds(mut self, speeds: super::spec::Drawn) -> Self {
+        self.speed = Some(speeds);
+        self
+    }
+
+    /// Seconds before they start walking, the same for all or drawn per person.
+    pub fn pre_movement(mut self, pre_movement: super::spec::Drawn) -> Self {
+        self.pre_movement = Some(pre_movement);
         self
     }
 

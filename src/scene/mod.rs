@@ -46,6 +46,7 @@
 
 mod build;
 mod builder;
+mod drawn;
 mod effect;
 mod error;
 mod notes;
@@ -198,7 +199,8 @@ pub struct BuiltScene {
     pub geometry: SceneGeometry,
     /// The active effects (constraint families, velocity terms, exits).
     pub effects: Vec<Effect>,
-    /// The geodesic field, when some people head for the exits.
+    /// The geodesic field to every exit, when some people head for the nearest of all exits
+    /// (people given their own `exits` follow fields of their own).
     pub distance_field: Option<Arc<DistanceField>>,
     /// The people who had left at the start: nobody, unless the run was resumed from a
     /// state of an earlier one ([`BuiltScene::resume_at`]).
@@ -387,13 +389,13 @@ impl Scene {
             .as_ref()
             .map(|d| (d.get_ref().clone(), cx.line_of(d)));
         if let Some((d, line)) = &default_desired {
-            check_desired(&cx, *line, "[desired]", d, has_exits)?;
+            check_desired(&cx, *line, "[desired]", d, exits.len())?;
         }
         let clear = build::Clearance {
             room: &room,
             walls: &walls,
             obstacles: &obstacles,
-            has_exits,
+            exit_count: exits.len(),
         };
         let mut people = build::explicit_people(&cx, spec, &clear)?;
         for (g, c) in spec.crowds.iter().enumerate() {
@@ -412,12 +414,22 @@ impl Scene {
         let population = Population::new(people.radii.clone())
             .with_room(room.room.clone())
             .shared();
-        let distance_field = build::geodesic_field(&cx, spec, &terms, &room, &exits, &obstacles)?;
-        let heading_out: Vec<usize> = terms
+        let fields = build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
+        // Who heads for which exits, for the notes: each person with their own field.
+        let routes: Vec<(usize, Arc<DistanceField>)> = terms
             .iter()
             .filter(|(d, _)| d.kind == DesiredKind::Exit)
-            .flat_map(|(_, who)| who.iter().copied())
+            .filter_map(|(d, who)| {
+                let chosen = build::chosen_exits(d);
+                let (_, field) = fields.iter().find(|(c, _)| *c == chosen)?;
+                Some(who.iter().map(move |&i| (i, field.clone())))
+            })
+            .flatten()
             .collect();
+        let distance_field = fields
+            .iter()
+            .find(|(chosen, _)| chosen.is_none())
+            .map(|(_, field)| field.clone());
         let mut effects = Vec::new();
         let velocity = build::desired_velocity(
             &population,
@@ -425,7 +437,8 @@ impl Scene {
             &exits,
             terms,
             still,
-            &distance_field,
+            &people.starts,
+            &fields,
             &mut effects,
         );
         let q0: Vec<f64> = people.positions.iter().flatten().copied().collect();
@@ -442,10 +455,9 @@ impl Scene {
         let facts = notes::SceneFacts {
             positions: &people.positions,
             still,
-            heading_out: &heading_out,
+            routes: &routes,
             has_exits,
             moving_obstacles: obstacles.iter().any(|(o, _, _)| !o.motion.is_static()),
-            field: distance_field.as_deref(),
             h: run.h,
             t_end: run.t_end,
         };
@@ -557,13 +569,45 @@ fn check_desired(
     line: Option<usize>,
     item: &str,
     d: &DesiredSpec,
-    has_exits: bool,
+    exit_count: usize,
 ) -> Result<(), SceneError> {
     let item = format!("{item} desired");
+    if d.exits.is_some() && d.kind != DesiredKind::Exit {
+        return Err(cx.err(line, item, "`exits` goes only with kind = \"exit\""));
+    }
     match d.kind {
         DesiredKind::Exit => {
-            if !has_exits {
+            if exit_count == 0 {
                 return Err(cx.err(line, item, "kind = \"exit\" needs at least one [[exits]]"));
+            }
+            if let Some(chosen) = &d.exits {
+                let mut seen = std::collections::BTreeSet::new();
+                if chosen.is_empty() {
+                    return Err(cx.err(
+                        line,
+                        item,
+                        "exits = [] heads nowhere: name at least one exit, or drop `exits`",
+                    ));
+                }
+                for &e in chosen {
+                    if !(1..=exit_count).contains(&e) {
+                        return Err(cx.err(
+                            line,
+                            item,
+                            format!(
+                                "exits = {chosen:?}: exit {e} does not exist; the scene's \
+                                 [[exits]] are numbered 1 to {exit_count} in file order"
+                            ),
+                        ));
+                    }
+                    if !seen.insert(e) {
+                        return Err(cx.err(
+                            line,
+                            item,
+                            format!("exits = {chosen:?} names exit {e} twice"),
+                        ));
+                    }
+                }
             }
             if d.point.is_some() || d.velocity.is_some() {
                 return Err(cx.err(

@@ -5,6 +5,7 @@
 use super::OutputSettings;
 use crate::crowd::fast_marching::DistanceField;
 use crate::output::TrajectoryFormat;
+use std::sync::Arc;
 
 /// Runs of more steps than this are pointed out.
 pub(super) const MANY_STEPS: f64 = 1e7;
@@ -24,11 +25,10 @@ pub(super) struct SceneFacts<'a> {
     pub positions: &'a [[f64; 2]],
     /// People with no desired velocity.
     pub still: usize,
-    /// People heading for the exits.
-    pub heading_out: &'a [usize],
+    /// People heading for exits, each with the geodesic field of their exits.
+    pub routes: &'a [(usize, Arc<DistanceField>)],
     pub has_exits: bool,
     pub moving_obstacles: bool,
-    pub field: Option<&'a DistanceField>,
     pub h: f64,
     pub t_end: f64,
 }
@@ -51,12 +51,12 @@ pub(super) fn scene_notes(facts: &SceneFacts<'_>, output: &OutputSettings) -> Ve
             facts.still
         ));
     }
-    if let Some(field) = facts.field {
+    {
         let cut_off: Vec<usize> = facts
-            .heading_out
+            .routes
             .iter()
-            .copied()
-            .filter(|&i| !field.reaches_exit(facts.positions[i]))
+            .filter(|(i, field)| !field.reaches_exit(facts.positions[*i]))
+            .map(|(i, _)| *i)
             .collect();
         if !cut_off.is_empty() {
             notes.push(format!(
@@ -64,7 +64,7 @@ pub(super) fn scene_notes(facts: &SceneFacts<'_>, output: &OutputSettings) -> Ve
                  crossing a fixed obstacle or a wall ({}): they walk into what cuts them off \
                  and stop there",
                 cut_off.len(),
-                facts.heading_out.len(),
+                facts.routes.len(),
                 listed(&cut_off, facts.positions),
             ));
         }

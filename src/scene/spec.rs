@@ -144,8 +144,40 @@ pub struct PersonSpec {
     pub radius: f64,
     /// Desired speed (≥ 0). Default 1.
     pub speed: Option<f64>,
+    /// Seconds before the person starts walking (≥ 0): until then their desired velocity is
+    /// zero. Default 0.
+    pub pre_movement: Option<f64>,
     /// Own desired velocity (default: the scene's `[desired]`).
     pub desired: Option<DesiredSpec>,
+}
+
+/// A number, or a distribution from which each person's value is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(
+    untagged,
+    expecting = "a number, or a distribution: { uniform = [min, max] } or { normal = [mean, sd], within = [min, max] }"
+)]
+pub enum Drawn {
+    /// Everybody the same.
+    Fixed(f64),
+    /// Drawn per person.
+    Distribution(Distribution),
+}
+
+/// A distribution: `uniform = [min, max]`, or `normal = [mean, sd]` truncated to
+/// `within = [min, max]`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Distribution {
+    /// Uniform in `[min, max]`.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub uniform: Option<[f64; 2]>,
+    /// Normal with `[mean, standard deviation]`.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub normal: Option<[f64; 2]>,
+    /// Where a normal distribution is cut: values outside `[min, max]` are drawn again.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub within: Option<[f64; 2]>,
 }
 
 /// A radius, or a range `[min, max]` drawn uniformly.
@@ -169,9 +201,11 @@ pub struct CrowdSpec {
     pub region: Option<[f64; 4]>,
     /// Radius or radius range.
     pub radius: RadiusSpec,
-    /// Desired speed (≥ 0). Default 1.
-    pub speed: Option<f64>,
-    /// Seed of the placement. Default 0.
+    /// Desired speed (≥ 0), or its distribution. Default 1.
+    pub speed: Option<Drawn>,
+    /// Seconds before each person starts walking (≥ 0), or their distribution. Default 0.
+    pub pre_movement: Option<Drawn>,
+    /// Seed of the placement (and of the draws). Default 0.
     pub seed: Option<u64>,
     /// Own desired velocity (default: the scene's `[desired]`).
     pub desired: Option<DesiredSpec>,
@@ -202,6 +236,9 @@ pub struct DesiredSpec {
     /// The vector of `kind = "constant"`.
     #[serde(default, deserialize_with = "exact::option_array")]
     pub velocity: Option<[f64; 2]>,
+    /// With `kind = "exit"`: the exits to head for (the nearest of them), numbered from 1 in
+    /// the order of `[[exits]]`. Default: every exit.
+    pub exits: Option<Vec<usize>>,
 }
 
 /// `[geodesic]`: the fast-marching grid (used only when someone heads for the exits).

@@ -130,6 +130,46 @@ impl Stepper<'_> {
         })
     }
 
+    /// A backend that stopped short, said with the constraints the prediction violates most
+    /// (where the step is stuck), or the error back when it is another.
+    fn stalled(
+        &self,
+        qp: &ProjectionProblem,
+        error: sweeping_api::ProjectionError,
+        t_next: f64,
+    ) -> Result<SweepError, sweeping_api::ProjectionError> {
+        if !matches!(error, sweeping_api::ProjectionError::NotConverged { .. }) {
+            return Err(error);
+        }
+        // Each row's violation at the prediction `u = y`, as a distance.
+        let mut ay = vec![0.0; qp.n_rows()];
+        qp.a().mul_vec(qp.y(), &mut ay);
+        let mut worst: Vec<(f64, usize)> = (0..qp.n_rows())
+            .map(|i| {
+                let norm = qp.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
+                ((qp.b()[i] - ay[i]) / norm.max(f64::MIN_POSITIVE), i)
+            })
+            .filter(|(d, _)| *d > 0.0)
+            .collect();
+        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let constraints: Vec<String> = worst
+            .iter()
+            .take(crate::error::EMPTY_SET_NAMED)
+            .filter_map(|&(_, r)| self.row_origin.get(r))
+            .map(|&(fi, idx)| self.problem.families()[fi].describe(idx))
+            .collect();
+        if constraints.is_empty() {
+            return Err(error);
+        }
+        Ok(SweepError::ProjectionStalled {
+            step: self.k,
+            t: t_next,
+            rows: qp.n_rows(),
+            constraints,
+            source: Box::new(error),
+        })
+    }
+
     /// A failed solve of a far prediction, retried once on the same QP (already written in
     /// the displacement `u = x − q_k`) scaled by `s = ‖h f‖∞`: `min ½‖v − h f/s‖²` s.t.
     /// `A v ≥ b/s`, then `u = s v`, `λ = s μ`. Done only when `u = 0` satisfies every row
@@ -164,7 +204,10 @@ impl Stepper<'_> {
         if !(far > 1.0 && far.is_finite() && q_in_set)
             || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
         {
-            return Err(self.empty_set(first, t_next).unwrap_or_else(fail));
+            return Err(self
+                .empty_set(first, t_next)
+                .or_else(|e| self.stalled(qp, e, t_next))
+                .unwrap_or_else(fail));
         }
         let b: Vec<f64> = qp.b().iter().map(|b| b / far).collect();
         let y: Vec<f64> = qp.y().iter().map(|d| d / far).collect();

@@ -152,7 +152,9 @@ fn infeasible_set_is_certified() {
     );
     let problem = ProjectionProblem::new(vec![0.5, 0.5, 9.0], a, vec![1.0, 0.0, 0.0]).unwrap();
     match ClarabelProjector::default().project(&problem) {
-        Err(ProjectionError::Infeasible { backend, detail, .. }) => {
+        Err(ProjectionError::Infeasible {
+            backend, detail, ..
+        }) => {
             assert_eq!(backend, "clarabel");
             assert!(detail.contains("PrimalInfeasible"), "detail: {detail}");
         }

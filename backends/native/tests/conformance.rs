@@ -195,7 +195,9 @@ fn infeasible_sets_are_certified_with_the_rows() {
     );
     let p = ProjectionProblem::new(vec![0.0; 3], rows, vec![1.0, 1.0, 0.0, 0.0]).unwrap();
     match NativeProjector::default().project(&p) {
-        Err(ProjectionError::Infeasible { backend, detail, .. }) => {
+        Err(ProjectionError::Infeasible {
+            backend, detail, ..
+        }) => {
             assert_eq!(backend, "native");
             assert!(detail.contains("[1, 2, 3]"), "{detail}");
         }

@@ -1,0 +1,159 @@
+//! Numbers given per crowd as a value or a distribution (`speed`, `pre_movement`): checked,
+//! then drawn person by person from a stream of the crowd's seed of their own, so that the
+//! placement of a crowd does not change when a distribution is added to it.
+
+use super::spec::{Distribution, Drawn};
+use super::{Ctx, SceneError};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Draws of a truncated normal that may fall outside its window before the window is called
+/// too far in the tail to draw from.
+const MAX_REJECTIONS: usize = 100_000;
+
+/// What a drawn quantity is, for errors: its key and its least allowed value.
+pub(super) struct Quantity {
+    pub key: &'static str,
+    pub least: f64,
+}
+
+/// The desired speed: at least 0.
+pub(super) const SPEED: Quantity = Quantity {
+    key: "speed",
+    least: 0.0,
+};
+
+/// The time before a person starts walking: at least 0.
+pub(super) const PRE_MOVEMENT: Quantity = Quantity {
+    key: "pre_movement",
+    least: 0.0,
+};
+
+/// The checked form of a [`Drawn`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Checked {
+    Fixed(f64),
+    Uniform(f64, f64),
+    Normal {
+        mean: f64,
+        sd: f64,
+        min: f64,
+        max: f64,
+    },
+}
+
+/// Checks `drawn` for `quantity`, or `default` when absent.
+pub(super) fn check(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    quantity: &Quantity,
+    drawn: Option<&Drawn>,
+    default: f64,
+) -> Result<Checked, SceneError> {
+    let key = quantity.key;
+    let err = |m: String| Err(cx.err(line, item.to_string(), format!("{key}: {m}")));
+    let allowed = |v: f64| v.is_finite() && v >= quantity.least;
+    match drawn {
+        None => Ok(Checked::Fixed(default)),
+        Some(Drawn::Fixed(v)) if allowed(*v) => Ok(Checked::Fixed(*v)),
+        Some(Drawn::Fixed(v)) => err(format!("must be ≥ {} and finite, got {v}", quantity.least)),
+        Some(Drawn::Distribution(d)) => match *d {
+            Distribution {
+                uniform: Some([a, b]),
+                normal: None,
+                within: None,
+            } => {
+                if allowed(a) && allowed(b) && a <= b {
+                    Ok(Checked::Uniform(a, b))
+                } else {
+                    err(format!(
+                        "uniform = [min, max] needs {} ≤ min ≤ max, both finite, got [{a}, {b}]",
+                        quantity.least
+                    ))
+                }
+            }
+            Distribution {
+                uniform: None,
+                normal: Some([mean, sd]),
+                within: Some([min, max]),
+            } => {
+                if !(mean.is_finite() && sd.is_finite() && sd >= 0.0) {
+                    err(format!(
+                        "normal = [mean, sd] needs a finite mean and a finite sd ≥ 0, got [{mean}, {sd}]"
+                    ))
+                } else if !(allowed(min) && allowed(max) && min <= max) {
+                    err(format!(
+                        "within = [min, max] needs {} ≤ min ≤ max, both finite, got [{min}, {max}]",
+                        quantity.least
+                    ))
+                } else {
+                    Ok(Checked::Normal { mean, sd, min, max })
+                }
+            }
+            Distribution {
+                uniform: None,
+                normal: Some(_),
+                within: None,
+            } => err(
+                "a normal distribution needs `within = [min, max]`, the values it is cut to \
+                 (a normal reaches any value, and this one must stay finite and ≥ its least)"
+                    .to_string(),
+            ),
+            _ => err(
+                "give exactly one of `uniform = [min, max]` or `normal = [mean, sd]` with \
+                 `within = [min, max]`"
+                    .to_string(),
+            ),
+        },
+    }
+}
+
+/// A source of draws for one crowd and one quantity: the crowd's seed, a stream of its own.
+pub(super) fn source(seed: u64, stream: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(stream);
+    rng
+}
+
+/// `count` values of `checked`, or an error when a truncated normal's window lies too far in
+/// its tail to draw from.
+pub(super) fn draw(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    quantity: &Quantity,
+    checked: Checked,
+    count: usize,
+    rng: &mut ChaCha8Rng,
+) -> Result<Vec<f64>, SceneError> {
+    (0..count)
+        .map(|_| match checked {
+            Checked::Fixed(v) => Ok(v),
+            Checked::Uniform(a, b) if a == b => Ok(a),
+            Checked::Uniform(a, b) => Ok(rng.gen_range(a..=b)),
+            Checked::Normal { mean, sd, min, max } => (0..MAX_REJECTIONS)
+                .map(|_| mean + sd * standard_normal(rng))
+                .find(|v| (min..=max).contains(v))
+                .ok_or_else(|| {
+                    cx.err(
+                        line,
+                        item.to_string(),
+                        format!(
+                            "{}: no value of normal = [{mean}, {sd}] fell within [{min}, {max}] \
+                             in {MAX_REJECTIONS} draws: the window lies too far in the tail",
+                            quantity.key
+                        ),
+                    )
+                }),
+        })
+        .collect()
+}
+
+/// A standard normal number by the Box–Muller transform (one formula: no crate for it).
+fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
+    // 1 − u lies in (0, 1], so its logarithm is finite.
+    let u: f64 = 1.0 - rng.gen::<f64>();
+    let v: f64 = rng.gen();
+    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+}
