@@ -986,18 +986,19 @@ pub(super) fn geodesic_fields(
         .collect()
 }
 
-/// The perturbation `f`: each person's desired velocity, one term per distinct desire.
+/// The perturbation `f`: each person's desired velocity (at their speed, from their start
+/// time), one term per distinct desire.
 pub(super) fn desired_velocity(
     population: &Arc<Population>,
-    speeds: &[f64],
+    people: &People,
     exits: &[ExitSegment],
-    terms: Vec<(DesiredSpec, Vec<usize>)>,
-    still: usize,
-    starts: &[f64],
+    (terms, still): (DesireTerms, usize),
     fields: &ExitFields,
     effects: &mut Vec<Effect>,
 ) -> DesiredVelocity {
-    let mut velocity = DesiredVelocity::new(population.clone(), speeds.to_vec(), exits.to_vec());
+    let starts = &people.starts;
+    let mut velocity =
+        DesiredVelocity::new(population.clone(), people.speeds.clone(), exits.to_vec());
     if starts.iter().any(|&s| s > 0.0) {
         velocity = velocity.with_start_times(starts.to_vec());
     }

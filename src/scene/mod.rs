@@ -433,11 +433,9 @@ impl Scene {
         let mut effects = Vec::new();
         let velocity = build::desired_velocity(
             &population,
-            &people.speeds,
+            &people,
             &exits,
-            terms,
-            still,
-            &people.starts,
+            (terms, still),
             &fields,
             &mut effects,
         );

@@ -485,20 +485,7 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         } else {
             settings.active_set_iterations
         };
-        let memory = Memory {
-            orderings: &mut *orderings,
-            unknowns: &block.cols,
-        };
-        // The answer of the tests at `1e-12`, on its KKT certificate: the active set's second
-        // pass at `1e-15` moves the congested scenes' answers by far less than the scheme's
-        // own error, and on a jam that stands still it cycles through its finishing ladder at
-        // every step (measured: `docs/lab/2026-12-04-warm-active-set-first-pass.md`).
-        let options = Options {
-            cap,
-            first_pass_only: true,
-            memory: Some(memory),
-        };
-        let res = active_set::solve(p, start, options);
+        let res = first_pass(p, start, cap, orderings, block);
         match res {
             Ok(outcome) if certified(&outcome.x, &outcome.lambda) => {
                 return Ok(BlockAnswer {
@@ -638,16 +625,7 @@ fn finish_interior_point(
             .finish_iterations
             .saturating_mul(UNCONVERGED_FINISH)
     };
-    let memory = Memory {
-        orderings: &mut *orderings,
-        unknowns: &block.cols,
-    };
-    let options = Options {
-        cap,
-        first_pass_only: true,
-        memory: Some(memory),
-    };
-    let res = active_set::solve(p, finish_start(it, r, p), options);
+    let res = first_pass(p, finish_start(it, r, p), cap, orderings, block);
     let agrees = |x: &[f64]| {
         let apart = x
             .iter()
@@ -672,6 +650,30 @@ fn finish_interior_point(
         Err(Failure::Cap(n) | Failure::Cycling(n)) => Finished::Spent(n),
         Err(Failure::Infeasible { .. } | Failure::Numerical(_)) => Finished::Spent(0),
     }
+}
+
+/// The active set from `start` for at most `cap` iterations, its factorizations ordered from
+/// (and remembered in) `orderings`: the answer of its tests at `1e-12`, which the engine keeps
+/// on its KKT certificate. The active set's second pass at `1e-15` moves the congested scenes'
+/// answers by far less than the scheme's own error, and on a jam that stands still it cycles
+/// through its finishing ladder at every step (measured:
+/// `docs/lab/2026-12-04-warm-active-set-first-pass.md`).
+fn first_pass(
+    p: &ProjectionProblem,
+    start: Start,
+    cap: u32,
+    orderings: &mut Orderings,
+    block: &Block,
+) -> Result<active_set::Outcome, Failure> {
+    let options = Options {
+        cap,
+        first_pass_only: true,
+        memory: Some(Memory {
+            orderings,
+            unknowns: &block.cols,
+        }),
+    };
+    active_set::solve(p, start, options)
 }
 
 /// The active set's start: the remembered multipliers by row key, or, without any, the rows
