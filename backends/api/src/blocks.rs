@@ -329,7 +329,11 @@ impl<P: Projector> Projector for Blocked<P> {
         let answers = blocks
             .blocks()
             .iter()
-            .map(|b| self.inner.project(&b.problem))
+            .map(|b| {
+                self.inner
+                    .project(&b.problem)
+                    .map_err(|e| e.in_rows_of(&b.rows))
+            })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(blocks.stitch(problem, answers, self.inner.name()))
     }

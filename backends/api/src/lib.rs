@@ -497,6 +497,26 @@ pub enum ProjectionError {
     },
 }
 
+impl ProjectionError {
+    /// The error of a block said in the whole problem's rows: a certificate's rows renumbered,
+    /// `rows[k]` being the whole problem's index of the block's row `k`.
+    #[must_use]
+    pub fn in_rows_of(self, rows: &[usize]) -> Self {
+        match self {
+            Self::Infeasible {
+                backend,
+                detail,
+                rows: local,
+            } => Self::Infeasible {
+                backend,
+                detail,
+                rows: local.iter().filter_map(|&k| rows.get(k).copied()).collect(),
+            },
+            other => other,
+        }
+    }
+}
+
 /// A backend that projects onto `{x : Ax ≥ b}`.
 ///
 /// Object-safe, so a simulation can hold a `Box<dyn Projector>` chosen at run time; `&mut self`

@@ -298,6 +298,32 @@ pub struct ClarabelProjector {
     pub settings: ClarabelSettings,
 }
 
+/// An infeasibility said with the rows of Clarabel's certificate: for `−A x + s = −b`,
+/// `s ≥ 0`, its dual ray `z ≥ 0` has `Aᵀz = 0` and `bᵀz > 0`, a non-negative combination of
+/// the rows reading `0 ≥ positive`; the rows are those where `z` is not negligible.
+fn with_certificate(error: ProjectionError, z: &[f64]) -> ProjectionError {
+    match error {
+        ProjectionError::Infeasible {
+            backend,
+            detail,
+            rows,
+        } if rows.is_empty() => {
+            let top = z.iter().fold(0.0, |m: f64, v| m.max(*v));
+            let rows = if top.is_finite() && top > 0.0 {
+                (0..z.len()).filter(|&i| z[i] > 1e-6 * top).collect()
+            } else {
+                Vec::new()
+            };
+            ProjectionError::Infeasible {
+                backend,
+                detail,
+                rows,
+            }
+        }
+        other => other,
+    }
+}
+
 impl ClarabelProjector {
     /// A projector with the given settings.
     pub fn new(settings: ClarabelSettings) -> Self {
@@ -457,7 +483,8 @@ impl Projector for ClarabelProjector {
             iterations,
             status: name.clone(),
         };
-        let verify = Self::verdict(status, iterations, self.settings.accept_almost_solved)?;
+        let verify = Self::verdict(status, iterations, self.settings.accept_almost_solved)
+            .map_err(|e| with_certificate(e, &solution.z))?;
         // A malformed iterate is a backend failure when Clarabel called it solved, and the
         // status's own error otherwise.
         let malformed = |message: String| match &verify {

@@ -398,7 +398,7 @@ fn through_fallback(
         block.rows.len(),
         block.cols.len()
     );
-    match error {
+    match error.in_rows_of(&block.rows) {
         ProjectionError::Infeasible {
             backend,
             detail,
@@ -406,9 +406,9 @@ fn through_fallback(
         } => ProjectionError::Infeasible {
             backend: name.to_string(),
             detail: format!("{handed}, and {backend} found: {detail}"),
-            rows: rows.iter().map(|&r| block.rows[r]).collect(),
+            rows,
         },
-        ProjectionError::InvalidInput { .. } => error,
+        error @ ProjectionError::InvalidInput { .. } => error,
         other => ProjectionError::Backend {
             backend: name.to_string(),
             message: format!("{handed}, which failed too: {other}"),
