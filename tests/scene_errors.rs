@@ -712,6 +712,30 @@ fn bad_distributions_of_a_crowd() {
             "the window lies too far in the tail",
         ),
         ("-0.5", "speed: must be ≥ 0 and finite, got -0.5"),
+        (
+            "{ normal = [1.3, -0.2], within = [0.5, 2.0] }",
+            "normal = [mean, sd] needs a finite mean and a finite sd ≥ 0",
+        ),
+        (
+            "{ normal = [nan, 0.2], within = [0.5, 2.0] }",
+            "normal = [mean, sd] needs a finite mean",
+        ),
+        (
+            "{ normal = [1.3, inf], within = [0.5, 2.0] }",
+            "normal = [mean, sd] needs a finite mean and a finite sd ≥ 0",
+        ),
+        (
+            "{ normal = [1.3, 0.2], within = [2.0, 0.5] }",
+            "within = [min, max] needs 0 ≤ min ≤ max",
+        ),
+        (
+            "{ normal = [1.3, 0.2], within = [-1.0, 2.0] }",
+            "within = [min, max] needs 0 ≤ min ≤ max",
+        ),
+        (
+            "{ normal = [1.3, 0.2], within = [0.5, inf] }",
+            "within = [min, max] needs 0 ≤ min ≤ max, both finite",
+        ),
     ] {
         assert_message(&error_of(&crowd(speed)), 3, &["[[crowds]] #1", fragment]);
     }

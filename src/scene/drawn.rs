@@ -130,7 +130,6 @@ pub(super) fn draw(
     (0..count)
         .map(|_| match checked {
             Checked::Fixed(v) => Ok(v),
-            Checked::Uniform(a, b) if a == b => Ok(a),
             Checked::Uniform(a, b) => Ok(rng.gen_range(a..=b)),
             Checked::Normal { mean, sd, min, max } => (0..MAX_REJECTIONS)
                 .map(|_| mean + sd * standard_normal(rng))
@@ -156,4 +155,80 @@ fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
     let u: f64 = 1.0 - rng.gen::<f64>();
     let v: f64 = rng.gen();
     (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Mean and standard deviation of `v`.
+    fn moments(v: &[f64]) -> (f64, f64) {
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n;
+        (mean, var.sqrt())
+    }
+
+    #[test]
+    fn the_standard_normal_has_mean_0_and_deviation_1() {
+        let mut rng = source(11, 1);
+        let v: Vec<f64> = (0..40_000).map(|_| standard_normal(&mut rng)).collect();
+        let (mean, sd) = moments(&v);
+        assert!(mean.abs() < 0.02, "mean {mean}");
+        assert!((sd - 1.0).abs() < 0.02, "sd {sd}");
+        // Symmetric, with tails: about 4.6 % beyond two deviations.
+        let beyond = v.iter().filter(|x| x.abs() > 2.0).count() as f64 / v.len() as f64;
+        assert!((beyond - 0.0455).abs() < 0.006, "beyond 2: {beyond}");
+    }
+
+    #[test]
+    fn draws_have_the_moments_of_their_distribution_and_stay_in_their_window() {
+        let cx = Ctx::new("test.toml", None);
+        let mut rng = source(3, 2);
+        let normal = Checked::Normal {
+            mean: 10.0,
+            sd: 1.0,
+            min: 0.0,
+            max: 20.0,
+        };
+        let v = draw(&cx, None, "crowd", &SPEED, normal, 20_000, &mut rng).unwrap();
+        let (mean, sd) = moments(&v);
+        assert!(
+            (mean - 10.0).abs() < 0.03 && (sd - 1.0).abs() < 0.03,
+            "{mean} {sd}"
+        );
+        let cut = Checked::Normal {
+            mean: 1.0,
+            sd: 1.0,
+            min: 0.8,
+            max: 1.2,
+        };
+        let v = draw(&cx, None, "crowd", &SPEED, cut, 2_000, &mut rng).unwrap();
+        assert!(v.iter().all(|x| (0.8..=1.2).contains(x)));
+        let v = draw(
+            &cx,
+            None,
+            "crowd",
+            &SPEED,
+            Checked::Uniform(2.0, 3.0),
+            20_000,
+            &mut rng,
+        )
+        .unwrap();
+        let (mean, sd) = moments(&v);
+        assert!(v.iter().all(|x| (2.0..=3.0).contains(x)));
+        // Uniform on [2, 3]: mean 2.5, deviation 1/√12.
+        assert!((mean - 2.5).abs() < 0.01 && (sd - 12f64.sqrt().recip()).abs() < 0.01);
+        let v = draw(
+            &cx,
+            None,
+            "crowd",
+            &SPEED,
+            Checked::Uniform(1.5, 1.5),
+            3,
+            &mut rng,
+        )
+        .unwrap();
+        assert_eq!(v, vec![1.5; 3]);
+    }
 }
