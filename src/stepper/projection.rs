@@ -102,6 +102,15 @@ impl Stepper<'_> {
         Ok((qp, sol))
     }
 
+    /// The constraints of the assembled rows `rows`, by name, at most
+    /// [`EMPTY_SET_NAMED`](crate::error::EMPTY_SET_NAMED) of them.
+    fn names_of_rows(&self, rows: impl Iterator<Item = usize>) -> Vec<String> {
+        rows.filter_map(|r| self.row_origin.get(r))
+            .take(crate::error::EMPTY_SET_NAMED)
+            .map(|&(fi, idx)| self.problem.families()[fi].describe(idx))
+            .collect()
+    }
+
     /// A backend's certificate that the step's set is empty, said by the constraints it rests
     /// on (people, walls, obstacles), or the error back when it names no rows.
     fn empty_set(
@@ -112,12 +121,7 @@ impl Stepper<'_> {
         let sweeping_api::ProjectionError::Infeasible { rows, .. } = &error else {
             return Err(error);
         };
-        let named: Vec<String> = rows
-            .iter()
-            .filter_map(|&r| self.row_origin.get(r))
-            .take(crate::error::EMPTY_SET_NAMED)
-            .map(|&(fi, idx)| self.problem.families()[fi].describe(idx))
-            .collect();
+        let named = self.names_of_rows(rows.iter().copied());
         if named.is_empty() {
             return Err(error);
         }
@@ -152,12 +156,7 @@ impl Stepper<'_> {
             .filter(|(d, _)| *d > 0.0)
             .collect();
         worst.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let constraints: Vec<String> = worst
-            .iter()
-            .take(crate::error::EMPTY_SET_NAMED)
-            .filter_map(|&(_, r)| self.row_origin.get(r))
-            .map(|&(fi, idx)| self.problem.families()[fi].describe(idx))
-            .collect();
+        let constraints = self.names_of_rows(worst.iter().map(|&(_, r)| r));
         if constraints.is_empty() {
             return Err(error);
         }

@@ -497,6 +497,19 @@ pub enum ProjectionError {
     },
 }
 
+/// The rows of an infeasibility certificate given as one weight per row (a dual ray): those
+/// whose weight is not negligible against the largest, `|wᵢ| > 1e-6 · maxⱼ |wⱼ|`; none when
+/// the weights are all zero or not finite.
+pub fn certificate_rows(weights: &[f64]) -> Vec<usize> {
+    let top = weights.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+    if !(top.is_finite() && top > 0.0) {
+        return Vec::new();
+    }
+    (0..weights.len())
+        .filter(|&i| weights[i].abs() > 1e-6 * top)
+        .collect()
+}
+
 impl ProjectionError {
     /// The error of a block said in the whole problem's rows: a certificate's rows renumbered,
     /// `rows[k]` being the whole problem's index of the block's row `k`.

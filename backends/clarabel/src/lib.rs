@@ -307,19 +307,11 @@ fn with_certificate(error: ProjectionError, z: &[f64]) -> ProjectionError {
             backend,
             detail,
             rows,
-        } if rows.is_empty() => {
-            let top = z.iter().fold(0.0, |m: f64, v| m.max(*v));
-            let rows = if top.is_finite() && top > 0.0 {
-                (0..z.len()).filter(|&i| z[i] > 1e-6 * top).collect()
-            } else {
-                Vec::new()
-            };
-            ProjectionError::Infeasible {
-                backend,
-                detail,
-                rows,
-            }
-        }
+        } if rows.is_empty() => ProjectionError::Infeasible {
+            backend,
+            detail,
+            rows: sweeping_api::certificate_rows(z),
+        },
         other => other,
     }
 }

@@ -666,18 +666,10 @@ fn read_status(status: Status<'_>) -> (Outcome, u32) {
     // The rows of OSQP's certificate `δy` (`Aᵀδy = 0`, and a combination of the bounds
     // that reads `0 ≥ positive`): those where it is not negligible.
     let infeasible = |detail: &str, delta_y: &[f64]| {
-        let top = delta_y.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
-        let rows = if top.is_finite() && top > 0.0 {
-            (0..delta_y.len())
-                .filter(|&i| delta_y[i].abs() > 1e-6 * top)
-                .collect()
-        } else {
-            Vec::new()
-        };
         Outcome::Error(ProjectionError::Infeasible {
             backend: NAME.to_string(),
             detail: detail.to_string(),
-            rows,
+            rows: sweeping_api::certificate_rows(delta_y),
         })
     };
     let failure = |message: &str| Outcome::Error(OsqpProjector::backend_error(message));
