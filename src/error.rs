@@ -1,6 +1,7 @@
 //! The library's error type: what went wrong, and where (step, time, constraint, agent).
 
-use crate::stepper::{display_number, Run, RunFailure};
+use crate::numbers::display_number;
+use crate::stepper::{Run, RunFailure};
 use sweeping_api::ProjectionError;
 
 /// Most constraints [`SweepError::EmptySet`] names; the rest are counted.

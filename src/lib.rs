@@ -33,10 +33,13 @@ pub mod backends;
 pub mod constraint;
 pub mod crowd;
 pub mod error;
+pub mod meter;
+pub mod numbers;
 pub mod observers;
 pub mod output;
 pub mod problem;
 pub mod scene;
+mod solve;
 pub mod stepper;
 pub mod study;
 

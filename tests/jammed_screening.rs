@@ -6,8 +6,8 @@
 #![cfg(all(feature = "native", feature = "clarabel"))]
 
 use sweeping::backends::{ClarabelProjector, NativeProjector, NATIVE_CROSS_TOLERANCE};
-use sweeping::crowd::synthetic::{Start, SyntheticCrowd};
 use sweeping::prelude::*;
+use sweeping::scene::synthetic::{Start, SyntheticCrowd};
 
 #[test]
 fn a_jam_screened_for_the_interior_point_is_projected_as_clarabel_projects_it() {

@@ -1,6 +1,6 @@
 //! One step of the scheme against the crowd size N (150, 1000, 5000), per compiled backend,
 //! from a spread start (the paper's density, h = 0.01) and a jammed one (twice the density,
-//! everyone walking to the centre, h = 0.1): the crowds of `sweeping::crowd::synthetic`. The
+//! everyone walking to the centre, h = 0.1): the crowds of `sweeping::scene::synthetic`. The
 //! reference backend (Hildreth) runs at N = 150 only. The time split by stage, up to
 //! N = 10⁵, is printed by `sweep bench`.
 //!
@@ -17,8 +17,8 @@ use std::sync::Arc;
 use sweeping::api::{Projection, ProjectionError, ProjectionProblem, Projector};
 use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::constraint::ConstraintFamily;
-use sweeping::crowd::synthetic::{Start, SyntheticCrowd};
 use sweeping::crowd::{DiskPairs, Population};
+use sweeping::scene::synthetic::{Start, SyntheticCrowd};
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::{Stepper, StepperSettings};
 

@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use sweeping::backends::{make_projector, make_projector_with, BackendChoice, ProjectorOptions};
-use sweeping::crowd::synthetic::{Start, SyntheticCrowd};
+use sweeping::scene::synthetic::{Start, SyntheticCrowd};
 use sweeping::scene::{BuiltScene, Overrides, ResumeState, Scene};
 use sweeping::stepper::{
     Observer, ObserverError, StageTimes, StepReport, Stepper, StepperSettings,

@@ -438,7 +438,7 @@ pub(crate) const CONVEXITY_MEANING: &str = "g is not convex in q there (section 
 pub(crate) fn describe_point(columns: &[usize], q: &[f64]) -> String {
     columns
         .iter()
-        .map(|&c| format!("q[{c}] = {}", crate::stepper::display_number(q[c])))
+        .map(|&c| format!("q[{c}] = {}", crate::numbers::display_number(q[c])))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -762,7 +762,7 @@ impl Scan {
                         "{}: {} at t = {} (sample 0): |D²g| = {} ≠ 0: {}",
                         AFFINE_CLAIM,
                         v.constraint,
-                        crate::stepper::display_number(*t),
+                        crate::numbers::display_number(*t),
                         fmt_num(norm),
                         v.note
                     ));
@@ -890,7 +890,7 @@ impl Scan {
                          at t = {} (sample {k}), at {point}, g = {}{}",
                         fmt_num(nm.min_eig),
                         fam.describe(idx),
-                        crate::stepper::display_number(t),
+                        crate::numbers::display_number(t),
                         fmt_num(value),
                         if self.concave_reported == 1 {
                             format!(": {CONVEXITY_MEANING}")
@@ -929,7 +929,7 @@ impl Scan {
         if self.infeasible_reported <= 10 {
             self.failures.push(format!(
                 "sample {k} (t = {}) is not in Q(t): {name} = {} (A5 is stated on Q(t)){}",
-                crate::stepper::display_number(t),
+                crate::numbers::display_number(t),
                 fmt_num(v),
                 if self.concave_reported > 0 {
                     "; expected here: a constraint is not convex (above), so its \
@@ -1008,7 +1008,7 @@ impl Scan {
                      divide by α) are meaningless",
                     fmt_num(a.value),
                     fmt_num(b.value),
-                    crate::stepper::display_number(a.t),
+                    crate::numbers::display_number(a.t),
                     a.sample,
                     a.constraint
                 ));

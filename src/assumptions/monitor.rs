@@ -261,7 +261,7 @@ impl std::fmt::Display for BoundViolation {
             f,
             "step {}, t = {}: assumption {} violated by {}: {}",
             self.step,
-            crate::stepper::display_number(self.t),
+            crate::numbers::display_number(self.t),
             self.assumption,
             self.constraint,
             self.detail()

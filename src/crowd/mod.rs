@@ -14,12 +14,9 @@ pub mod fast_marching;
 mod pairs;
 mod population;
 mod shapes;
-pub mod synthetic;
 pub mod velocity;
 mod verlet;
 
-/// Builds a crowd in code; the TOML scenes use it too (defined in [`crate::scene`]).
-pub use crate::scene::CrowdBuilder;
 pub use pairs::{DiskPairKernel, DiskPairs};
 pub use population::{segment_distance, Population, Room};
 pub use shapes::{rectangle_walls, Motion, PersonShapeKernel, PersonShapes, Shape, ShapeParams};

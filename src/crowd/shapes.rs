@@ -506,7 +506,7 @@ impl ConstraintFamily for PersonShapes {
         let (i, s) = self.split(index);
         let what = match &self.shapes[s].0 {
             Shape::Segment { a, b } => {
-                let n = crate::stepper::display_number;
+                let n = crate::numbers::display_number;
                 format!(
                     "segment ({}, {})–({}, {})",
                     n(a[0]),

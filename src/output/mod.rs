@@ -87,48 +87,7 @@ pub enum OutputError {
     Unavailable(&'static str),
 }
 
-/// A trajectory file format (`[output] formats`, `sweep run --format`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum TrajectoryFormat {
-    /// `trajectory.csv`: `t,id,x,y,present` (see [`TrajectoryWriter`]).
-    Csv,
-    /// `trajectory.sqlite`: JuPedSim's SQLite trajectory schema, for PedPy and JuPedSim's
-    /// viewer.
-    Sqlite,
-}
-
-impl TrajectoryFormat {
-    /// The file name it writes in the output directory.
-    pub const fn file_name(self) -> &'static str {
-        match self {
-            TrajectoryFormat::Csv => "trajectory.csv",
-            TrajectoryFormat::Sqlite => "trajectory.sqlite",
-        }
-    }
-}
-
-impl std::str::FromStr for TrajectoryFormat {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "csv" => Ok(TrajectoryFormat::Csv),
-            "sqlite" => Ok(TrajectoryFormat::Sqlite),
-            other => Err(format!(
-                "unknown trajectory format `{other}` (expected csv or sqlite)"
-            )),
-        }
-    }
-}
-
-impl std::fmt::Display for TrajectoryFormat {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            TrajectoryFormat::Csv => "csv",
-            TrajectoryFormat::Sqlite => "sqlite",
-        })
-    }
-}
+pub use crate::scene::TrajectoryFormat;
 
 /// Creates the output directory if needed and checks that files can be written in it, so that
 /// a run does not compute for minutes and then fail to write its results.
@@ -490,7 +449,7 @@ impl<'a> SummaryCollector<'a> {
             self.summary.max_overlap_at = format!(
                 "{} at t = {}",
                 self.describe(ow),
-                crate::stepper::display_number(t)
+                crate::numbers::display_number(t)
             );
         }
         if pv > self.summary.max_wall_penetration {
@@ -498,7 +457,7 @@ impl<'a> SummaryCollector<'a> {
             self.summary.max_wall_penetration_at = format!(
                 "{} at t = {}",
                 self.describe(pw),
-                crate::stepper::display_number(t)
+                crate::numbers::display_number(t)
             );
         }
         self.summary.t_final = t;
@@ -532,7 +491,7 @@ impl Observer for SummaryCollector<'_> {
 
     fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let s = &mut self.summary;
-        s.peak_memory_mib = crate::study::peak_memory_bytes().map(|b| b as f64 / 1048576.0);
+        s.peak_memory_mib = crate::meter::peak_memory_bytes().map(|b| b as f64 / 1048576.0);
         let per = |v: f64| {
             if s.steps > 0 {
                 1e3 * v / s.steps as f64
@@ -647,7 +606,7 @@ pub fn csv_interval_note(trajectory_every: f64, h: f64) -> Option<String> {
         format!(
             "trajectory.csv: [output] trajectory_every = {trajectory_every} is not a whole \
              number of steps h = {h}: a row is written every {every} step(s), every {} s",
-            crate::stepper::display_number(written)
+            crate::numbers::display_number(written)
         )
     })
 }

@@ -153,7 +153,7 @@ impl SqliteTrajectoryWriter {
         let wkt = walkable.to_wkt();
         let geometry_hash = fnv1a(&wkt);
         let [xmin, ymin, xmax, ymax] = walkable.bounds();
-        let fmt = crate::stepper::display_number;
+        let fmt = crate::numbers::display_number;
         conn.execute_batch(
             "BEGIN;
              CREATE TABLE trajectory_data (frame INTEGER NOT NULL, id INTEGER NOT NULL, \

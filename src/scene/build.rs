@@ -5,7 +5,9 @@
 //! values; the only state passed along is what a later step needs.
 
 use super::drawn;
-use super::spec::{CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec};
+use super::spec::{
+    CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec, TrajectoryFormat,
+};
 use super::{
     bbox, check_desired, check_resolution, finite, fmt_pt, meeting_edges, polygon_area, Ctx,
     Effect, Obstacle, ObstacleShape, Origin, OutputSettings, Overrides, SceneError, SpatialHash,
@@ -21,8 +23,9 @@ use crate::crowd::{
     segment_distance, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population, Room, Shape,
     ShapeParams,
 };
+use crate::numbers::display_number;
 use crate::problem::Problem;
-use crate::stepper::{display_number, StepperSettings};
+use crate::stepper::StepperSettings;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::Arc;
@@ -1121,7 +1124,7 @@ pub(super) fn output_settings(
     let mut formats = out_spec
         .as_ref()
         .and_then(|o| o.formats.clone())
-        .unwrap_or_else(|| vec![crate::output::TrajectoryFormat::Csv]);
+        .unwrap_or_else(|| vec![TrajectoryFormat::Csv]);
     if formats.is_empty() {
         return Err(cx.err(
             out_line,

@@ -149,7 +149,7 @@ impl ResumeError {
 }
 
 fn display_number(v: f64) -> String {
-    crate::stepper::display_number(v)
+    crate::numbers::display_number(v)
 }
 
 /// Line and column (1-based) of byte `offset` in `text`.

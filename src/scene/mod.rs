@@ -51,11 +51,12 @@ mod effect;
 mod error;
 mod notes;
 pub mod spec;
+pub mod synthetic;
 
 pub use builder::CrowdBuilder;
 pub use effect::Effect;
 pub use error::{line_column, ResumeError, SceneError};
-pub use spec::SceneSpec;
+pub use spec::{SceneSpec, TrajectoryFormat};
 
 use crate::backends::BackendChoice;
 use crate::crowd::fast_marching::DistanceField;
@@ -162,7 +163,7 @@ pub struct OutputSettings {
     /// Most frames in the HTML animation.
     pub animation_frames: usize,
     /// Trajectory formats to write (at least one, no repeats).
-    pub formats: Vec<crate::output::TrajectoryFormat>,
+    pub formats: Vec<TrajectoryFormat>,
     /// What the user is told before a run, one sentence each: what was adjusted (an interval
     /// below one step clamped to one step, naming the file, line and key), and what is allowed
     /// but rarely meant (nobody moving, people cut off from every exit, a run of very many
@@ -281,7 +282,7 @@ fn finite<const K: usize>(v: &[f64; K]) -> bool {
 /// A point for messages, its coordinates rounded to 1e-9 (an exit's end computed as
 /// 4.4 + 1.2 printed as 5.6000000000000005).
 fn fmt_pt(p: [f64; 2]) -> String {
-    use crate::stepper::display_number;
+    use crate::numbers::display_number;
     format!("({}, {})", display_number(p[0]), display_number(p[1]))
 }
 

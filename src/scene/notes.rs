@@ -2,9 +2,9 @@
 //! meant — nobody moving, people cut off from every exit, a run of very many steps, a
 //! trajectory file of hundreds of megabytes. One sentence each; the run goes on.
 
+use super::spec::TrajectoryFormat;
 use super::OutputSettings;
 use crate::crowd::fast_marching::DistanceField;
-use crate::output::TrajectoryFormat;
 use std::sync::Arc;
 
 /// Runs of more steps than this are pointed out.

@@ -4,7 +4,7 @@
 //! found after parsing (an exit off the walls, two people overlapping) name its line.
 
 use crate::backends::BackendChoice;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 /// Fixed-size arrays read exactly: `position = [1, 1, 3]` is an error ("expected 2 numbers,
@@ -281,5 +281,48 @@ pub struct OutputSpec {
     pub animation_frames: Option<usize>,
     /// Trajectory files to write: `"csv"` (`trajectory.csv`), `"sqlite"` (`trajectory.sqlite`,
     /// JuPedSim's trajectory format, for PedPy). Default `["csv"]`.
-    pub formats: Option<Vec<crate::output::TrajectoryFormat>>,
+    pub formats: Option<Vec<TrajectoryFormat>>,
+}
+
+/// A trajectory file format (`[output] formats`, `sweep run --format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TrajectoryFormat {
+    /// `trajectory.csv`: `t,id,x,y,present` (see `output::TrajectoryWriter`).
+    Csv,
+    /// `trajectory.sqlite`: JuPedSim's SQLite trajectory schema, for PedPy and JuPedSim's
+    /// viewer.
+    Sqlite,
+}
+
+impl TrajectoryFormat {
+    /// The file name it writes in the output directory.
+    pub const fn file_name(self) -> &'static str {
+        match self {
+            TrajectoryFormat::Csv => "trajectory.csv",
+            TrajectoryFormat::Sqlite => "trajectory.sqlite",
+        }
+    }
+}
+
+impl std::str::FromStr for TrajectoryFormat {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "csv" => Ok(TrajectoryFormat::Csv),
+            "sqlite" => Ok(TrajectoryFormat::Sqlite),
+            other => Err(format!(
+                "unknown trajectory format `{other}` (expected csv or sqlite)"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for TrajectoryFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TrajectoryFormat::Csv => "csv",
+            TrajectoryFormat::Sqlite => "sqlite",
+        })
+    }
 }

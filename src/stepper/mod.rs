@@ -56,15 +56,7 @@ use assembly::FamilyState;
 use std::time::Instant;
 use sweeping_api::{Projector, SparseRows};
 
-/// A time or coordinate for messages: rounded to 1e-9 so that `t = k·h` prints as `3.78`, not
-/// `3.7800000000000002`.
-pub fn display_number(v: f64) -> String {
-    if v.is_finite() {
-        format!("{}", (v * 1e9).round() / 1e9)
-    } else {
-        format!("{v}")
-    }
-}
+pub use crate::numbers::display_number;
 
 /// The number of steps of length `h` that cover `span = T − t₀`: `⌈span/h⌉`, the last one
 /// shortened to land on `T`. A ratio within `1e-9` above an integer counts as that integer,

@@ -19,7 +19,6 @@ use super::{
     ProjectorFactory, StudyError,
 };
 use crate::constraint::{ConstraintKernel, KernelFamily};
-use crate::crowd::{DiskPairs, Population};
 use crate::problem::Problem;
 use crate::stepper::{StepperSettings, Trajectory};
 use num_dual::DualNum;
@@ -97,12 +96,16 @@ impl ExactCase for TwoDisksOnALine {
     }
 
     fn problem(&self) -> Problem {
-        let pop = Population::new(vec![self.radius; 2]).shared();
         let q0 = vec![0.0, 0.0, 2.0 * self.radius + self.gap, 0.0];
         Problem::new(q0, |_t: f64, _q: &[f64], f: &mut [f64]| {
             f.copy_from_slice(&[1.0, 0.0, 0.0, 0.0]);
         })
-        .with_family(DiskPairs::new(pop))
+        .with_family(KernelFamily::single_with(
+            "disks",
+            DiskGapKernel,
+            [0, 1, 2, 3],
+            2.0 * self.radius,
+        ))
     }
 
     fn exact(&self, t: f64) -> Vec<f64> {
@@ -121,6 +124,25 @@ impl ExactCase for TwoDisksOnALine {
 
     fn kinks(&self) -> Vec<f64> {
         vec![self.gap]
+    }
+}
+
+/// Two disks' gap `g(t, z) = |(z₂, z₃) − (z₀, z₁)| − d` with params `d` (the sum of the
+/// radii): the crowd model's contact, written here so that the core's studies need no crowd.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DiskGapKernel;
+
+impl ConstraintKernel<4> for DiskGapKernel {
+    type Params = f64;
+
+    fn value<D: DualNum<Primitive = f64> + Copy>(&self, d: &f64, _t: D, z: [D; 4]) -> D {
+        let dx = z[2] - z[0];
+        let dy = z[3] - z[1];
+        (dx * dx + dy * dy).sqrt() - *d
+    }
+
+    fn is_time_dependent(&self) -> bool {
+        false
     }
 }
 

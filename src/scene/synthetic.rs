@@ -11,10 +11,10 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::spec::DesiredSpec;
+use super::{BuiltScene, CrowdBuilder};
 use crate::error::SweepError;
 use crate::problem::Problem;
-use crate::scene::spec::DesiredSpec;
-use crate::scene::{BuiltScene, CrowdBuilder};
 
 /// Radius of every person of a synthetic crowd.
 pub const RADIUS: f64 = 0.2;
