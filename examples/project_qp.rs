@@ -1,5 +1,5 @@
 //! Projects recorded projection problems (the JSON of `sweeping::api::ProjectionProblem`, at
-//! the top level or under the key `problem`, as `tests/data/*_qp.json` hold them) and writes
+//! the top level or under the key `problem`, as `testkit/fixtures/*_qp.json` hold them) and writes
 //! each answer next to its name in an output folder, with its KKT residuals and the time:
 //!
 //! ```text

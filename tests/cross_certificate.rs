@@ -15,8 +15,6 @@ use sweeping::api::conformance::max_gap;
 use sweeping::api::Projector;
 use sweeping::backends::{ClarabelProjector, OsqpProjector, OsqpSettings};
 
-#[path = "common/certified.rs"]
-mod certified;
 #[path = "common/replay.rs"]
 mod replay;
 

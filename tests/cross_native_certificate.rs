@@ -17,8 +17,6 @@ use sweeping::api::conformance::max_gap;
 use sweeping::api::{ProjectionProblem, Projector};
 use sweeping::backends::{native_projector, ClarabelProjector, NativeSettings};
 
-#[path = "common/certified.rs"]
-mod certified;
 #[path = "common/replay.rs"]
 mod replay;
 

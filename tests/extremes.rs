@@ -17,11 +17,11 @@
 
 mod common;
 
-use common::checker::{check_trajectory, scratch, Findings, Geometry};
 use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::output::TrajectoryWriter;
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::{Run, RunFailure};
+use sweeping_testkit::checker::{check_trajectory, scratch, Findings, Geometry};
 
 /// The paper's evacuation (150 people of radius 0.2 in a 10 × 10 room, a 1.2 m door) with its
 /// lower-left corner at `(x0, y0)`, run for `t_end` seconds.

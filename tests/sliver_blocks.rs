@@ -42,8 +42,7 @@ struct Sliver {
 }
 
 fn sliver(name: &str) -> Sliver {
-    let path = format!("{}/tests/data/{name}_qp.json", env!("CARGO_MANIFEST_DIR"));
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    sweeping_testkit::fixtures::read(&format!("{name}_qp.json"))
 }
 
 /// `a + b` as a double-double `(sum, error)` (Knuth's two-sum).

@@ -9,12 +9,12 @@
 
 mod common;
 
-use common::checker::{check_trajectory, moving, scratch, Geometry, Obstacle};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRng, TestRunner};
 use sweeping::backends::{make_projector, BackendChoice};
 use sweeping::output::TrajectoryWriter;
 use sweeping::scene::{Overrides, Scene};
+use sweeping_testkit::checker::{check_trajectory, moving, scratch, Geometry, Obstacle};
 
 /// The run-time violation tolerance (the stepper's default), plus the last bits of the CSV.
 const TOL: f64 = 1e-6 * (1.0 + 1e-6);

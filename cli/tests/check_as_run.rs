@@ -1,8 +1,6 @@
 //! `sweep check` refuses what `sweep run` refuses, and tells what `run` adjusts: a scene it
 //! passes runs as written.
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
 use std::process::Command;
@@ -12,7 +10,7 @@ const ONE: &str = "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[people]]\npositio
 
 /// `sweep check --no-constants` on `scene` written as `name.toml`: success and stdout + stderr.
 fn sweep_check(name: &str, scene: &str) -> (bool, String) {
-    let dir = common::checker::scratch(name);
+    let dir = sweeping_testkit::checker::scratch(name);
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, scene).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_sweep"))
@@ -106,7 +104,7 @@ fn check_and_run_say_when_an_interval_below_a_step_is_clamped() {
 
 #[test]
 fn a_name_that_would_leave_out_is_refused_before_any_directory_is_made() {
-    let dir = common::checker::scratch("name-escapes");
+    let dir = sweeping_testkit::checker::scratch("name-escapes");
     let path = dir.join("scene.toml");
     std::fs::write(&path, format!("name = \"../escaped\"\n{ONE}")).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_sweep"))

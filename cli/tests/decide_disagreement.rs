@@ -38,7 +38,9 @@ fn fresh_dir(name: &str) -> PathBuf {
 #[test]
 #[ignore = "needs NumPy and SciPy (installed by the script with pip when missing)"]
 fn the_paper_cross_stop_is_decided_for_clarabel() {
-    let (certified, printed) = decide(&root().join("tests/data/paper_cross_disagreement.json"));
+    let (certified, printed) = decide(&sweeping_testkit::fixtures::path(
+        "paper_cross_disagreement.json",
+    ));
     assert!(certified, "the certificate failed");
     let distance = |name: &str| -> f64 {
         let line = printed

@@ -2,16 +2,18 @@
 //! loudly (non-zero exit, a typed error naming step, time and constraint) or runs correctly, as
 //! judged by an independent checker reading the `trajectory.csv` the real `sweep` binary wrote.
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
-use common::checker::{check_trajectory, moving, still, Geometry, Obstacle};
 use support::sweep_run;
+use sweeping_testkit::checker::{check_trajectory, moving, still, Geometry, Obstacle};
 
 const TOL: f64 = 1e-6;
 
-fn assert_clean(name: &str, csv: &std::path::Path, g: &Geometry) -> common::checker::Findings {
+fn assert_clean(
+    name: &str,
+    csv: &std::path::Path,
+    g: &Geometry,
+) -> sweeping_testkit::checker::Findings {
     let f = check_trajectory(csv, g, TOL);
     assert!(f.rows > 0, "{name}: empty trajectory");
     assert!(f.problems.is_empty(), "{name}: {:#?}", f.problems);
@@ -629,7 +631,7 @@ fn far_or_huge_rooms_are_refused_and_near_ones_run_clean() {
 #[test]
 fn sweep_check_validates_its_arguments_and_fails_on_failed_assumptions() {
     use std::process::Command;
-    let dir = common::checker::scratch("check");
+    let dir = sweeping_testkit::checker::scratch("check");
     let wedged = dir.join("wedged.toml");
     std::fs::write(
         &wedged,

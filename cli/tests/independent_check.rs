@@ -2,8 +2,6 @@
 //! code, on a run of the real binary: clean as written, and flagged once a person is moved
 //! onto another in the trajectory.
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
 use std::path::Path;

@@ -6,8 +6,6 @@
 
 #![cfg(unix)]
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
 use std::path::{Path, PathBuf};

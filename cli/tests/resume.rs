@@ -2,13 +2,10 @@
 //! same scene wrote, read back from its `trajectory.csv`, agrees with the run that never
 //! stopped, and what does not fit is refused by name.
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
-
-use common::checker::scratch;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use sweeping_testkit::checker::scratch;
 
 /// Twelve people leaving a 4 m room by a door in its right wall: the first of them are out
 /// by t = 2 s, the rest still queueing at t = 3 s.

@@ -1,8 +1,6 @@
 //! The flags of `sweep run` and `sweep bench` that choose how a run is computed, not what it
 //! computes (the threads a projection may use, the backend's name), and bench's bad sizes.
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
 use support::sweep_run;
@@ -124,7 +122,7 @@ fn bench_writes_its_csv_row_by_row_and_refuses_a_path_it_cannot_write_before_mea
         "{text}"
     );
     assert!(!text.contains(" 150 "), "a row was measured first: {text}");
-    let dir = common::checker::scratch("bench-csv");
+    let dir = sweeping_testkit::checker::scratch("bench-csv");
     let path = dir.join("bench.csv");
     let (ok, text) = sweep_bench(&[
         "--n",
@@ -374,7 +372,7 @@ fn bench_measures_a_scene_from_a_time_of_its_run_or_from_an_earlier_run_s_state(
 /// (the default backend) among them; the reference run is an independent solver.
 #[test]
 fn a_work_precision_study_compares_the_native_backend_by_default() {
-    let dir = common::checker::scratch("work-precision-defaults");
+    let dir = sweeping_testkit::checker::scratch("work-precision-defaults");
     let scene = dir.join("scene.toml");
     std::fs::write(
         &scene,

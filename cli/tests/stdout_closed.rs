@@ -2,8 +2,6 @@
 //! written, and the process says so without a panic (it panicked in `println!`, and in
 //! `eprintln!` at its first progress line, exit code 101).
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
 use std::process::Stdio;

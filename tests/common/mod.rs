@@ -76,5 +76,4 @@ pub fn sci(values: &[f64]) -> String {
     format!("[{}]", v.join(", "))
 }
 
-pub mod checker;
 pub mod kernels;

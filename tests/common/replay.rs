@@ -1,13 +1,13 @@
 //! Replaying a scene with two backends on every step and deciding, against a certified
 //! projection, which one is off where they first disagree. Shared by the cross-check
 //! certificates (`cross_certificate.rs`: Clarabel against OSQP; `cross_native_certificate.rs`:
-//! native against Clarabel), each of which includes this file next to `certified.rs`.
+//! native against Clarabel), each of which includes this file.
 
-use crate::certified::{least_distance, reference};
 use sweeping::api::conformance::max_gap;
 use sweeping::api::{Block, Blocks, Projection, ProjectionError, ProjectionProblem, Projector};
 use sweeping::scene::{Overrides, Scene};
 use sweeping::stepper::Stepper;
+use sweeping_testkit::certified::{least_distance, reference};
 
 /// The first step where two backends differ by more than the tolerance.
 pub struct Disagreement {

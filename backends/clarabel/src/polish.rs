@@ -394,9 +394,10 @@ mod tests {
         struct Block {
             problem: ProjectionProblem,
         }
-        let block: Block =
-            serde_json::from_str(include_str!("../../../tests/data/hall_late_sliver_qp.json"))
-                .unwrap();
+        let block: Block = serde_json::from_str(&sweeping_testkit::fixtures::text(
+            "hall_late_sliver_qp.json",
+        ))
+        .unwrap();
         let answer = crate::ClarabelProjector::default()
             .project(&block.problem)
             .unwrap();
@@ -475,7 +476,7 @@ mod tests {
         // runs out of the block's cap of 240 iterations, and the polish must not stop there
         // with the iterate (every multiplier positive, the point off by ~√gap).
         let (problem, x, z, s) =
-            interior_point_guess(include_str!("../tests/data/jam_polish_guess.json"));
+            interior_point_guess(&sweeping_testkit::fixtures::text("jam_polish_guess.json"));
         let Polished {
             x: px, lambda: pl, ..
         } = polish(&problem, &x, &z, &s).expect("the block is polished");
@@ -502,8 +503,8 @@ mod tests {
         // (t = 44.6 s) and the interior-point answer Clarabel gave there (the case:
         // `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`): both tries under
         // 40 + 1004/2 iterations run out.
-        let (problem, x, z, s) = interior_point_guess(include_str!(
-            "../tests/data/evacuation_h005_polish_guess.json"
+        let (problem, x, z, s) = interior_point_guess(&sweeping_testkit::fixtures::text(
+            "evacuation_h005_polish_guess.json",
         ));
         let m = problem.n_rows();
         let support: Vec<usize> = (0..m).filter(|&i| z[i] > s[i]).collect();
@@ -536,8 +537,9 @@ mod tests {
         // (`hall_t14_polish_guess.json`), a block of 3743 rows on 2804 unknowns: 3373 rows have
         // z > s, and the three tries from them run out, so only the fourth moves the iterate
         // (the case: `docs/lab/2026-11-28-second-pass-1e-15-dependent-rows.md`).
-        let (problem, x, z, s) =
-            interior_point_guess(include_str!("../tests/data/hall_t14_polish_guess.json"));
+        let (problem, x, z, s) = interior_point_guess(&sweeping_testkit::fixtures::text(
+            "hall_t14_polish_guess.json",
+        ));
         let (m, n) = (problem.n_rows(), problem.dim());
         let guess: Vec<usize> = (0..m).filter(|&i| z[i] > s[i]).collect();
         assert_eq!((m, n, guess.len()), (3743, 2804, 3373));

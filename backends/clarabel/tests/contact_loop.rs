@@ -1,6 +1,6 @@
 //! A contact loop: a projection whose active rows are linearly dependent.
 //!
-//! `data/contact_loop_qp.json` is the projection of step 287 of the paper's evacuation scene
+//! The fixture `contact_loop_qp.json` is the projection of step 287 of the paper's evacuation scene
 //! (142 rows, 300 coordinates): a cycle of touching disks makes the 113 active rows
 //! rank-deficient, so their multipliers are not unique, and their equations are consistent
 //! only to `1.1e-10` (rounding of the data). The interior-point iterate alone was `2.2e-6`
@@ -16,11 +16,9 @@
 //! the inconsistency over the loop), so they pin the point, whatever the active-set guess it
 //! came from.
 
-#[path = "../../../tests/common/certified.rs"]
-mod certified;
-use certified::{assert_is_the_projection, contact_loop_qp};
 use sweeping_api::Projector;
 use sweeping_clarabel::ClarabelProjector;
+use sweeping_testkit::certified::{assert_is_the_projection, contact_loop_qp};
 
 #[test]
 fn contact_loop_is_polished_to_the_exact_projection() {

@@ -1,6 +1,6 @@
 //! A jam's block on which joining every violated row at once does not finish the polish.
 //!
-//! `data/jam_polish_guess.json` holds 400 rows of a jammed block of the 2000-person
+//! The fixture `jam_polish_guess.json` holds 400 rows of a jammed block of the 2000-person
 //! evacuation (`examples/scenes/large-evacuation.toml`, step 983, t = 9.84 s; the rows
 //! within reach of the coordinate where the cross-check stopped, 356 unknowns) and the
 //! interior-point answer Clarabel gave there on the whole step (`x`, multipliers `z`). From
@@ -10,26 +10,19 @@
 //! polish kept the unpolished iterate, 4.2e-8 from the projection, which stopped
 //! `--backend cross-native`. The most violated row joining alone finishes.
 
-#[path = "../../../tests/common/certified.rs"]
-mod certified;
-use certified::assert_is_the_projection;
 use sweeping_api::ProjectionProblem;
 use sweeping_qp::active_set::{self, Failure, Options, Start};
+use sweeping_testkit::certified::assert_is_the_projection;
 
 /// The block, the interior point's `x` and `z`, and the slacks `s = A x − b`.
 fn jam() -> (ProjectionProblem, Vec<f64>, Vec<f64>, Vec<f64>) {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/jam_polish_guess.json"
-    );
     #[derive(serde::Deserialize)]
     struct Data {
         problem: ProjectionProblem,
         interior_point_x: Vec<f64>,
         interior_point_z: Vec<f64>,
     }
-    let text = std::fs::read_to_string(path).expect("read the jam's guess");
-    let data: Data = serde_json::from_str(&text).expect("parse the jam's guess");
+    let data: Data = sweeping_testkit::fixtures::read("jam_polish_guess.json");
     let p = data.problem;
     let s = p
         .shortfall(&data.interior_point_x)

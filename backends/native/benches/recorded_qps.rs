@@ -1,5 +1,5 @@
 //! The recorded projections of congested crowds, each solved cold by the native backend and by
-//! Clarabel: the door queues and jams of `tests/data/` (this crate's and the root's), each one
+//! Clarabel: the door queues and jams of the test fixtures (`sweeping_testkit::fixtures`), each one
 //! block recorded where a method struggled (their tests say where each comes from).
 //!
 //! `cargo bench -p sweeping-native --bench recorded_qps`; one problem:
@@ -8,7 +8,6 @@
 //! `sweep bench --start queue`.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use std::path::{Path, PathBuf};
 use sweeping_api::{ProjectionProblem, Projector};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::NativeProjector;
@@ -18,26 +17,12 @@ type MakeProjector = fn() -> Box<dyn Projector>;
 
 /// The recorded problems, by file name, in name order.
 fn recorded() -> Vec<(String, ProjectionProblem)> {
-    let here = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files: Vec<PathBuf> = [here.join("tests/data"), here.join("../../tests/data")]
-        .iter()
-        .flat_map(|dir| std::fs::read_dir(dir).expect("the fixtures' folder"))
-        .map(|entry| entry.expect("a fixture").path())
-        .filter(|p| p.to_string_lossy().ends_with("_qp.json"))
-        .collect();
-    files.sort_by_key(|p| p.file_name().map(ToOwned::to_owned));
-    files
+    sweeping_testkit::fixtures::all_ending_with("_qp.json")
         .iter()
         .map(|path| {
-            let text = std::fs::read_to_string(path).expect("a readable fixture");
-            let value: serde_json::Value = serde_json::from_str(&text).expect("JSON");
-            // Some fixtures wrap the problem with what was recorded beside it.
-            let value = value.get("problem").cloned().unwrap_or(value);
-            let name = path.file_stem().unwrap().to_string_lossy().into_owned();
-            (
-                name,
-                serde_json::from_value(value).expect("a projection problem"),
-            )
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            let stem = name.trim_end_matches(".json").to_owned();
+            (stem, sweeping_testkit::fixtures::problem(&name))
         })
         .collect()
 }

@@ -1,6 +1,6 @@
 //! A contact loop: a projection whose active rows are linearly dependent.
 //!
-//! `data/contact_loop_qp.json` (a copy of the Clarabel backend's test data) is the projection
+//! The fixture `contact_loop_qp.json` is the projection
 //! of step 287 of the paper's evacuation scene (142 rows, 300 coordinates): a cycle of
 //! touching disks makes the 113 active rows rank-deficient, so their multipliers are not
 //! unique, and their equations are consistent only to `1.1e-10` (rounding of the data). The
@@ -11,14 +11,12 @@
 //! least squares, min-norm multipliers), checked to be feasible and to satisfy
 //! `x − y = A_Tᵀλ` with `λ ≥ 0` found by a dense non-negative least-squares solve.
 
-#[path = "../../../tests/common/certified.rs"]
-mod certified;
-use certified::{assert_is_the_projection, contact_loop_qp};
 use sweeping_api::conformance::max_gap;
 use sweeping_api::Projector;
 use sweeping_api::RowKey;
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::{NativeProjector, NativeSettings};
+use sweeping_testkit::certified::{assert_is_the_projection, contact_loop_qp};
 
 #[test]
 fn contact_loop_is_solved_exactly_without_fallback() {

@@ -2,23 +2,23 @@
 //! linearly dependent, multipliers not unique, and normal equations whose weights span twenty
 //! orders of magnitude near the answer.
 //!
-//! Each file is one block of a projection recorded where an earlier native method (a dual
+//! Each fixture (`sweeping_testkit::fixtures`) is one block of a projection recorded where an earlier native method (a dual
 //! active set, rescued by an interior point and finished by the active set again) struggled:
 //!
-//! * `data/door_queue_qp.json`: the 2000-person evacuation (`examples/scenes/large-evacuation.toml`)
+//! * `door_queue_qp.json`: the 2000-person evacuation (`examples/scenes/large-evacuation.toml`)
 //!   in its first 12 s, 2094 rows on 1604 coordinates; its interior point's solves lost
 //!   accuracy near the answer (the residuals jumped from 1e-11 to 1e-7 a step before the
 //!   tolerance, unless every late solve is refined).
-//! * `data/door_queue_loops_qp.json` (2073 rows on 1572 coordinates): 1852 rows whose
+//! * `door_queue_loops_qp.json` (2073 rows on 1572 coordinates): 1852 rows whose
 //!   multiplier exceeds their slack near the answer, consistent only to `5e-8`.
-//! * `data/door_queue_breakdown_qp.json` (1804 rows on 1474 coordinates), from the same
+//! * `door_queue_breakdown_qp.json` (1804 rows on 1474 coordinates), from the same
 //!   scene's first 30 s: the interior point's dual residual stalls near its tolerance.
-//! * `data/door_queue_drop_qp.json` (1756 rows on 1258 coordinates): a support guess holding
+//! * `door_queue_drop_qp.json` (1756 rows on 1258 coordinates): a support guess holding
 //!   480 rows that leave.
-//! * `data/hall_queue_fallback_qp.json` (3115 rows on 2256 coordinates): a door-queue jam of
+//! * `hall_queue_fallback_qp.json` (3115 rows on 2256 coordinates): a door-queue jam of
 //!   the 10 000-person hall (`examples/scenes/hall-10000.toml`) at t ≈ 17.8 s that the earlier
 //!   method could not finish at all (it went to Clarabel).
-//! * `data/door_queue_stalled_qp.json` (2275 rows on 1670 coordinates): a block of the
+//! * `door_queue_stalled_qp.json` (2275 rows on 1670 coordinates): a block of the
 //!   2000-person evacuation between t = 0 and 20 s on which the interior point itself breaks
 //!   down short of its tolerance (its residuals jump from `1e-14` to `1e-2`); the engine handed
 //!   it to its fallback until the finish of an unconverged interior point got more iterations.
@@ -33,9 +33,7 @@ use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::NativeProjector;
 
 fn load(name: &str) -> ProjectionProblem {
-    let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("read {path}: {e}"));
-    serde_json::from_str(&text).unwrap_or_else(|e| panic!("parse {path}: {e}"))
+    sweeping_testkit::fixtures::problem(name)
 }
 
 #[test]

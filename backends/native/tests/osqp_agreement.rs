@@ -55,12 +55,7 @@ fn agrees_with_tight_osqp_where_it_converges() {
 
 #[test]
 fn agrees_with_tight_osqp_on_the_contact_loop() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/contact_loop_qp.json"
-    );
-    let p: ProjectionProblem =
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let p = sweeping_testkit::fixtures::problem("contact_loop_qp.json");
     let native = NativeProjector::default().project(&p).unwrap();
     let osqp = OsqpProjector::default().project(&p).unwrap();
     let gap = max_gap(&native.x, &osqp.x);

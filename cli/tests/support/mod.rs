@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use crate::common::checker::scratch;
+use sweeping_testkit::checker::scratch;
 
 /// The outcome of `sweep run`.
 #[allow(dead_code)] // each test binary compiles this module and uses part of it

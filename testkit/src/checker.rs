@@ -2,7 +2,6 @@
 //! and recomputes, by its own plain code (no library geometry), the overlaps of present people,
 //! the gaps to the walls (room edges minus exits) and to the obstacles, NaNs, and whether
 //! anyone who left came back.
-#![allow(dead_code)]
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -3,12 +3,13 @@
 //! grown by any row it violates, then checked feasible and `x − y = A_Tᵀλ` with `λ ≥ 0` found
 //! by a dense non-negative least-squares solve: the KKT conditions of the convex projection,
 //! which pin the point whatever guess it came from. Shared by the contact-loop tests of the
-//! Clarabel and native backends and by the cross-check certificate (each includes this file).
+//! Clarabel and native backends and by the cross-check certificate.
 
 use nalgebra::{DMatrix, DVector};
 use sweeping_api::conformance::max_gap;
 use sweeping_api::ProjectionProblem;
 
+/// The rows `rows` of the problem's `A`, dense, one matrix row each.
 pub fn dense_rows(problem: &ProjectionProblem, rows: &[usize]) -> DMatrix<f64> {
     let mut a = DMatrix::zeros(rows.len(), problem.dim());
     for (t, &r) in rows.iter().enumerate() {
@@ -68,6 +69,8 @@ pub fn nnls(m: &DMatrix<f64>, g: &DVector<f64>) -> DVector<f64> {
     lambda
 }
 
+/// The projection of `y` onto the affine set `{x : A_R x = b_R}` of the rows `R = rows`
+/// (dense SVD least squares, min-norm multipliers).
 pub fn affine_projection(problem: &ProjectionProblem, rows: &[usize]) -> DVector<f64> {
     let a = dense_rows(problem, rows);
     let y = DVector::from_column_slice(problem.y());
@@ -128,7 +131,6 @@ pub fn reference(
 /// not all in the support, forcing them all tight moves the point by their slack over the
 /// support's smallest singular value; this candidate does not depend on an answer's slacks.
 /// Dense, cubic in the rows: for problems of a few hundred rows.
-#[allow(dead_code)] // used by the replays, not by every includer
 pub fn least_distance(problem: &ProjectionProblem) -> (Vec<f64>, f64, f64) {
     let (m, n) = (problem.n_rows(), problem.dim());
     let mut ay = vec![0.0; m];
@@ -148,21 +150,14 @@ pub fn least_distance(problem: &ProjectionProblem) -> (Vec<f64>, f64, f64) {
     certify(problem, &support, x)
 }
 
-/// The contact-loop QP of the including crate's `tests/data/contact_loop_qp.json` (step 287
-/// of the paper's evacuation: 142 rows, 300 coordinates, 113 dependent active rows).
-#[allow(dead_code)] // used by the backends' contact-loop tests, not by every includer
+/// The contact-loop QP (`fixtures/contact_loop_qp.json`: step 287 of the paper's evacuation,
+/// 142 rows, 300 coordinates, 113 dependent active rows).
 pub fn contact_loop_qp() -> ProjectionProblem {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/contact_loop_qp.json"
-    );
-    let text = std::fs::read_to_string(path).expect("read the contact-loop QP");
-    serde_json::from_str(&text).expect("parse the contact-loop QP")
+    crate::fixtures::problem("contact_loop_qp.json")
 }
 
 /// Asserts that `x` is the exact projection: the certified reference from `x`'s tight rows
 /// (slack ≤ `1e-7`) is feasible and certified to `1e-9`, and `x` lies within `1e-8` of it.
-#[allow(dead_code)] // used by the backends' contact-loop tests, not by every includer
 pub fn assert_is_the_projection(problem: &ProjectionProblem, x: &[f64], what: &str) {
     let (x_ref, violation, cone_residual) = reference(problem, x, 1e-7);
     assert!(
