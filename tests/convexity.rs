@@ -1,5 +1,5 @@
 //! The convexity guard (each gᵢ convex in q, section 2 of the paper), affine claims verified,
-//! and the loose ends of issue #12: bounds validated, the start checked whole, c = ∞ for affine
+//! and the problem set-up's loose ends: bounds validated, the start checked whole, c = ∞ for affine
 //! constraints, a typed backend error, messages with rounded times, arithmetic spellings.
 
 mod common;

@@ -533,7 +533,7 @@ fn a_polygon_that_crosses_or_touches_itself_is_refused() {
         .unwrap();
 }
 
-/// Issue #53 item 2: a state to resume from is checked against the scene, since the run
+/// A state to resume from is checked against the scene, since the run
 /// trusts it from then on; each refusal names the person and leaves the scene as it was.
 #[test]
 fn a_state_that_does_not_fit_the_scene_is_not_resumed_from() {

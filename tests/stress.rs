@@ -1,4 +1,4 @@
-//! The stress suite of issue #9: random scenes (polygon rooms, static and moving obstacles,
+//! The stress suite: random scenes (polygon rooms, static and moving obstacles,
 //! crowds with radii spread up to 10×, h from 1e-4 to 1) run through the library, and an
 //! independent checker reads the `trajectory.csv` each run wrote: a run either ends with every
 //! present pair and wall gap ≥ −tolerance and no NaN, or with a typed error — never a panic, a

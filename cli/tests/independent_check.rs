@@ -86,7 +86,7 @@ fn the_independent_check_passes_a_run_and_flags_an_overlap_put_into_it() {
     );
 }
 
-/// Issue #53 item 1: an obstacle whose path turns between two frames is checked at its
+/// An obstacle whose path turns between two frames is checked at its
 /// waypoints too. A wall that pushes a person 0.07 m at h = 0.005 (waypoints on step ends)
 /// is clean; the same trajectory with the person put back where it started, as a run that
 /// did not see the wall's waypoints left it, is flagged, though at the frames' own times the

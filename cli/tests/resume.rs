@@ -299,7 +299,7 @@ fn write_trajectory(dir: &Path, name: &str, lines: &[String]) -> String {
     d.to_str().unwrap().to_string()
 }
 
-/// Issue #53 item 2: `--resume` trusted what it read. Two people inside the room marked as
+/// `--resume` once trusted what it read. Two people inside the room marked as
 /// gone resumed and walked through a wall; a person at x = −3 marked present was silently
 /// taken as gone; a trajectory starting at t = −100, and one of another scene, were resumed
 /// from. Each is refused now, naming the row, the person and what does not fit.

@@ -641,7 +641,7 @@ mod schedule_tests {
 
     #[test]
     fn tiny_intervals_terminate_and_land_after_t() {
-        // Issue #9 item 4: snapshot_every = 1e-12 looped ~1e12 times per step.
+        // A tiny snapshot_every must not loop once per interval within a step.
         let n = next_time_after(0.0, 1e-12, 1.0);
         assert!(n > 1.0 && n < 1.0 + 1e-8, "{n}");
         // An interval below the resolution of t.

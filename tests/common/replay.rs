@@ -1,7 +1,7 @@
 //! Replaying a scene with two backends on every step and deciding, against a certified
 //! projection, which one is off where they first disagree. Shared by the cross-check
-//! certificates (`cross_certificate.rs`: Clarabel against OSQP; `cross_native_certificate.rs`:
-//! native against Clarabel), each of which includes this file.
+//! certificates (`cross_stop_clarabel_osqp.rs`: Clarabel against OSQP;
+//! `cross_stop_native_clarabel.rs`: native against Clarabel).
 
 use sweeping::api::conformance::max_gap;
 use sweeping::api::{Block, Blocks, Projection, ProjectionError, ProjectionProblem, Projector};

@@ -1,4 +1,4 @@
-//! Issue #9 item 7: on the paper's evacuation, `--backend cross` (Clarabel against OSQP,
+//! On the paper's evacuation, `--backend cross` (Clarabel against OSQP,
 //! tolerance 1e-6) stops where the two differ by more than 1e-6. Which one is off?
 //!
 //! This test replays the cross-checked run, keeps the QP of the step where they disagree and
@@ -8,7 +8,7 @@
 //! answer (dense SVD least squares), checked feasible for every row, and `x − y = A_Tᵀλ` with `λ ≥ 0`
 //! found by a dense non-negative least-squares solve — the KKT conditions of the convex
 //! projection, which pin the point whatever active-set guess it came from. Long (≈1200 steps
-//! of both backends): `cargo test --release --test cross_certificate -- --ignored --nocapture`.
+//! of both backends): `cargo test --release --test cross_stop_clarabel_osqp -- --ignored --nocapture`.
 #![cfg(all(feature = "clarabel", feature = "osqp"))]
 
 use sweeping::api::conformance::max_gap;

@@ -1,6 +1,6 @@
-//! Issue #9: hard cases stay numerically stable. Each reproduction of the issue either fails
-//! loudly (non-zero exit, a typed error naming step, time and constraint) or runs correctly, as
-//! judged by an independent checker reading the `trajectory.csv` the real `sweep` binary wrote.
+//! Hard cases fail loudly or run right: each either fails loudly (non-zero exit, a typed error
+//! naming step, time and constraint) or runs correctly, as judged by an independent checker
+//! reading the `trajectory.csv` the real `sweep` binary wrote.
 
 mod support;
 
@@ -221,7 +221,7 @@ fn a_path_that_goes_out_and_back_within_one_step_is_seen() {
     assert!(run.success, "{}", run.output);
 }
 
-/// Issue #53 item 1: a wall whose path goes 0.07 m into a person standing against it and
+/// A wall whose path goes 0.07 m into a person standing against it and
 /// back within each step of 0.01 s. The ends of every step see the wall where it started,
 /// so the person was never pushed and the run completed, though at h = 0.005 (waypoints on
 /// step ends) the same wall pushes the person to x = 1.32. The step is now refused, naming
@@ -731,7 +731,7 @@ fn departures_are_reset_between_runs() {
 }
 
 /// The shipped paper evacuation and moving wall, whole runs, judged by the independent checker
-/// (long: `scripts/stress`, or `cargo test --release --test hard_cases -- --ignored`).
+/// (long: `scripts/stress`, or `cargo test --release --test loud_or_right -- --ignored`).
 #[test]
 #[ignore = "long: whole runs of shipped scenes"]
 fn shipped_scenes_pass_the_independent_checker() {

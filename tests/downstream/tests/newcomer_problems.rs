@@ -1,4 +1,4 @@
-//! A newcomer's first hour (project issue #12), as a downstream crate writes it: three problems
+//! A newcomer's first hour, as a downstream crate writes it: three problems
 //! of our own and a custom backend, with nothing but `sweeping::…` paths.
 
 use sweeping::assumptions::{

@@ -1,7 +1,7 @@
 //! On a shipped scene, `--backend cross-native` (the native backend against Clarabel,
 //! tolerance 1e-8) stops where the two differ by more than 1e-8. Which one is off?
 //!
-//! As `cross_certificate.rs` does for Clarabel and OSQP: the run is replayed with both
+//! As `cross_stop_clarabel_osqp.rs` does for Clarabel and OSQP: the run is replayed with both
 //! backends, the QP of the first step where they disagree is kept with both answers, and the
 //! exact projection is computed independently of both (the least-squares projection onto the
 //! support found by the least-distance program, or onto the rows tight at an answer, feasible
@@ -10,7 +10,7 @@
 //! projection separates over blocks). The large scenes' blocks are too large for that
 //! reference: there both answers must pass the KKT certificate and stay close. Long (the
 //! paper's evacuation in seconds, the large scenes in minutes):
-//! `cargo test --release --test cross_native_certificate -- --ignored --nocapture`.
+//! `cargo test --release --test cross_stop_native_clarabel -- --ignored --nocapture`.
 #![cfg(all(feature = "clarabel", feature = "native"))]
 
 use sweeping::api::conformance::max_gap;
