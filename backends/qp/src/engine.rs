@@ -269,11 +269,12 @@ impl Engine {
         Ok(answer)
     }
 
-    /// Every block's answer, in order: on the caller's thread, or, when two blocks or more
-    /// reach [`EngineSettings::parallel_rows`] and there are threads to spare, the large
-    /// blocks each on a thread of its own and the rest together. Each group orders its
-    /// factorizations from the memory as it stood before any of them, so the answers do not
-    /// depend on the threads.
+    /// Every block's answer, in order. When two blocks or more reach
+    /// [`EngineSettings::parallel_rows`], the large blocks each form a group and the rest
+    /// another; each group orders its factorizations from the memory as it stood before any
+    /// of them, and the groups' memories are joined in a fixed order. The groups run on
+    /// threads when there are threads to spare and one after the other otherwise — the same
+    /// arithmetic either way, so the answers do not depend on the threads.
     fn solve_blocks(&mut self, blocks: &Blocks, tol: f64) -> Vec<BlockResult> {
         let all = blocks.blocks();
         let context = Context {
@@ -286,13 +287,15 @@ impl Engine {
             t => t,
         };
         let groups = parallel_groups(all, self.settings.parallel_rows);
-        if threads < 2 || groups.len() < 2 {
+        if groups.len() < 2 {
             return all
                 .iter()
                 .map(|block| solve_block(&context, &mut self.orderings, block))
                 .collect();
         }
-        if self.pool.as_ref().is_none_or(|(size, _)| *size != threads) {
+        if threads < 2 {
+            self.pool = None;
+        } else if self.pool.as_ref().is_none_or(|(size, _)| *size != threads) {
             self.pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
