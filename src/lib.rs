@@ -55,7 +55,7 @@ pub mod prelude {
     };
     pub use crate::backends::{make_projector, BackendChoice, BackendError};
     pub use crate::constraint::{
-        Constraint, ConstraintFamily, ConstraintKernel, KernelFamily, Scalar,
+        Constraint, ConstraintFamily, ConstraintKernel, Curvature, KernelFamily, Scalar,
     };
     pub use crate::error::SweepError;
     pub use crate::problem::{NoPerturbation, Perturbation, Problem};
