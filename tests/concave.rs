@@ -118,7 +118,11 @@ fn declared_concave_each_step_is_the_projection_onto_the_ellipse_on_every_backen
             cut_steps += usize::from(report.cuts > 0);
         }
         // The point reaches the boundary early and slides along it: cuts were needed.
-        assert!(cut_steps > 20, "{}: {cut_steps} steps with cuts", backend.name());
+        assert!(
+            cut_steps > 20,
+            "{}: {cut_steps} steps with cuts",
+            backend.name()
+        );
     }
 }
 
@@ -137,20 +141,27 @@ fn declared_concave_the_trial_ends_inside_and_passes_the_monitor() {
         .run(&mut ReferenceProjector::default(), &mut [&mut monitor])
         .unwrap();
     assert!(g(4.0, &run.q_final) >= -1e-9, "{:?}", run.q_final);
-    assert!(run.stats.max_violation <= 1e-9, "{}", run.stats.max_violation);
+    assert!(
+        run.stats.max_violation <= 1e-9,
+        "{}",
+        run.stats.max_violation
+    );
     assert!(monitor.second_order_checks() > 0);
     // Pressed against the boundary in the direction f pushes: the first quadrant of the
     // ellipse centred at (1, 0).
     assert!(g(4.0, &run.q_final).abs() < 1e-9);
-    assert!(run.q_final[0] > 1.0 && run.q_final[1] > 0.0, "{:?}", run.q_final);
+    assert!(
+        run.q_final[0] > 1.0 && run.q_final[1] > 0.0,
+        "{:?}",
+        run.q_final
+    );
 }
 
 #[test]
 fn declared_concave_the_error_against_a_fine_reference_shrinks_at_order_one() {
     let make = || -> Result<Problem, BoxError> { Ok(ellipse(true)) };
-    let proj = || -> Result<Box<dyn Projector>, BoxError> {
-        Ok(Box::new(ReferenceProjector::default()))
-    };
+    let proj =
+        || -> Result<Box<dyn Projector>, BoxError> { Ok(Box::new(ReferenceProjector::default())) };
     let conv = ConvergenceSettings {
         h_min: 0.1 / 512.0,
         hs: vec![0.1 / 32.0, 0.1 / 16.0, 0.1 / 8.0, 0.1 / 4.0],
@@ -159,17 +170,13 @@ fn declared_concave_the_error_against_a_fine_reference_shrinks_at_order_one() {
         samples: 20,
         parallel: false,
     };
-    let report = converge(
-        "ellipse",
-        &make,
-        &proj,
-        &StepperSettings::default(),
-        &conv,
-    )
-    .unwrap();
+    let report = converge("ellipse", &make, &proj, &StepperSettings::default(), &conv).unwrap();
     let errors: Vec<f64> = report.rows.iter().map(|r| r.error).collect();
     let order = report.order.unwrap().order;
-    println!("inside a moving ellipse: h = {:?}, errors {errors:?}, order {order:.3}", conv.hs);
+    println!(
+        "inside a moving ellipse: h = {:?}, errors {errors:?}, order {order:.3}",
+        conv.hs
+    );
     assert!((0.85..1.3).contains(&order), "order {order}");
 }
 
@@ -182,7 +189,11 @@ fn undeclared_the_concave_ellipse_is_refused_as_before() {
         "{}",
         failure.error
     );
-    assert!(failure.error.to_string().contains("convexity fails"), "{}", failure.error);
+    assert!(
+        failure.error.to_string().contains("convexity fails"),
+        "{}",
+        failure.error
+    );
     let mut monitor = BoundsMonitor::new(
         &problem,
         MonitorSettings {
@@ -287,7 +298,10 @@ fn an_uncertifiable_step_is_a_typed_error_naming_the_constraint() {
         .unwrap_err();
     let message = failure.error.to_string();
     assert!(
-        matches!(failure.error, SweepError::ConcaveNotCertified { iterations: 1, .. }),
+        matches!(
+            failure.error,
+            SweepError::ConcaveNotCertified { iterations: 1, .. }
+        ),
         "{message}"
     );
     assert!(message.contains("inside ellipse"), "{message}");

@@ -11,9 +11,8 @@ use sweeping::study::exact::{true_error_study, ExactCase, PlayOperator, PointIns
 use sweeping::study::{fit_order, BoxError, ConvergenceReport};
 
 fn study(case: &dyn ExactCase, hs: &[f64]) -> ConvergenceReport {
-    let make = || -> Result<Box<dyn Projector>, BoxError> {
-        Ok(Box::new(ReferenceProjector::default()))
-    };
+    let make =
+        || -> Result<Box<dyn Projector>, BoxError> { Ok(Box::new(ReferenceProjector::default())) };
     true_error_study(case, hs, 20, &make, &StepperSettings::default(), false).unwrap()
 }
 
@@ -57,6 +56,11 @@ fn a_point_pressed_inside_a_moving_disk_converges_at_order_one() {
     }
     // Every run stays inside the disk (the concave constraint is projected onto exactly).
     for row in &report.rows {
-        assert!(row.cost.max_violation <= 1e-9, "h = {}: {:.3e}", row.h, row.cost.max_violation);
+        assert!(
+            row.cost.max_violation <= 1e-9,
+            "h = {}: {:.3e}",
+            row.h,
+            row.cost.max_violation
+        );
     }
 }

@@ -1110,9 +1110,8 @@ impl Scan {
         let g = self.gamma.best.as_ref().map_or(1.0, |w| w.value);
         let gp = self.gamma_prime.best.as_ref().map_or(1.0, |w| w.value);
         let (eta, theta, r) = derived_constants(a, beta, m, g, gp, s.rho);
-        let convexity_failed = self.concave_reported > 0
-            || self.affine_claims_false > 0
-            || self.concavity_false > 0;
+        let convexity_failed =
+            self.concave_reported > 0 || self.affine_claims_false > 0 || self.concavity_false > 0;
         let (eta, theta, r) = if convexity_failed {
             notes.push(
                 "η, Θ and r are not claimed: Prop 2.2 and Theorem 4.1 are proved for gᵢ convex in q, \

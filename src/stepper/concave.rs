@@ -178,7 +178,8 @@ impl Stepper<'_> {
             let violation = (-self.lin.value).max(0.0) / norm;
             let residual = self.member_residual(fi, idx, multipliers);
             // How far from certification, as a multiple of the tolerances (≤ 1: certified).
-            let score = (violation / self.settings.concave_tolerance).max(residual / stationarity_tol);
+            let score =
+                (violation / self.settings.concave_tolerance).max(residual / stationarity_tol);
             if score <= 1.0 {
                 continue;
             }

@@ -127,7 +127,9 @@ impl Stepper<'_> {
     ) -> Result<(ProjectionProblem, Projection), SweepError> {
         // Each row keyed by its constraint (family, candidate index), stable across steps,
         // so that backends can warm-start from the previous step's active rows.
-        let keys = (0..self.row_origin.len()).map(|r| self.row_key(r)).collect();
+        let keys = (0..self.row_origin.len())
+            .map(|r| self.row_key(r))
+            .collect();
         // The projection of the displacement: `u = x − q_k` is the projection of `h f`
         // onto `∇gᵢ · u ≥ −gᵢ`, the scheme's step written relative to `q_k`. Its numbers
         // are those of the step, wherever the scene lies: written in `x`, a room at 10⁶

@@ -261,9 +261,12 @@ impl ExactCase for PointInsideMovingDisk {
             "|z − c(t)| ≤ R",
         );
         let f = self.drift;
-        Problem::new(self.start.to_vec(), move |_t: f64, _q: &[f64], out: &mut [f64]| {
-            out.copy_from_slice(&f);
-        })
+        Problem::new(
+            self.start.to_vec(),
+            move |_t: f64, _q: &[f64], out: &mut [f64]| {
+                out.copy_from_slice(&f);
+            },
+        )
         .with_family(fam)
     }
 
@@ -350,7 +353,10 @@ mod tests {
         }
         // Before contact: free motion inside.
         let z = c.exact(0.5 * tc);
-        let w = [z[0] - c.velocity[0] * 0.5 * tc, z[1] - c.velocity[1] * 0.5 * tc];
+        let w = [
+            z[0] - c.velocity[0] * 0.5 * tc,
+            z[1] - c.velocity[1] * 0.5 * tc,
+        ];
         assert!(w[0].hypot(w[1]) < c.radius);
     }
 }
