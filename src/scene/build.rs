@@ -696,6 +696,9 @@ pub(super) fn explicit_people(
             .walls(ps.position, ps.radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         clear
+            .arena(ps.position, ps.radius)
+            .map_err(|m| cx.err(line, item.clone(), m))?;
+        clear
             .obstacles(ps.position, ps.radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         let origin = Origin {
