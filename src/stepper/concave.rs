@@ -167,7 +167,7 @@ impl Stepper<'_> {
             let fam = families[fi].as_ref();
             fam.linearize(idx, t, x, false, &mut self.lin);
             let norm = self.lin.gradient_norm();
-            if !(norm > 1e-12) || !self.lin.value.is_finite() {
+            if norm.is_nan() || norm <= 1e-12 || !self.lin.value.is_finite() {
                 return Err(SweepError::DegenerateConstraint {
                     step: self.k,
                     t,
