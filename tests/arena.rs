@@ -3,15 +3,12 @@
 //! scene runs, and an independent checker reads the trajectory it wrote: no overlap, no
 //! penetration of the round wall. Bad `[arena]` tables are errors naming the line.
 
-mod common;
-
-use common::checker::{check_trajectory, scratch, Geometry, Obstacle};
 use sweeping::constraint::Curvature;
-use sweeping::crowd::CrowdBuilder;
 use sweeping::output::TrajectoryWriter;
 use sweeping::prelude::*;
 use sweeping::scene::spec::DesiredSpec;
-use sweeping::scene::{Effect, Overrides, Scene, SceneError};
+use sweeping::scene::{CrowdBuilder, Effect, Overrides, Scene, SceneError};
+use sweeping_testkit::checker::{check_trajectory, scratch, Geometry, Obstacle};
 
 const TOL: f64 = 1e-6;
 
