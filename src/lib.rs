@@ -55,7 +55,7 @@ pub mod prelude {
     };
     pub use crate::backends::{make_projector, BackendChoice, BackendError};
     pub use crate::constraint::{
-        Constraint, ConstraintFamily, ConstraintKernel, KernelFamily, Scalar,
+        Constraint, ConstraintFamily, ConstraintKernel, Curvature, KernelFamily, Scalar,
     };
     pub use crate::error::SweepError;
     pub use crate::problem::{NoPerturbation, Perturbation, Problem};
@@ -107,4 +107,6 @@ pub mod guide_doctests {
     pub struct Theory;
     #[doc = include_str!("../docs/guide/src/development.md")]
     pub struct Development;
+    #[doc = include_str!("../docs/guide/src/two-classes.md")]
+    pub struct TwoClasses;
 }

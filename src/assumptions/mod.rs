@@ -60,10 +60,11 @@ mod serde_ext;
 
 pub use hull::{coordinate_groups, hull_distance, SparseVector};
 pub use monitor::{
-    BoundViolation, Bounds, BoundsMonitor, MonitorSettings, Policy, AFFINE_CLAIM, CONVEXITY,
+    BoundViolation, Bounds, BoundsMonitor, MonitorSettings, Policy, AFFINE_CLAIM, CONCAVITY,
+    CONVEXITY,
 };
 
-use crate::constraint::{ConstraintFamily, SecondOrderData};
+use crate::constraint::{ConstraintFamily, Curvature, SecondOrderData};
 use crate::error::SweepError;
 use crate::problem::Problem;
 use crate::stepper::Trajectory;
@@ -166,7 +167,7 @@ pub struct AssumptionReport {
     /// were sampled.
     #[serde(default)]
     pub min_curvature: Option<Witness>,
-    /// Whether some `gᵢ` was found not convex in `q` (or an affine claim false): `η`, `Θ`
+    /// Whether some `gᵢ` was found not convex in `q` (or an affine or concave claim false): `η`, `Θ`
     /// and `r` are then not claimed (`None`).
     #[serde(default)]
     pub convexity_failed: bool,
@@ -397,16 +398,30 @@ pub fn symmetric_min_eigenvalue(h: &[f64], n: usize) -> f64 {
     symmetric_extremes(h, n).0
 }
 
+/// The largest eigenvalue of the symmetric `n × n` matrix stored row-major in `h`
+/// (symmetrized first); `0` for `n = 0`. Positive for a Hessian means `g` is not concave there.
+pub fn symmetric_max_eigenvalue(h: &[f64], n: usize) -> f64 {
+    symmetric_spectrum(h, n).1
+}
+
 /// (smallest eigenvalue, largest |eigenvalue|) of a row-major symmetric matrix, one
 /// decomposition for both.
 fn symmetric_extremes(h: &[f64], n: usize) -> (f64, f64) {
+    let (min, _, norm) = symmetric_spectrum(h, n);
+    (min, norm)
+}
+
+/// (smallest eigenvalue, largest eigenvalue, largest |eigenvalue|) of a row-major symmetric
+/// matrix.
+pub(crate) fn symmetric_spectrum(h: &[f64], n: usize) -> (f64, f64, f64) {
     if n == 0 {
-        return (0.0, 0.0);
+        return (0.0, 0.0, 0.0);
     }
     let m = nalgebra::DMatrix::from_fn(n, n, |i, j| 0.5 * (h[i * n + j] + h[j * n + i]));
     let eig = nalgebra::SymmetricEigen::new(m).eigenvalues;
     (
         eig.iter().copied().fold(f64::INFINITY, f64::min),
+        eig.iter().copied().fold(f64::NEG_INFINITY, f64::max),
         eig.iter().map(|v| v.abs()).fold(0.0, f64::max),
     )
 }
@@ -420,6 +435,20 @@ pub const CONVEXITY_TOLERANCE: f64 = 1e-9;
 pub(crate) fn concave_direction(min_eig: f64, norm: f64, relative_tolerance: f64) -> bool {
     min_eig < -relative_tolerance * norm.max(1.0)
 }
+
+/// Whether the largest eigenvalue `max_eig` of a Hessian of spectral norm `norm` is positive
+/// beyond rounding (`relative_tolerance · max(1, norm)`): a `g` declared concave is then not
+/// concave there.
+pub(crate) fn convex_direction(max_eig: f64, norm: f64, relative_tolerance: f64) -> bool {
+    max_eig > relative_tolerance * norm.max(1.0)
+}
+
+/// What a failed concavity check means, for messages.
+pub(crate) const CONCAVITY_MEANING: &str = "g is declared concave in q (Curvature::Concave: \
+    {g >= 0} convex) but is not concave there, so a linearization of g does not contain \
+    {g >= 0} and the refined projection could cut off allowed points. Declare it \
+    Curvature::Convex if g is convex, or write the region as an intersection of constraints \
+    that are convex or concave";
 
 /// A1 counts as failed when the measured `α` is below `ALPHA_RELATIVE_FLOOR · β` (β of A1, the
 /// largest `|∇gᵢ|` sampled): near contact the constraint is then flat to six digits of the
@@ -452,20 +481,22 @@ pub(crate) struct Norms {
     pub hess: f64,
     pub dt_grad: f64,
     pub min_eig: f64,
+    pub max_eig: f64,
 }
 
 pub(crate) fn second_order_norms(fam: &dyn ConstraintFamily, so: &SecondOrderData) -> Norms {
     let n = so.columns.len();
-    let (min_eig, hess) = if fam.is_affine() {
-        (0.0, 0.0)
+    let (min_eig, max_eig, hess) = if fam.is_affine() {
+        (0.0, 0.0, 0.0)
     } else {
-        symmetric_extremes(&so.hessian, n)
+        symmetric_spectrum(&so.hessian, n)
     };
     Norms {
         grad: so.gradient.iter().map(|v| v * v).sum::<f64>().sqrt(),
         dt: so.dt.abs(),
         hess,
         min_eig,
+        max_eig,
         dt_grad: if fam.is_time_dependent() {
             so.dt_gradient.iter().map(|v| v * v).sum::<f64>().sqrt()
         } else {
@@ -710,6 +741,10 @@ struct Scan {
     /// §2: smallest eigenvalue of `D²gᵢ`.
     curvature: Tracker,
     concave_reported: usize,
+    /// Evaluations where a `g` declared concave has a positive eigenvalue.
+    concavity_false: usize,
+    /// Whether some non-affine family declares itself concave (a convex set).
+    concave_declared: bool,
     affine_claims_false: usize,
     a1_reported: usize,
     infeasible_reported: usize,
@@ -732,6 +767,8 @@ impl Scan {
             gamma_group: Tracker::new(true),
             curvature: Tracker::new(false),
             concave_reported: 0,
+            concavity_false: 0,
+            concave_declared: false,
             affine_claims_false: 0,
             a1_reported: 0,
             infeasible_reported: 0,
@@ -879,7 +916,23 @@ impl Scan {
     ) {
         self.evaluations += 1;
         let name = || fam.describe(idx);
-        if !fam.is_affine() {
+        if !fam.is_affine() && fam.curvature() == Curvature::Concave {
+            self.concave_declared = true;
+            if convex_direction(nm.max_eig, nm.hess, CONVEXITY_TOLERANCE) {
+                self.concavity_false += 1;
+                if self.concavity_false <= 10 {
+                    self.failures.push(format!(
+                        "{CONCAVITY}: the largest eigenvalue of D²g is {} > 0 for {} at t = {} \
+                         (sample {k}), at {}, g = {}: {CONCAVITY_MEANING}",
+                        fmt_num(nm.max_eig),
+                        fam.describe(idx),
+                        crate::stepper::display_number(t),
+                        describe_point(columns, at),
+                        fmt_num(value),
+                    ));
+                }
+            }
+        } else if !fam.is_affine() {
             self.curvature.see(nm.min_eig, t, k, name);
             if concave_direction(nm.min_eig, nm.hess, CONVEXITY_TOLERANCE) {
                 self.concave_reported += 1;
@@ -1057,11 +1110,20 @@ impl Scan {
         let g = self.gamma.best.as_ref().map_or(1.0, |w| w.value);
         let gp = self.gamma_prime.best.as_ref().map_or(1.0, |w| w.value);
         let (eta, theta, r) = derived_constants(a, beta, m, g, gp, s.rho);
-        let convexity_failed = self.concave_reported > 0 || self.affine_claims_false > 0;
+        let convexity_failed =
+            self.concave_reported > 0 || self.affine_claims_false > 0 || self.concavity_false > 0;
         let (eta, theta, r) = if convexity_failed {
             notes.push(
                 "η, Θ and r are not claimed: Prop 2.2 and Theorem 4.1 are proved for gᵢ convex in q, \
                  and convexity fails here (see FAILED)"
+                    .into(),
+            );
+            (None, None, None)
+        } else if self.concave_declared {
+            notes.push(
+                "η, Θ and r are not claimed: some gᵢ are declared concave (convex sets, Moreau's \
+                 class), which Prop 2.2 and Theorem 4.1 do not cover; each step projects onto \
+                 those sets exactly (see the guide's chapter on the two classes)"
                     .into(),
             );
             (None, None, None)

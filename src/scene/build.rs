@@ -6,7 +6,8 @@
 
 use super::drawn;
 use super::spec::{
-    CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec, TrajectoryFormat,
+    ArenaSpec, CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec,
+    TrajectoryFormat,
 };
 use super::{
     bbox, check_desired, check_resolution, finite, fmt_pt, meeting_edges, polygon_area, Ctx,
@@ -20,8 +21,8 @@ use crate::crowd::velocity::{
     ConstantVelocity, DesiredVelocity, ExitSegment, TowardsExits, TowardsPoint, VelocityField,
 };
 use crate::crowd::{
-    segment_distance, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population, Room, Shape,
-    ShapeParams,
+    segment_distance, ArenaWall, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population,
+    Room, Shape, ShapeParams,
 };
 use crate::numbers::display_number;
 use crate::problem::Problem;
@@ -336,6 +337,54 @@ pub(super) fn exits_and_walls(
     Ok((exits, walls))
 }
 
+/// A checked `[arena]`: its centre and radius.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Arena {
+    pub center: [f64; 2],
+    pub radius: f64,
+}
+
+/// `[arena]`, checked: a finite centre, a positive radius, the circle inside the room.
+pub(super) fn arena(
+    cx: &Ctx<'_>,
+    spec: &SceneSpec,
+    room: &RoomPlan,
+) -> Result<Option<Arena>, SceneError> {
+    let Some(a) = &spec.arena else {
+        return Ok(None);
+    };
+    let line = cx.line_of(a);
+    let item = "[arena]";
+    let ArenaSpec { center, radius } = *a.get_ref();
+    if !finite(&center) {
+        return Err(cx.err(line, item, "the centre is not finite"));
+    }
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(cx.err(
+            line,
+            item,
+            format!("the radius {radius} must be positive and finite"),
+        ));
+    }
+    let inside = room.room.contains(center)
+        && room
+            .vertices
+            .iter()
+            .zip(room.vertices.iter().cycle().skip(1))
+            .all(|(a, b)| segment_distance(center, *a, *b) >= radius - TOUCHING);
+    if !inside {
+        return Err(cx.err(
+            line,
+            item,
+            format!(
+                "the circle of radius {radius} about {} reaches outside the room",
+                fmt_pt(center)
+            ),
+        ));
+    }
+    Ok(Some(Arena { center, radius }))
+}
+
 pub(super) fn obstacles(cx: &Ctx<'_>, spec: &SceneSpec) -> Result<Vec<Placed>, SceneError> {
     let mut obstacles = Vec::new();
     for (k, o) in spec.obstacles.iter().enumerate() {
@@ -467,6 +516,8 @@ pub(super) struct Clearance<'a> {
     pub room: &'a RoomPlan,
     pub walls: &'a [Wall],
     pub obstacles: &'a [Placed],
+    /// The round arena, when there is one.
+    pub arena: Option<Arena>,
     /// How many exits a desire `kind = "exit"` can head for.
     pub exit_count: usize,
 }
@@ -513,8 +564,24 @@ impl Clearance<'_> {
         Ok(())
     }
 
+    fn arena(&self, p: [f64; 2], r: f64) -> Result<(), String> {
+        match self.arena {
+            Some(Arena { center, radius })
+                if (p[0] - center[0]).hypot(p[1] - center[1]) > radius - r + TOUCHING =>
+            {
+                Err(format!(
+                    "the person at {} (radius {r}) crosses the arena wall (circle of radius {radius} about {})",
+                    fmt_pt(p),
+                    fmt_pt(center)
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
+
     fn check(&self, p: [f64; 2], r: f64) -> Result<(), String> {
         self.walls(p, r)?;
+        self.arena(p, r)?;
         self.obstacles(p, r)
     }
 }
@@ -627,6 +694,9 @@ pub(super) fn explicit_people(
         }
         clear
             .walls(ps.position, ps.radius)
+            .map_err(|m| cx.err(line, item.clone(), m))?;
+        clear
+            .arena(ps.position, ps.radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         clear
             .obstacles(ps.position, ps.radius)
@@ -1041,8 +1111,13 @@ pub(super) fn push_families(
     population: &Arc<Population>,
     walls: &[Wall],
     obstacles: &[Placed],
+    arena: Option<Arena>,
     effects: &mut Vec<Effect>,
 ) {
+    if let Some(Arena { center, radius }) = arena {
+        problem.push_family(Box::new(ArenaWall::new(population.clone(), center, radius)));
+        effects.push(Effect::Arena { radius });
+    }
     let n = population.len();
     if n >= 2 {
         problem.push_family(Box::new(DiskPairs::new(population.clone())));

@@ -7,8 +7,8 @@
 //! line is missing (there is no file).
 
 use super::spec::{
-    CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec, PersonSpec,
-    RoomSpec, RunSpec, SceneSpec, SegmentSpec,
+    ArenaSpec, CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec,
+    PersonSpec, RoomSpec, RunSpec, SceneSpec, SegmentSpec,
 };
 use super::{BuiltScene, ObstacleShape, Overrides, Scene, SceneError};
 use crate::backends::BackendChoice;
@@ -64,6 +64,7 @@ impl CrowdBuilder {
                 obstacles: Vec::new(),
                 people: Vec::new(),
                 crowds: Vec::new(),
+                arena: None,
                 desired: None,
                 geodesic: None,
                 run: None,
@@ -93,6 +94,13 @@ impl CrowdBuilder {
     /// An exit: a segment on one edge of the room.
     pub fn exit(mut self, from: [f64; 2], to: [f64; 2]) -> Self {
         self.spec.exits.push(unplaced(ExitSpec { from, to }));
+        self
+    }
+
+    /// A round arena inside the room: every person's disk kept inside the circle of
+    /// `radius` about `center` (`[arena]` in a scene file).
+    pub fn arena(mut self, center: [f64; 2], radius: f64) -> Self {
+        self.spec.arena = Some(unplaced(ArenaSpec { center, radius }));
         self
     }
 

@@ -38,6 +38,11 @@ pub enum Effect {
         /// Exits.
         count: usize,
     },
+    /// A round arena: everybody kept inside its circle.
+    Arena {
+        /// Its radius.
+        radius: f64,
+    },
 }
 
 impl std::fmt::Display for Effect {
@@ -59,6 +64,10 @@ impl std::fmt::Display for Effect {
             Self::Obstacles { count, moving } => {
                 write!(f, "obstacles: {count} ({moving} moving: Q depends on t)")
             }
+            Self::Arena { radius } => write!(
+                f,
+                "arena: a round wall of radius {radius} (convex set: each step projects onto it exactly)"
+            ),
             Self::Exits { count } => write!(
                 f,
                 "exits: {count} (people whose disk is wholly outside the room have left)"

@@ -384,6 +384,7 @@ impl Scene {
         let room = build::room(&cx, spec)?;
         let (exits, walls) = build::exits_and_walls(&cx, spec, &room)?;
         let obstacles = build::obstacles(&cx, spec)?;
+        let arena = build::arena(&cx, spec, &room)?;
         let has_exits = !exits.is_empty();
         let default_desired = spec
             .desired
@@ -396,6 +397,7 @@ impl Scene {
             room: &room,
             walls: &walls,
             obstacles: &obstacles,
+            arena,
             exit_count: exits.len(),
         };
         let mut people = build::explicit_people(&cx, spec, &clear)?;
@@ -442,7 +444,14 @@ impl Scene {
         );
         let q0: Vec<f64> = people.positions.iter().flatten().copied().collect();
         let mut problem = Problem::new(q0, velocity);
-        build::push_families(&mut problem, &population, &walls, &obstacles, &mut effects);
+        build::push_families(
+            &mut problem,
+            &population,
+            &walls,
+            &obstacles,
+            arena,
+            &mut effects,
+        );
         if has_exits {
             effects.push(Effect::Exits { count: exits.len() });
         }

@@ -60,6 +60,8 @@ pub struct SceneSpec {
     /// Groups of people placed at random.
     #[serde(default)]
     pub crowds: Vec<Spanned<CrowdSpec>>,
+    /// A round arena inside the room: everybody kept inside its circle.
+    pub arena: Option<Spanned<ArenaSpec>>,
     /// The desired velocity of everybody without their own.
     pub desired: Option<Spanned<DesiredSpec>>,
     /// Settings of the geodesic field.
@@ -80,6 +82,18 @@ pub struct RoomSpec {
     /// Vertices in order, the last joined to the first.
     #[serde(default, deserialize_with = "exact::option_vec_array")]
     pub polygon: Option<Vec<[f64; 2]>>,
+}
+
+/// `[arena]`: a round wall inside the room, `center` and `radius`: every person's disk stays
+/// inside the circle (a concave constraint per person, projected onto exactly each step).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArenaSpec {
+    /// `[x, y]`.
+    #[serde(deserialize_with = "exact::array")]
+    pub center: [f64; 2],
+    /// `> 0`, with the circle inside the room.
+    pub radius: f64,
 }
 
 /// A disk.

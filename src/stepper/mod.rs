@@ -34,6 +34,7 @@
 
 mod assembly;
 mod checks;
+mod concave;
 mod moving;
 mod observer;
 mod prediction;
@@ -49,7 +50,7 @@ pub use report::{RunStats, StageTimes, StepReport};
 pub use run::{Run, RunFailure, Trajectory};
 pub use settings::StepperSettings;
 
-use crate::constraint::LinearizedRow;
+use crate::constraint::{Curvature, LinearizedRow};
 use crate::error::SweepError;
 use crate::problem::{LinearizeScratch, Problem};
 use assembly::FamilyState;
@@ -115,6 +116,8 @@ pub struct Stepper<'p> {
     lin: LinearizedRow,
     scratch: LinearizeScratch,
     families: Vec<FamilyState>,
+    /// The cuts of concave constraints (see `concave.rs`).
+    cuts: concave::Cuts,
 }
 
 impl<'p> Stepper<'p> {
@@ -128,7 +131,11 @@ impl<'p> Stepper<'p> {
         problem.validate(settings.feasibility_tolerance)?;
         let n_steps = step_count(settings.t_end - problem.t0(), settings.h);
         let dim = problem.dim();
-        Ok(Self {
+        let concave = problem
+            .families()
+            .iter()
+            .any(|f| f.curvature() == Curvature::Concave && !f.is_affine());
+        let mut stepper = Self {
             problem,
             n_steps,
             k: 0,
@@ -152,8 +159,11 @@ impl<'p> Stepper<'p> {
                     last_drift: 0.0,
                 })
                 .collect(),
+            cuts: concave::Cuts::new(concave),
             settings,
-        })
+        };
+        stepper.check_concavity_claims()?;
+        Ok(stepper)
     }
 
     /// Number of steps the run will make.
@@ -237,6 +247,7 @@ impl<'p> Stepper<'p> {
             rows: self.b.len(),
             active: solution.active_count(self.settings.active_threshold),
             solves: solved.solves,
+            cuts: solved.cuts,
             iterations: solved.iterations,
             counters: solved.counters,
             times,

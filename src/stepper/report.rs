@@ -49,8 +49,13 @@ pub struct StepReport {
     pub rows: usize,
     /// Rows whose multiplier exceeds the active threshold at the solution.
     pub active: usize,
-    /// Solves of this step (1 + re-solves after a failed culling proof).
+    /// Solves of this step (1 + re-solves after a failed culling proof + refinements of
+    /// concave constraints).
     pub solves: usize,
+    /// Refinements of concave constraints: cuts added at the iterates (0 without concave
+    /// constraints, or when the first projection already lies in their sets).
+    #[serde(default)]
+    pub cuts: usize,
     /// Solver iterations, summed over the solves.
     pub iterations: u32,
     /// How the backend reached its answers, summed over the solves.

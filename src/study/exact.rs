@@ -10,6 +10,10 @@
 //!   of radius `R`, sliding around it and leaving it at its top (derived below): a curved,
 //!   non-convex constraint, where the linearization matters.
 //!
+//! * [`PlayOperator`] and [`PointInsideMovingDisk`] — Moreau's class, sweeping by moving
+//!   convex sets (module `convex_sets`): the play operator of hysteresis, and a point kept
+//!   inside a moving disk by a constraint declared concave.
+//!
 //! [`true_error_study`] measures `|q(tᵢ) − qⁿ(tᵢ)|` with the paper's protocol and the sup
 //! over `[t₀, T]` of `|q(t) − qⁿ(t)|`, in the same [`ConvergenceReport`] form as
 //! [`super::converge`].
@@ -22,6 +26,11 @@ use crate::constraint::{ConstraintKernel, KernelFamily};
 use crate::problem::Problem;
 use crate::stepper::{StepperSettings, Trajectory};
 use num_dual::DualNum;
+
+mod convex_sets;
+pub use convex_sets::{
+    InsideMovingDiskKernel, PlayOperator, PlayWallKernel, PointInsideMovingDisk,
+};
 
 /// A sweeping process with a known solution.
 ///
@@ -355,12 +364,15 @@ impl ExactCase for PointAroundDisk {
     }
 }
 
-/// The three cases above with their default parameters.
+/// The cases above with their default parameters: the paper's class (two disks, a moving
+/// wall, around a disk), then Moreau's (the play operator, inside a moving disk).
 pub fn standard_cases() -> Vec<Box<dyn ExactCase>> {
     vec![
         Box::new(TwoDisksOnALine::default()),
         Box::new(PointBehindMovingWall::default()),
         Box::new(PointAroundDisk::default()),
+        Box::new(PlayOperator::default()),
+        Box::new(PointInsideMovingDisk::default()),
     ]
 }
 

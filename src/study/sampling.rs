@@ -229,6 +229,7 @@ mod tests {
             rows: 0,
             active: 0,
             solves: 1,
+            cuts: 0,
             iterations: 0,
             counters: Default::default(),
             times: Default::default(),

@@ -1,6 +1,7 @@
 //! An independent checker of a run's `trajectory.csv`: it re-reads the file a real run wrote
 //! and recomputes, by its own plain code (no library geometry), the overlaps of present people,
-//! the gaps to the walls (room edges minus exits) and to the obstacles, NaNs, and whether
+//! the gaps to the walls (room edges minus exits), to the obstacles and to a round arena's
+//! wall, NaNs, and whether
 //! anyone who left came back.
 
 use std::collections::BTreeMap;
@@ -12,6 +13,8 @@ pub enum Obstacle {
     Disk([f64; 2], f64, Box<dyn Fn(f64) -> [f64; 2]>),
     /// A segment `(a, b)`.
     Segment([f64; 2], [f64; 2], Box<dyn Fn(f64) -> [f64; 2]>),
+    /// A round wall `(centre, radius)` that people stay *inside* (an arena).
+    Enclosure([f64; 2], f64),
 }
 
 /// The geometry the run must respect.
@@ -191,6 +194,9 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
                         let a = [a[0] + o[0], a[1] + o[1]];
                         let b = [b[0] + o[0], b[1] + o[1]];
                         ri - dist_point_segment(p, a, b)
+                    }
+                    Obstacle::Enclosure(c, r) => {
+                        ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt() + ri - r
                     }
                 };
                 f.max_penetration = f.max_penetration.max(pen);
