@@ -32,6 +32,7 @@ pub mod assumptions;
 pub mod backends;
 pub mod constraint;
 pub mod crowd;
+pub mod curvature;
 pub mod error;
 pub mod meter;
 pub mod numbers;

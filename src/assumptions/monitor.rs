@@ -16,11 +16,13 @@
 //! monitor stops the run with its typed [`SweepError::AssumptionViolated`] through
 //! [`ObserverError::Stop`].
 
-use super::{
-    concave_direction, convex_direction, describe_point, second_order_norms,
-    symmetric_spectral_norm, AssumptionReport, CONCAVITY_MEANING, CONVEXITY_MEANING,
-};
+use super::AssumptionReport;
 use crate::constraint::{ConstraintFamily, Curvature};
+use crate::curvature::{
+    concave_direction, convex_direction, describe_point, second_order_norms,
+    symmetric_spectral_norm, AFFINE_CLAIM, CONCAVITY, CONCAVITY_MEANING, CONVEXITY,
+    CONVEXITY_MEANING,
+};
 use crate::error::SweepError;
 use crate::problem::Problem;
 use crate::stepper::{Observer, ObserverError, StepReport};
@@ -270,13 +272,6 @@ impl std::fmt::Display for BoundViolation {
         )
     }
 }
-
-/// The assumption name of a failed convexity check.
-pub const CONVEXITY: &str = "convexity (g convex in q)";
-/// The assumption name of a false concavity declaration ([`Curvature::Concave`](crate::constraint::Curvature::Concave)).
-pub const CONCAVITY: &str = "concavity (g declared concave in q)";
-/// The assumption name of a false `is_affine` claim.
-pub const AFFINE_CLAIM: &str = "affine claim (D²g = 0)";
 
 /// Checks declared bounds and convexity at every step of a run (module docs).
 ///

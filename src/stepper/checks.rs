@@ -240,7 +240,7 @@ impl Stepper<'_> {
     /// eigenvalue, so `gᵢ` is not convex there and the linearization overshoots (`None` when
     /// it is convex there, or not a number).
     fn convexity_failure(&self, id: ConstraintId, t: f64, x: &[f64]) -> Option<String> {
-        use crate::assumptions::{
+        use crate::curvature::{
             concave_direction, describe_point, symmetric_min_eigenvalue, symmetric_spectral_norm,
             CONVEXITY_MEANING, CONVEXITY_TOLERANCE,
         };

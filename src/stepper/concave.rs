@@ -25,11 +25,11 @@
 //! is used.
 
 use super::Stepper;
-use crate::assumptions::{
+use crate::constraint::{ConstraintFamily, Curvature};
+use crate::curvature::{
     convex_direction, describe_point, symmetric_spectrum, CONCAVITY, CONCAVITY_MEANING,
     CONVEXITY_TOLERANCE,
 };
-use crate::constraint::{ConstraintFamily, Curvature};
 use crate::error::SweepError;
 use sweeping_api::RowKey;
 
