@@ -111,10 +111,16 @@ fn check(out: &Path) {
         assert!(close(force, expected), "{line}: expected {expected}");
         rows += 1;
     }
-    assert_eq!(rows, 5 * N, "N contacts in each of the 5 frames after the first");
+    assert_eq!(
+        rows,
+        5 * N,
+        "N contacts in each of the 5 frames after the first"
+    );
     // trajectory.sqlite: the same in its tables.
     let db = Connection::open(out.join("trajectory.sqlite")).unwrap();
-    let mut q = db.prepare("SELECT frame, id, pressure FROM pressure").unwrap();
+    let mut q = db
+        .prepare("SELECT frame, id, pressure FROM pressure")
+        .unwrap();
     let pressures: Vec<(i64, i64, f64)> = q
         .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
         .unwrap()
@@ -122,7 +128,10 @@ fn check(out: &Path) {
         .collect();
     assert_eq!(pressures.len(), 5 * N);
     for (frame, id, p) in pressures {
-        assert!(frame >= 1 && close(p, pressure(id as usize)), "{frame} {id} {p}");
+        assert!(
+            frame >= 1 && close(p, pressure(id as usize)),
+            "{frame} {id} {p}"
+        );
     }
     let wall: f64 = db
         .query_row(
