@@ -2,17 +2,15 @@
 //! the trajectory. A U-shaped room whose exit, on the inner side of one wing, faces the other
 //! wing: who leaves walks on along the exit's normal, across the gap and into the other wing,
 //! through its wall (they are in no constraint any more). Written as they walked, they came
-//! back into the room through a wall; the checker of `tests/common` flags that, and the
+//! back into the room through a wall; the testkit's trajectory checker flags that, and the
 //! outputs must not show it, also in a run resumed after people had left.
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
-use common::checker::{check_trajectory, radii_from_people, Geometry};
 use std::collections::BTreeMap;
 use std::path::Path;
 use support::sweep_run;
+use sweeping_testkit::checker::{check_trajectory, radii_from_people, Geometry};
 
 /// The U: wings `0 ≤ x ≤ 2` and `4 ≤ x ≤ 6` joined by `0 ≤ y ≤ 1`; the exit on the left
 /// wing's inner wall `x = 2`, `2.4 ≤ y ≤ 3.6`, facing the right wing. Four people of random
