@@ -789,3 +789,15 @@ fn exits_of_a_desire_must_exist_and_go_with_kind_exit() {
         );
     }
 }
+
+#[test]
+fn contact_forces_must_be_true_or_false() {
+    for value in ["\"yes\"", "1", "[true]"] {
+        let text = format!(
+            "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[output]\ncontact_forces = {value}\n"
+        );
+        let e = error_of(&text);
+        assert!(matches!(e, SceneError::Parse { .. }), "{e}");
+        assert_message(&e, 7, &["invalid type", "expected a boolean"]);
+    }
+}

@@ -1233,6 +1233,10 @@ pub(super) fn output_settings(
         snapshot_every: snapshot_every.max(h),
         animation_frames,
         formats,
+        contact_forces: out_spec
+            .as_ref()
+            .and_then(|o| o.contact_forces)
+            .unwrap_or(false),
         notes,
     })
 }

@@ -164,6 +164,9 @@ pub struct OutputSettings {
     pub animation_frames: usize,
     /// Trajectory formats to write (at least one, no repeats).
     pub formats: Vec<TrajectoryFormat>,
+    /// Write the contact forces and pressures (`[output] contact_forces`): the run keeps each
+    /// step's contacts ([`StepperSettings::record_contacts`]).
+    pub contact_forces: bool,
     /// What the user is told before a run, one sentence each: what was adjusted (an interval
     /// below one step clamped to one step, naming the file, line and key), and what is allowed
     /// but rarely meant (nobody moving, people cut off from every exit, a run of very many
@@ -992,7 +995,9 @@ impl BuiltScene {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
         // A new run from q₀: nobody has left yet, unless it resumes an earlier run.
         self.latch_departures_at_start();
-        let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
+        let mut settings = self.settings.clone();
+        settings.record_contacts |= self.output.contact_forces;
+        let stepper = match Stepper::new(&self.problem, settings) {
             Ok(s) => s,
             Err(error) => {
                 // The start is a state of the run all the same: written, and counted (a run

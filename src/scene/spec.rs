@@ -296,13 +296,17 @@ pub struct OutputSpec {
     /// Trajectory files to write: `"csv"` (`trajectory.csv`), `"sqlite"` (`trajectory.sqlite`,
     /// JuPedSim's trajectory format, for PedPy). Default `["csv"]`.
     pub formats: Option<Vec<TrajectoryFormat>>,
+    /// Write the contact forces (the projection's multipliers over the step): a `pressure`
+    /// column in the trajectory, `contacts.csv`, the SQLite tables `pressure` and `contacts`,
+    /// and people coloured by pressure in the pictures. Default `false`.
+    pub contact_forces: Option<bool>,
 }
 
 /// A trajectory file format (`[output] formats`, `sweep run --format`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TrajectoryFormat {
-    /// `trajectory.csv`: `t,id,x,y,present` (see `output::TrajectoryWriter`).
+    /// `trajectory.csv`: `t,id,x,y`, the people present (see `output::TrajectoryWriter`).
     Csv,
     /// `trajectory.sqlite`: JuPedSim's SQLite trajectory schema, for PedPy and JuPedSim's
     /// viewer.

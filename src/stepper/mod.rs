@@ -46,7 +46,7 @@ mod settings;
 pub use crate::error::ObserverError;
 pub use observer::Observer;
 pub use prediction::Prediction;
-pub use report::{RunStats, StageTimes, StepReport};
+pub use report::{Contact, RunStats, StageTimes, StepReport};
 pub use run::{Run, RunFailure, Trajectory};
 pub use settings::StepperSettings;
 
@@ -240,6 +240,11 @@ impl<'p> Stepper<'p> {
         self.check_waypoints(t_k, t_next, &solution.x)?;
         times.check += tc.elapsed().as_secs_f64();
 
+        let contacts = if self.settings.record_contacts {
+            self.contacts(&solution.multipliers)
+        } else {
+            Vec::new()
+        };
         let report = StepReport {
             step: self.k,
             t: t_next,
@@ -255,11 +260,33 @@ impl<'p> Stepper<'p> {
             worst_constraint,
             max_displacement,
             solve: solution.stats,
+            contacts,
         };
         self.q = solution.x;
         self.k += 1;
         self.t = t_next;
         Ok(report)
+    }
+}
+
+impl Stepper<'_> {
+    /// The assembled rows whose multiplier exceeds the active threshold, with it and their
+    /// gradient (see [`Contact`]).
+    fn contacts(&self, multipliers: &[f64]) -> Vec<Contact> {
+        let threshold = self.settings.active_threshold;
+        multipliers
+            .iter()
+            .enumerate()
+            .filter(|(_, &l)| l > threshold)
+            .map(|(r, &l)| {
+                let (family, member) = self.row_origin[r];
+                Contact {
+                    constraint: crate::constraint::ConstraintId { family, member },
+                    multiplier: l,
+                    gradient: self.rows.row(r).collect(),
+                }
+            })
+            .collect()
     }
 }
 

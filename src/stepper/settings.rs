@@ -61,6 +61,10 @@ pub struct StepperSettings {
     /// Most refinements of a step's concave constraints (each one more projection) before the
     /// run fails with [`SweepError::ConcaveNotCertified`]. Default `50`.
     pub max_concave_iterations: usize,
+    /// Keep each step's contacts, the rows active at its solution with their multipliers and
+    /// gradients, in [`StepReport::contacts`](super::StepReport::contacts): the contact forces
+    /// of a crowd. Off, a step allocates nothing for them. Default `false`.
+    pub record_contacts: bool,
 }
 
 impl Default for StepperSettings {
@@ -80,6 +84,7 @@ impl Default for StepperSettings {
             gradient_floor: 1e-6,
             concave_tolerance: 1e-9,
             max_concave_iterations: 50,
+            record_contacts: false,
         }
     }
 }

@@ -245,6 +245,7 @@ mod tests {
                 warm_started: false,
                 counters: Default::default(),
             },
+            contacts: Vec::new(),
         };
         s.on_step(&report(0.5), &[1.0, 3.0]).unwrap();
         s.on_step(&report(1.0), &[2.0, 3.0]).unwrap();
