@@ -29,6 +29,9 @@ pub struct CheckArgs {
     /// Only validate the scene; skip the assumption constants.
     #[arg(long)]
     pub no_constants: bool,
+    /// Override a scene field, as `sweep run --set` does (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<sweeping::scene::SetOverride>,
 }
 
 /// Entry point of `sweep check`: parses and builds the scene (placing random people, solving
@@ -43,7 +46,7 @@ pub fn main(args: CheckArgs) -> Result<()> {
             args.sample_run
         );
     }
-    let scene = Scene::from_file(&args.scene)?;
+    let scene = Scene::from_file_with(&args.scene, &args.sets)?;
     let built = scene.build(&Overrides::default())?;
     refuse_as_run_would(&args.scene, &built)?;
     out!("{}", built.describe());

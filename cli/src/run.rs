@@ -58,6 +58,12 @@ pub struct RunArgs {
     /// the same horizon. The outputs go to a new directory (default: DIR-from-t followed by the time resumed at).
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
+    /// Override a scene field, as if the file said it: a dotted path through the scene's
+    /// tables, list items numbered from 0, and a TOML value (a bare word is a string), e.g.
+    /// `--set crowds.0.count=200 --set exits.0.to=[10.0,5.8] --set run.backend=native`.
+    /// Repeatable; applied in order.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<sweeping::scene::SetOverride>,
 }
 
 /// A progress bar on stderr when stderr is a terminal; otherwise (a run under `nohup`, in a
@@ -257,7 +263,7 @@ fn resume_scene(built: &mut BuiltScene, resume: Resume) -> Result<f64> {
 
 /// Entry point of `sweep run`.
 pub fn main(args: RunArgs) -> Result<()> {
-    let scene = Scene::from_file(&args.scene)?;
+    let scene = Scene::from_file_with(&args.scene, &args.sets)?;
     // Before `out/<name>/` is created: a name such as `../x` would create a directory elsewhere.
     scene.check_name()?;
     let overrides = Overrides {
