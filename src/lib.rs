@@ -42,6 +42,8 @@ pub mod scene;
 mod solve;
 pub mod stepper;
 pub mod study;
+// Many runs of scenes, one results table (`sweep batch`): a client of `scene` and `output`.
+pub mod batch;
 
 pub use error::SweepError;
 #[doc(inline)]

@@ -133,9 +133,16 @@ fn a_wrong_type_names_the_override() {
     let e = scene_with(&["crowds.0.count=many"]).unwrap_err();
     assert!(matches!(e, SceneError::Set { .. }), "{e}");
     assert!(e.to_string().contains("--set crowds.0.count=many"), "{e}");
-    assert!(e.to_string().contains("invalid type: string \"many\""), "{e}");
+    assert!(
+        e.to_string().contains("invalid type: string \"many\""),
+        "{e}"
+    );
     let e = scene_with(&["exits.0.from=[1.0]"]).unwrap_err();
-    assert!(e.to_string().starts_with("s.toml: --set exits.0.from=[1.0]: "), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("s.toml: --set exits.0.from=[1.0]: "),
+        "{e}"
+    );
 }
 
 #[test]
@@ -173,5 +180,8 @@ fn an_override_of_a_missing_list_item_is_refused() {
         "s.toml: --set crowds.2.count=3: `crowds` has 2 items (numbered from 0): there is no item 2; --set changes an item of a list, it does not add one"
     );
     let e = scene_with(&["obstacles.0.disk.radius=1"]).unwrap_err();
-    assert!(e.to_string().contains("the scene has no `obstacles`"), "{e}");
+    assert!(
+        e.to_string().contains("the scene has no `obstacles`"),
+        "{e}"
+    );
 }

@@ -74,7 +74,9 @@ impl Edited {
     pub fn override_at(&self, span: &Range<usize>) -> Option<usize> {
         self.written
             .iter()
-            .find(|(r, _)| span.start < r.end.max(r.start + 1) && r.start < span.end.max(span.start + 1))
+            .find(|(r, _)| {
+                span.start < r.end.max(r.start + 1) && r.start < span.end.max(span.start + 1)
+            })
             .map(|(_, i)| *i)
     }
 
@@ -86,9 +88,21 @@ impl Edited {
     }
 
     /// Replaces `range` by `new` and records it as written by override `index`.
-    fn splice(&mut self, range: Range<usize>, new: &str, index: usize, added_newline: Option<usize>) {
+    fn splice(
+        &mut self,
+        range: Range<usize>,
+        new: &str,
+        index: usize,
+        added_newline: Option<usize>,
+    ) {
         let delta = new.len() as isize - range.len() as isize;
-        let shift = |o: usize| if o >= range.end { (o as isize + delta) as usize } else { o };
+        let shift = |o: usize| {
+            if o >= range.end {
+                (o as isize + delta) as usize
+            } else {
+                o
+            }
+        };
         self.text.replace_range(range.clone(), new);
         // An earlier override's bytes inside the replaced range are gone.
         self.written
@@ -99,7 +113,8 @@ impl Edited {
         for o in &mut self.added_newlines {
             *o = shift(*o);
         }
-        self.written.push((range.start..range.start + new.len(), index));
+        self.written
+            .push((range.start..range.start + new.len(), index));
         if let Some(at) = added_newline {
             self.added_newlines.push(range.start + at);
             self.added_newlines.sort_unstable();
@@ -114,9 +129,16 @@ enum Edit {
     /// The key is missing from a table with a header line (or the root, at `None`): a line
     /// `rest = value` after the header (a key of the root at the top of the file, a table the
     /// file lacks at its end).
-    NewLine { header: Option<usize>, rest: Vec<String> },
+    NewLine {
+        header: Option<usize>,
+        rest: Vec<String>,
+    },
     /// The key is missing from an inline table whose `}` is at this offset.
-    InInline { close: usize, empty: bool, rest: Vec<String> },
+    InInline {
+        close: usize,
+        empty: bool,
+        rest: Vec<String>,
+    },
 }
 
 /// Writes `sets` into `text`, one after the other.
@@ -452,8 +474,14 @@ mod tests {
                 "crowds.1.count=3",
                 "`crowds` has 1 item (numbered from 0): there is no item 1",
             ),
-            ("crowds.first.count=3", "`crowds` is a list: its items are numbered from 0"),
-            ("name.x=3", "`name` is a single value, not a table or a list"),
+            (
+                "crowds.first.count=3",
+                "`crowds` is a list: its items are numbered from 0",
+            ),
+            (
+                "name.x=3",
+                "`name` is a single value, not a table or a list",
+            ),
             ("run=3", "`run` is a table: set its keys one by one"),
             ("crowds.0=3", "`crowds.0` is a table"),
             ("crowds.0.region.4=3", "`crowds.0.region` has 4 items"),
