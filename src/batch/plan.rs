@@ -3,7 +3,7 @@
 use super::BatchError;
 use crate::scene::{line_column, Scene, SetOverride};
 use serde::Deserialize;
-use std::collections::BTreeMap;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
@@ -21,7 +21,7 @@ struct PlanSpec {
     /// Seeds of the random placements; default none (each scene's own).
     seeds: Option<Spanned<Vec<u64>>>,
     /// Each key a list of values: every combination is a trial.
-    grid: Option<Spanned<BTreeMap<String, Spanned<toml::Value>>>>,
+    grid: Option<toml::Table>,
     /// Explicit trials: each a set of overrides and tags.
     #[serde(default)]
     trials: Vec<Spanned<TrialSpec>>,
@@ -36,11 +36,11 @@ struct PlanSpec {
 struct TrialSpec {
     /// Overrides, `key = value`.
     #[serde(default)]
-    set: BTreeMap<String, Spanned<toml::Value>>,
+    set: toml::Table,
     /// Values recorded in the table and not given to the scene (a door's width when the
     /// overrides move its two ends).
     #[serde(default)]
-    tags: BTreeMap<String, Spanned<toml::Value>>,
+    tags: toml::Table,
 }
 
 /// The plot of a plan's results (`[plot]`): an output against a parameter.
@@ -233,8 +233,9 @@ impl Plan {
                 s.get_ref().iter().map(|&v| Some(v)).collect()
             }
         };
-        let grid = grid(&spec, &line, &invalid)?;
-        let trial_sets = explicit_trials(&spec, &line, &invalid)?;
+        let places = KeyPlaces::of(text);
+        let grid = grid(&spec, &places, &invalid)?;
+        let trial_sets = explicit_trials(&spec, &places, &line, &invalid)?;
         // A key of the grid in a trial's overrides: which one would win is not obvious.
         for (sets, _) in &trial_sets {
             for w in sets {
@@ -447,8 +448,7 @@ fn scenes(
     Ok(out)
 }
 
-/// A table of overrides as `(dotted key, value)`: a nested table (a key written without
-/// quotes, `crowds.0.count = …`) gives its keys one by one.
+/// A table of overrides as `(dotted key, value)`, a nested table giving its keys one by one.
 fn flatten(prefix: &str, value: &toml::Value, out: &mut Vec<(String, toml::Value)>) {
     match value {
         toml::Value::Table(t) => {
@@ -474,62 +474,124 @@ fn check_key(
 
 fn grid(
     spec: &PlanSpec,
-    line: LineOf<'_>,
+    places: &KeyPlaces,
     invalid: Invalid<'_>,
 ) -> Result<Vec<Vec<Written>>, BatchError> {
     let Some(grid) = &spec.grid else {
         return Ok(Vec::new());
     };
-    let mut keys: Vec<(&String, &Spanned<toml::Value>)> = grid.get_ref().iter().collect();
-    keys.sort_by_key(|(_, v)| v.span().start);
     let mut out = Vec::new();
-    for (key, value) in keys {
-        let l = line(value.span().start);
-        let mut flat = Vec::new();
-        flatten(key, value.get_ref(), &mut flat);
-        for (key, values) in flat {
-            let item = format!("[grid] {key}");
-            check_key(&key, l, &item, invalid)?;
-            let toml::Value::Array(values) = values else {
-                return Err(invalid(
-                    l,
-                    &item,
-                    format!("a list of values is expected, e.g. `\"{key}\" = [{values}, …]`"),
-                ));
-            };
-            if values.is_empty() {
-                return Err(invalid(l, &item, "an empty list of values".into()));
-            }
-            let texts: Vec<String> = values.iter().map(toml_text).collect();
-            if let Some(d) = texts
-                .iter()
-                .enumerate()
-                .find(|(i, t)| texts[..*i].contains(t))
-            {
-                return Err(invalid(
-                    l,
-                    &item,
-                    format!("the value {} is listed twice", d.1),
-                ));
-            }
-            out.push(
-                texts
-                    .into_iter()
-                    .map(|value| Written {
-                        key: key.clone(),
-                        value,
-                        line: l,
-                        item: item.clone(),
-                    })
-                    .collect(),
-            );
+    for (key, values, l) in places.flat(grid, "grid") {
+        let item = format!("[grid] {key}");
+        check_key(&key, l, &item, invalid)?;
+        let toml::Value::Array(values) = values else {
+            return Err(invalid(
+                l,
+                &item,
+                format!("a list of values is expected, e.g. `\"{key}\" = [{values}, …]`"),
+            ));
+        };
+        if values.is_empty() {
+            return Err(invalid(l, &item, "an empty list of values".into()));
         }
+        let texts: Vec<String> = values.iter().map(toml_text).collect();
+        if let Some(d) = texts
+            .iter()
+            .enumerate()
+            .find(|(i, t)| texts[..*i].contains(t))
+        {
+            return Err(invalid(
+                l,
+                &item,
+                format!("the value {} is listed twice", d.1),
+            ));
+        }
+        out.push(
+            texts
+                .into_iter()
+                .map(|value| Written {
+                    key: key.clone(),
+                    value,
+                    line: l,
+                    item: item.clone(),
+                })
+                .collect(),
+        );
     }
     Ok(out)
 }
 
+/// Where each key of the plan is written: its rank in the file and its line, by dotted path
+/// (`grid.crowds.0.count`, a quoted `"crowds.0.count"` giving the same path), read with
+/// toml_edit, which keeps both.
+struct KeyPlaces(HashMap<String, (usize, usize)>);
+
+impl KeyPlaces {
+    fn of(text: &str) -> Self {
+        let mut places = HashMap::new();
+        if let Ok(doc) = toml_edit::ImDocument::parse(text) {
+            let mut rank = 0;
+            walk_table(doc.as_table(), "", text, &mut rank, &mut places);
+        }
+        KeyPlaces(places)
+    }
+
+    /// The leaves of `table` (the plan's table at `path`) as `(dotted key, value, line)`, in
+    /// the order written: a nested table (a key written without quotes, `crowds.0.count =
+    /// …`) gives its keys one by one.
+    fn flat(&self, table: &toml::Table, path: &str) -> Vec<(String, toml::Value, Option<usize>)> {
+        let mut leaves = Vec::new();
+        for (k, v) in table {
+            flatten(k, v, &mut leaves);
+        }
+        let mut placed: Vec<(usize, String, toml::Value, Option<usize>)> = leaves
+            .into_iter()
+            .map(|(k, v)| {
+                let place = self.0.get(&format!("{path}.{k}"));
+                (place.map_or(usize::MAX, |p| p.0), k, v, place.map(|p| p.1))
+            })
+            .collect();
+        placed.sort_by_key(|p| p.0);
+        placed.into_iter().map(|(_, k, v, l)| (k, v, l)).collect()
+    }
+}
+
+fn walk_table(
+    table: &dyn toml_edit::TableLike,
+    path: &str,
+    text: &str,
+    rank: &mut usize,
+    out: &mut HashMap<String, (usize, usize)>,
+) {
+    for (key, item) in table.iter() {
+        let here = if path.is_empty() {
+            key.to_string()
+        } else {
+            format!("{path}.{key}")
+        };
+        if let Some(span) = table.key(key).and_then(toml_edit::Key::span) {
+            *rank += 1;
+            out.entry(here.clone())
+                .or_insert((*rank, line_column(text, span.start).0));
+        }
+        match item {
+            toml_edit::Item::Table(t) => walk_table(t, &here, text, rank, out),
+            toml_edit::Item::Value(toml_edit::Value::InlineTable(t)) => {
+                walk_table(t, &here, text, rank, out)
+            }
+            toml_edit::Item::ArrayOfTables(a) => {
+                for (i, t) in a.iter().enumerate() {
+                    walk_table(t, &format!("{here}.{i}"), text, rank, out);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
 fn explicit_trials(
     spec: &PlanSpec,
+    places: &KeyPlaces,
     line: LineOf<'_>,
     invalid: Invalid<'_>,
 ) -> Result<Vec<(Vec<Written>, Vec<Written>)>, BatchError> {
@@ -540,24 +602,17 @@ fn explicit_trials(
     for (i, t) in spec.trials.iter().enumerate() {
         let item = format!("[[trials]] #{}", i + 1);
         let l = line(t.span().start);
-        let written = |table: &BTreeMap<String, Spanned<toml::Value>>, what: &str| {
-            let mut entries: Vec<_> = table.iter().collect();
-            entries.sort_by_key(|(_, v)| v.span().start);
+        let written = |table: &toml::Table, what: &str| {
             let mut ws = Vec::new();
-            for (key, value) in entries {
-                let vl = line(value.span().start);
-                let mut flat = Vec::new();
-                flatten(key, value.get_ref(), &mut flat);
-                for (key, v) in flat {
-                    let item = format!("{item} {what} {key}");
-                    check_key(&key, vl, &item, invalid)?;
-                    ws.push(Written {
-                        key,
-                        value: toml_text(&v),
-                        line: vl,
-                        item,
-                    });
-                }
+            for (key, v, vl) in places.flat(table, &format!("trials.{i}.{what}")) {
+                let item = format!("{item} {what} {key}");
+                check_key(&key, vl, &item, invalid)?;
+                ws.push(Written {
+                    key,
+                    value: toml_text(&v),
+                    line: vl.or(l),
+                    item,
+                });
             }
             Ok::<_, BatchError>(ws)
         };
