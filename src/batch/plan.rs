@@ -112,8 +112,8 @@ impl Trial {
 
 /// A TOML value as a table cell: a string without its quotes, anything else as written.
 fn unquoted(value: &str) -> String {
-    match value.parse::<toml::Value>() {
-        Ok(toml::Value::String(s)) => s,
+    match value.parse::<toml_edit::Value>() {
+        Ok(toml_edit::Value::String(s)) => s.into_value(),
         _ => value.to_string(),
     }
 }

@@ -305,11 +305,11 @@ fn draw(
             let ly = TOP + 18.0 + 18.0 * k as f64;
             let _ = writeln!(
                 s,
-                r#"<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="{color}" stroke-width="2"/><text x="{3}" y="{4}">{5}</text>"#,
-                LEFT + 10.0,
+                r#"<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="{color}" stroke-width="2"/><text x="{3}" y="{4}" text-anchor="end">{5}</text>"#,
+                WIDTH - RIGHT - 30.0,
                 ly,
-                LEFT + 30.0,
-                LEFT + 36.0,
+                WIDTH - RIGHT - 10.0,
+                WIDTH - RIGHT - 36.0,
                 ly + 4.0,
                 escape(name)
             );
