@@ -111,4 +111,6 @@ pub mod guide_doctests {
     pub struct Development;
     #[doc = include_str!("../docs/guide/src/two-classes.md")]
     pub struct TwoClasses;
+    #[doc = include_str!("../docs/guide/src/batch.md")]
+    pub struct Batch;
 }

@@ -42,7 +42,7 @@ fn mean_sd(values: &[f64]) -> (f64, f64) {
 
 /// Ticks at 1-2-5 steps over `[lo, hi]`.
 fn ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let raw = (hi - lo) / 6.0;
+    let raw = (hi - lo) / 8.0;
     let mag = 10f64.powf(raw.log10().floor());
     let step = [1.0, 2.0, 5.0, 10.0]
         .iter()
@@ -109,16 +109,29 @@ pub fn plot_svg(table: &ResultsTable, x: &str, y: &str) -> Result<String, BatchE
             "`{y}` is not an output of the table"
         )));
     }
-    let several_scenes = table.rows.iter().any(|r| r.scene != table.rows[0].scene);
+    let x_of = |row: &super::ResultsRow| match column {
+        None => row.seed.map(|s| s.to_string()),
+        Some(c) => row.parameters[c].clone(),
+    };
+    // A column splits the trials into series only where it varies at one value of x: one
+    // that moves with x (a door's ends, with its width as x) is the same series.
+    let varies_at_one_x = |value: &dyn Fn(&super::ResultsRow) -> Option<String>| {
+        let mut seen: BTreeMap<Option<String>, Option<String>> = BTreeMap::new();
+        table
+            .rows
+            .iter()
+            .any(|r| *seen.entry(x_of(r)).or_insert_with(|| value(r)) != value(r))
+    };
+    let several_scenes = varies_at_one_x(&|r| Some(r.scene.clone()));
+    let splitting: Vec<bool> = (0..table.parameters.len())
+        .map(|c| Some(c) != column && varies_at_one_x(&|r| r.parameters[c].clone()))
+        .collect();
     // series label → x → the trials' values.
     let mut series: BTreeMap<String, BTreeMap<u64, Vec<f64>>> = BTreeMap::new();
     let mut dots: Vec<(String, f64, f64)> = Vec::new();
     let mut left_out = 0;
     for row in &table.rows {
-        let xv = match column {
-            None => row.seed.map(|s| s.to_string()),
-            Some(c) => row.parameters[c].clone(),
-        };
+        let xv = x_of(row);
         let (Some(xv), Some(yv)) = (xv, row.output(y)) else {
             left_out += 1;
             continue;
@@ -133,11 +146,9 @@ pub fn plot_svg(table: &ResultsTable, x: &str, y: &str) -> Result<String, BatchE
         if several_scenes {
             others.push(row.scene.clone());
         }
-        for (p, v) in table.parameters.iter().zip(&row.parameters) {
-            if p != x {
-                if let Some(v) = v {
-                    others.push(format!("{p} = {v}"));
-                }
+        for ((p, v), split) in table.parameters.iter().zip(&row.parameters).zip(&splitting) {
+            if let (true, Some(v)) = (split, v) {
+                others.push(format!("{p} = {v}"));
             }
         }
         let name = others.join(", ");
