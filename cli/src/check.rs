@@ -47,7 +47,9 @@ pub fn main(args: CheckArgs) -> Result<()> {
         );
     }
     let scene = Scene::from_file_with(&args.scene, &args.sets)?;
-    let built = scene.build(&Overrides::default())?;
+    let built = scene
+        .build(&Overrides::default())
+        .map_err(|e| crate::run::with_sets(e.into(), &args.sets))?;
     refuse_as_run_would(&args.scene, &built)?;
     out!("{}", built.describe());
     outln!("ok: {} is a valid scene", args.scene.display());

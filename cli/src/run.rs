@@ -292,7 +292,9 @@ pub fn main(args: RunArgs) -> Result<()> {
     }
     // Before any work: a directory that cannot be written is an error now, not after the run.
     prepare_output_dir(&out)?;
-    let mut built = scene.build(&overrides)?;
+    let mut built = scene
+        .build(&overrides)
+        .map_err(|e| with_sets(e.into(), &args.sets))?;
     let resumed_at = match resume {
         Some(r) => {
             let dir = r.dir.clone();
@@ -338,6 +340,15 @@ pub fn main(args: RunArgs) -> Result<()> {
         );
     }
     outcome(scene_run, &out)
+}
+
+/// `error`, said to be of the scene as the overrides `sets` changed it (when there are any).
+pub fn with_sets(error: anyhow::Error, sets: &[sweeping::scene::SetOverride]) -> anyhow::Error {
+    if sets.is_empty() {
+        return error;
+    }
+    let sets: Vec<String> = sets.iter().map(ToString::to_string).collect();
+    error.context(format!("with {}", sets.join(" ")))
 }
 
 /// What the run is, said before its first step.

@@ -215,6 +215,19 @@ fn a_bad_set_is_refused_naming_it_and_a_good_one_changes_the_run() {
         .output()
         .unwrap();
     assert!(String::from_utf8_lossy(&o.stderr).contains("is not key=value"));
+    // A value the scene's own checks refuse: the file's error, said to be with the override.
+    let o = sweep()
+        .arg("check")
+        .arg(&scene)
+        .args(["--set", "crowds.0.count=100000"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("error: with --set crowds.0.count=100000: ")
+            && stderr.contains("cannot fit"),
+        "{stderr}"
+    );
     let out = dir.join("out");
     let o = sweep()
         .arg("run")
