@@ -100,7 +100,7 @@ pub enum BatchError {
         /// The item the override comes from.
         item: String,
         /// The scene's error, naming the scene file and the override.
-        source: crate::scene::SceneError,
+        source: Box<crate::scene::SceneError>,
     },
     /// A trial number past the plan's trials.
     #[error("trial {trial}: the plan has {count} trials, numbered from 0")]

@@ -132,6 +132,9 @@ struct Written {
     item: String,
 }
 
+/// An explicit trial's overrides and tags.
+type TrialSets = (Vec<Written>, Vec<Written>);
+
 /// A checked plan.
 #[derive(Debug, Clone)]
 pub struct Plan {
@@ -143,7 +146,7 @@ pub struct Plan {
     scenes: Vec<(String, PathBuf, Option<usize>)>,
     seeds: Vec<Option<u64>>,
     /// Each explicit trial's overrides and tags (one empty trial without `[[trials]]`).
-    trial_sets: Vec<(Vec<Written>, Vec<Written>)>,
+    trial_sets: Vec<TrialSets>,
     /// Each grid key's values, in the order written.
     grid: Vec<Vec<Written>>,
     /// The parameters, in the order first written.
@@ -391,7 +394,7 @@ impl Plan {
                 file: self.file.display().to_string(),
                 line,
                 item: item.to_string(),
-                source,
+                source: Box::new(source),
             };
             Scene::from_toml_str_with(&text, &origin, &[])
                 .map_err(|e| scene_error(*line, "scenes", e))?;
@@ -594,7 +597,7 @@ fn explicit_trials(
     places: &KeyPlaces,
     line: LineOf<'_>,
     invalid: Invalid<'_>,
-) -> Result<Vec<(Vec<Written>, Vec<Written>)>, BatchError> {
+) -> Result<Vec<TrialSets>, BatchError> {
     if spec.trials.is_empty() {
         return Ok(vec![(Vec::new(), Vec::new())]);
     }
