@@ -1,15 +1,13 @@
 //! Batch plans: expansion, errors with their lines, a run into one table checked against the
 //! trials' own summaries and trajectories, failures kept, and resuming after a kill.
 
-mod common;
-
-use common::checker::{check_trajectory, scratch, Geometry};
 use std::path::{Path, PathBuf};
 use sweeping::batch::{
     run_batch, run_trial, trial_state, BatchError, BatchSettings, Plan, ResultsTable, TrialRecord,
     TrialState, OUTPUTS, RECORD_FILE,
 };
 use sweeping::output::{RunStatus, RunSummary};
+use sweeping_testkit::checker::{check_trajectory, scratch, Geometry};
 
 const ROOM: &str = r#"name = "room"
 [room]

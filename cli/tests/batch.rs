@@ -4,15 +4,13 @@
 
 #![cfg(unix)]
 
-#[path = "../../tests/common/mod.rs"]
-mod common;
 mod support;
 
-use common::checker::scratch;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use support::long_scene;
+use sweeping_testkit::checker::scratch;
 
 fn sweep() -> Command {
     Command::new(env!("CARGO_BIN_EXE_sweep"))
