@@ -473,3 +473,35 @@ fn a_trial_held_by_another_process_is_left_to_it() {
     drop(lock);
     assert!(run_trial(&trial, &out, 1, &()).unwrap().is_some());
 }
+
+#[test]
+fn the_shipped_plan_reads_and_fits_its_scene() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/plans/door-width.toml");
+    let plan = Plan::from_file(&path).unwrap();
+    plan.check_scenes().unwrap();
+    assert_eq!(plan.name, "door-width");
+    assert_eq!(plan.trial_count(), 15);
+    assert_eq!(
+        plan.parameters(),
+        ["exits.0.from", "exits.0.to", "door_width"]
+    );
+    let plot = plan.plot.as_ref().unwrap();
+    assert_eq!(
+        (plot.x.as_str(), plot.y.as_str()),
+        ("door_width", "evacuation_time")
+    );
+    // Each width is the distance between the door's two ends.
+    for trial in plan.trials() {
+        let end = |key: &str| -> Vec<f64> {
+            let v = trial.parameter(key).unwrap();
+            v.trim_matches(['[', ']'])
+                .split(',')
+                .map(|x| x.trim().parse().unwrap())
+                .collect()
+        };
+        let (a, b) = (end("exits.0.from"), end("exits.0.to"));
+        let width: f64 = trial.parameter("door_width").unwrap().parse().unwrap();
+        assert!(((b[1] - a[1]) - width).abs() < 1e-12, "{trial:?}");
+        assert_eq!(a[0], b[0]);
+    }
+}
