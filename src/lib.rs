@@ -43,6 +43,8 @@ pub mod scene;
 mod solve;
 pub mod stepper;
 pub mod study;
+// Many runs of scenes, one results table (`sweep batch`): a client of `scene` and `output`.
+pub mod batch;
 
 pub use error::SweepError;
 #[doc(inline)]
@@ -110,4 +112,6 @@ pub mod guide_doctests {
     pub struct Development;
     #[doc = include_str!("../docs/guide/src/two-classes.md")]
     pub struct TwoClasses;
+    #[doc = include_str!("../docs/guide/src/batch.md")]
+    pub struct Batch;
 }

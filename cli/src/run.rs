@@ -64,6 +64,12 @@ pub struct RunArgs {
     /// who had left), up to the same horizon. The outputs go to a new directory (default: DIR-from-t followed by the time resumed at).
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
+    /// Override a scene field, as if the file said it: a dotted path through the scene's
+    /// tables, list items numbered from 0, and a TOML value (a bare word is a string), e.g.
+    /// `--set crowds.0.count=200 --set exits.0.to=[10.0,5.8] --set run.backend=native`.
+    /// Repeatable; applied in order.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<sweeping::scene::SetOverride>,
 }
 
 /// A progress bar on stderr when stderr is a terminal; otherwise (a run under `nohup`, in a
@@ -269,7 +275,7 @@ fn resume_scene(
 
 /// Entry point of `sweep run`.
 pub fn main(args: RunArgs) -> Result<()> {
-    let scene = Scene::from_file(&args.scene)?;
+    let scene = Scene::from_file_with(&args.scene, &args.sets)?;
     // Before `out/<name>/` is created: a name such as `../x` would create a directory elsewhere.
     scene.check_name()?;
     let overrides = Overrides {
@@ -298,7 +304,9 @@ pub fn main(args: RunArgs) -> Result<()> {
     }
     // Before any work: a directory that cannot be written is an error now, not after the run.
     prepare_output_dir(&out)?;
-    let mut built = scene.build(&overrides)?;
+    let mut built = scene
+        .build(&overrides)
+        .map_err(|e| with_sets(e.into(), &args.sets))?;
     if args.contact_forces {
         built.output.contact_forces = true;
     }
@@ -354,6 +362,15 @@ pub fn main(args: RunArgs) -> Result<()> {
         );
     }
     outcome(scene_run, &out)
+}
+
+/// `error`, said to be of the scene as the overrides `sets` changed it (when there are any).
+pub fn with_sets(error: anyhow::Error, sets: &[sweeping::scene::SetOverride]) -> anyhow::Error {
+    if sets.is_empty() {
+        return error;
+    }
+    let sets: Vec<String> = sets.iter().map(ToString::to_string).collect();
+    error.context(format!("with {}", sets.join(" ")))
 }
 
 /// What the run is, said before its first step.

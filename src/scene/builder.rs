@@ -224,6 +224,7 @@ impl CrowdBuilder {
             name,
             spec: self.spec,
             text: None,
+            added_newlines: Vec::new(),
         }
     }
 

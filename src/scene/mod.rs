@@ -50,12 +50,14 @@ mod drawn;
 mod effect;
 mod error;
 mod notes;
+mod set;
 pub mod spec;
 pub mod synthetic;
 
 pub use builder::CrowdBuilder;
 pub use effect::Effect;
 pub use error::{line_column, ResumeError, SceneError};
+pub use set::SetOverride;
 pub use spec::{SceneSpec, TrajectoryFormat};
 
 use crate::backends::BackendChoice;
@@ -84,6 +86,9 @@ pub struct Scene {
     /// The TOML text the spec was read from; `None` for a scene built in code (its errors
     /// then name no line).
     text: Option<String>,
+    /// Offsets in `text` of the newlines `--set` overrides added: lines the file does not
+    /// have, skipped by the line numbers of errors.
+    added_newlines: Vec<usize>,
 }
 
 /// Command-line overrides of a scene's settings.
@@ -251,6 +256,16 @@ impl Ctx<'_> {
         Ctx { file, line_starts }
     }
 
+    /// The same, with the lines that overrides added ending at `added_newlines` not counted.
+    fn skipping(mut self, added_newlines: &[usize]) -> Self {
+        self.line_starts.retain(|start| {
+            start
+                .checked_sub(1)
+                .is_none_or(|nl| added_newlines.binary_search(&nl).is_err())
+        });
+        self
+    }
+
     fn line_of<T>(&self, s: &Spanned<T>) -> Option<usize> {
         if self.line_starts.is_empty() {
             return None;
@@ -295,13 +310,25 @@ impl Scene {
     /// # Errors
     /// [`SceneError::Io`] or [`SceneError::Parse`] (with line and column).
     pub fn from_file(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        Self::from_file_with(path, &[])
+    }
+
+    /// Reads and parses a scene file with `sets` written into it, each as if the file said
+    /// it (see [`SetOverride`]).
+    ///
+    /// # Errors
+    /// As [`Scene::from_file`]; an error in an override is a [`SceneError::Set`] naming it.
+    pub fn from_file_with(
+        path: impl AsRef<Path>,
+        sets: &[SetOverride],
+    ) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|reason| SceneError::Io {
             file: file.clone(),
             reason,
         })?;
-        let mut scene = Self::from_toml_str(&text, &file)?;
+        let mut scene = Self::from_toml_str_with(&text, &file, sets)?;
         if scene.spec.name.is_none() {
             if let Some(stem) = path.file_stem() {
                 scene.name = stem.to_string_lossy().into_owned();
@@ -316,16 +343,39 @@ impl Scene {
     /// [`SceneError::Parse`] for invalid TOML, a missing field, an unknown key or a wrong
     /// type, with line and column.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
-        let spec: SceneSpec = toml::from_str(text).map_err(|e| {
+        Self::from_toml_str_with(text, origin, &[])
+    }
+
+    /// Parses a scene from text with `sets` written into it (see [`SetOverride`]).
+    ///
+    /// # Errors
+    /// As [`Scene::from_toml_str`], the lines those of `text`; an error that an override
+    /// caused (an unknown key, a wrong type, a path through a value or to a missing list
+    /// item) is a [`SceneError::Set`] naming the override.
+    pub fn from_toml_str_with(
+        text: &str,
+        origin: &str,
+        sets: &[SetOverride],
+    ) -> Result<Scene, SceneError> {
+        let edited = set::apply(text, origin, sets)?;
+        let spec: SceneSpec = toml::from_str(&edited.text).map_err(|e| {
+            let message = e.message().trim().to_string();
+            if let Some(i) = e.span().and_then(|s| edited.override_at(&s)) {
+                return SceneError::Set {
+                    file: origin.to_string(),
+                    set: sets[i].to_string(),
+                    message,
+                };
+            }
             let (line, column) = e
                 .span()
-                .map(|s| line_column(text, s.start))
+                .map(|s| edited.file_line_column(s.start))
                 .unwrap_or((1, 1));
             SceneError::Parse {
                 file: origin.to_string(),
                 line,
                 column,
-                message: e.message().trim().to_string(),
+                message,
             }
         })?;
         let name = spec.name.clone().unwrap_or_else(|| "scene".to_string());
@@ -333,7 +383,8 @@ impl Scene {
             spec,
             name,
             origin: origin.to_string(),
-            text: Some(text.to_string()),
+            text: Some(edited.text),
+            added_newlines: edited.added_newlines,
         })
     }
 
@@ -344,7 +395,7 @@ impl Scene {
     /// [`SceneError::Invalid`] for an empty name, `.`, `..`, or one with `/`, `\`, `:` or a
     /// control character, naming the `name` key's line when the file gives it.
     pub fn check_name(&self) -> Result<(), SceneError> {
-        let cx = Ctx::new(&self.origin, self.text.as_deref());
+        let cx = self.ctx();
         // `name` is a top-level key: before the first table header.
         let line = self
             .spec
@@ -363,8 +414,29 @@ impl Scene {
                         rest.is_some_and(|r| r.trim_start().starts_with('='))
                     })
                     .map(|i| i + 1)
-            });
+            })
+            .and_then(|line| self.file_line(line));
         build::check_name(&cx, &self.name, line)
+    }
+
+    /// The file's number of line `line` (1-based) of the text, `None` for a line an override
+    /// added.
+    fn file_line(&self, line: usize) -> Option<usize> {
+        let text = self.text.as_deref()?;
+        let mut before = 0;
+        for &nl in &self.added_newlines {
+            match line_column(text, nl).0.cmp(&line) {
+                std::cmp::Ordering::Less => before += 1,
+                std::cmp::Ordering::Equal => return None,
+                std::cmp::Ordering::Greater => break,
+            }
+        }
+        Some(line - before)
+    }
+
+    /// The context of the scene's errors: its file, and its lines as the file numbers them.
+    fn ctx(&self) -> Ctx<'_> {
+        Ctx::new(&self.origin, self.text.as_deref()).skipping(&self.added_newlines)
     }
 
     /// Where the scene came from (a file name, or what [`Scene::from_toml_str`] was given).
@@ -380,7 +452,7 @@ impl Scene {
     /// non-positive radius or step, an exit not on a wall, a person outside the room or
     /// inside an obstacle, overlapping people, a crowd that does not fit…
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
-        let cx = Ctx::new(&self.origin, self.text.as_deref());
+        let cx = self.ctx();
         let spec = &self.spec;
         self.check_name()?;
         let run = build::run_settings(&cx, spec, overrides)?;
