@@ -79,7 +79,7 @@ fn bad_radius_of_a_crowd() {
     assert_message(
         &error_of(&text),
         5,
-        &["a radius (a number) or a range [min, max]"],
+        &["a radius (a number), a range [min, max], or a distribution"],
     );
 }
 
@@ -788,4 +788,157 @@ fn exits_of_a_desire_must_exist_and_go_with_kind_exit() {
             &["[[people]] #1 desired", fragment],
         );
     }
+}
+
+#[test]
+fn bad_sources() {
+    // Line 3 is the `[[sources]]` header.
+    let source = |body: &str| format!("{ROOM}[[sources]]\nradius = 0.2\n{body}\n");
+    let region = "region = [0.5, 0.5, 3.5, 3.5]\n";
+    for (body, fragment) in [
+        (format!("{region}"), "say when people arrive: `rate"),
+        (format!("{region}rate = 2.0"), "`rate` needs `count`"),
+        (
+            format!("{region}rate = 0.0\ncount = 3"),
+            "rate: people per second must be positive",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 0"),
+            "count = 0 brings nobody",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 3\nstart = -1.0"),
+            "start: must be ≥ 0",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 3\ntimes = [1.0]"),
+            "not both",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 3\ncounts = [1]"),
+            "`counts` goes with `times`",
+        ),
+        (format!("{region}times = []"), "times = [] brings nobody"),
+        (
+            format!("{region}times = [2.0, 1.0]"),
+            "times: must not decrease, got 1 after 2",
+        ),
+        (
+            format!("{region}times = [-1.0]"),
+            "times: every time must be ≥ 0",
+        ),
+        (
+            format!("{region}times = [1.0, 2.0]\ncounts = [1]"),
+            "counts: one count per time, got 1 counts for 2 times",
+        ),
+        (
+            format!("{region}times = [1.0, 2.0]\ncounts = [1, 0]"),
+            "counts[1] = 0 brings nobody at t = 2",
+        ),
+        (
+            format!("{region}times = [1.0]\ncount = 2"),
+            "`count` and `start` go with `rate`",
+        ),
+        ("times = [1.0]".to_string(), "give exactly one of `region"),
+        (
+            format!("{region}times = [1.0]\ndoor = {{ from = [0.0, 1.0], to = [0.0, 2.0] }}"),
+            "give exactly one of `region",
+        ),
+        (
+            "times = [1.0]\nregion = [3.0, 0.5, 1.0, 3.5]".to_string(),
+            "needs finite numbers, x1 > x0",
+        ),
+        (
+            "times = [1.0]\nregion = [5.0, 5.0, 6.0, 6.0]".to_string(),
+            "no place for a person of radius 0.2 in the region",
+        ),
+        (
+            "times = [1.0]\ndoor = { from = [1.0, 1.0], to = [2.0, 1.0] }".to_string(),
+            "door: (1, 1)–(2, 1) is not on a wall",
+        ),
+        (
+            "times = [1.0]\ndoor = { from = [0.0, 1.0], to = [0.0, 1.3] }".to_string(),
+            "door: 0.3 wide, narrower than one person",
+        ),
+        (
+            format!("{region}times = [1.0]\ngap = -0.1"),
+            "gap: must be ≥ 0 and finite, got -0.1",
+        ),
+        (
+            format!("{region}times = [1.0]\nspeed = -1.0"),
+            "speed: must be ≥ 0",
+        ),
+        (
+            format!("{region}times = [1.0]\ndesired = {{ kind = \"exit\" }}"),
+            "kind = \"exit\" needs at least one [[exits]]",
+        ),
+    ] {
+        assert_message(&error_of(&source(&body)), 3, &["[[sources]] #1", fragment]);
+    }
+    // A door whose places are all taken by an obstacle.
+    let text = format!(
+        "{ROOM}[[obstacles]]\ndisk = {{ center = [0.5, 2.0], radius = 0.4 }}\n[[sources]]\nradius = 0.2\ntimes = [1.0]\ndoor = {{ from = [0.0, 1.6], to = [0.0, 2.4] }}\n"
+    );
+    assert_message(
+        &error_of(&text),
+        5,
+        &["door: no place inside it", "inside obstacle #1"],
+    );
+    // An unknown key, at its line.
+    assert_message(
+        &error_of(&source(
+            "times = [1.0]\nregion = [0.5, 0.5, 3.5, 3.5]\nflow = 2.0",
+        )),
+        7,
+        &["unknown field `flow`"],
+    );
+}
+
+#[test]
+fn bad_radius_distributions_and_gaps_of_a_crowd() {
+    let crowd = |radius: &str, extra: &str| {
+        format!("{ROOM}[[crowds]]\ncount = 3\nradius = {radius}\n{extra}")
+    };
+    for (text, fragment) in [
+        (
+            crowd("{ uniform = [0.0, 0.2] }", ""),
+            "radius: uniform = [min, max] needs 0 < min ≤ max",
+        ),
+        (
+            crowd("{ uniform = [0.3, 0.2] }", ""),
+            "radius: uniform = [min, max] needs 0 < min ≤ max",
+        ),
+        (
+            crowd("{ normal = [0.2, 0.02] }", ""),
+            "radius: a normal distribution needs `within",
+        ),
+        (
+            crowd("{ normal = [0.2, 0.02], within = [0.0, 0.3] }", ""),
+            "radius: within = [min, max] needs 0 < min ≤ max",
+        ),
+        (
+            crowd("{ normal = [0.2, 0.001], within = [0.3, 0.4] }", ""),
+            "radius: no value of normal = [0.2, 0.001] fell within [0.3, 0.4]",
+        ),
+        (
+            crowd("0.2", "gap = -0.5\n"),
+            "gap: must be ≥ 0 and finite, got -0.5",
+        ),
+        (
+            crowd("0.2", "gap = inf\n"),
+            "gap: must be ≥ 0 and finite, got inf",
+        ),
+        (
+            crowd("[0.2, 0.1]", ""),
+            "a range of radii needs 0 < min ≤ max",
+        ),
+    ] {
+        assert_message(&error_of(&text), 3, &["[[crowds]] #1", fragment]);
+    }
+    // A gap that no longer lets the crowd fit: the area bound counts the grown disks.
+    assert_message(
+        &error_of(&crowd("0.2", "count = 40\ngap = 0.6\n").replace("count = 3\n", "")),
+        3,
+        &["cannot fit"],
+    );
 }

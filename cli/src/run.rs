@@ -398,9 +398,20 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
     outln!(
         "  people: {}, left: {}, remaining: {}",
         s.people,
-        s.people - s.people_remaining,
+        s.people_out.last().map_or(0, |&(_, out)| out),
         s.people_remaining
     );
+    if let Some(a) = &s.arrivals {
+        outln!(
+            "  arrivals: {} of {} arrived, {} waited for their place (longest {:.2} s, {:.2} s in all), {} still waiting",
+            a.arrived,
+            a.scheduled,
+            a.waited,
+            a.longest_wait,
+            a.total_wait,
+            a.still_waiting
+        );
+    }
     match s.evacuation_time {
         Some(t) => outln!("  evacuation time: {t:.2} s"),
         None => outln!(

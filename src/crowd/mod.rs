@@ -22,5 +22,5 @@ mod verlet;
 
 pub use arena::{ArenaWall, InsideCircleKernel};
 pub use pairs::{DiskPairKernel, DiskPairs};
-pub use population::{segment_distance, Population, Room};
+pub use population::{segment_distance, ArrivalReport, Population, Room};
 pub use shapes::{rectangle_walls, Motion, PersonShapeKernel, PersonShapes, Shape, ShapeParams};

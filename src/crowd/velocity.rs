@@ -184,7 +184,9 @@ impl Perturbation for DesiredVelocity {
         out.iter_mut().for_each(|v| *v = 0.0);
         for (field, people) in &self.terms {
             for &i in people {
-                if self.starts.get(i).is_some_and(|&start| t < start) {
+                if self.starts.get(i).is_some_and(|&start| t < start)
+                    || !self.population.has_arrived(i)
+                {
                     continue;
                 }
                 let p = Population::position(q, i);

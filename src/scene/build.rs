@@ -137,7 +137,7 @@ pub(super) struct RoomPlan {
 }
 
 impl RoomPlan {
-    fn edge(&self, k: usize) -> Wall {
+    pub(super) fn edge(&self, k: usize) -> Wall {
         let n = self.vertices.len();
         (self.vertices[k], self.vertices[(k + 1) % n])
     }
@@ -579,7 +579,7 @@ impl Clearance<'_> {
         }
     }
 
-    fn check(&self, p: [f64; 2], r: f64) -> Result<(), String> {
+    pub(super) fn check(&self, p: [f64; 2], r: f64) -> Result<(), String> {
         self.walls(p, r)?;
         self.arena(p, r)?;
         self.obstacles(p, r)
@@ -600,10 +600,14 @@ pub(super) struct People {
     pub origins: Vec<Origin>,
     pub group_of: Vec<usize>,
     pub groups: Vec<String>,
+    /// When each person arrives (`None`: there from the start).
+    pub due: Vec<Option<f64>>,
+    /// The least gap each person keeps (`gap`; their radius includes half of it).
+    pub gaps: Vec<f64>,
 }
 
 impl People {
-    fn push(
+    pub(super) fn push(
         &mut self,
         p: [f64; 2],
         r: f64,
@@ -611,7 +615,10 @@ impl People {
         start: f64,
         d: Option<DesiredSpec>,
         origin: Origin,
+        (due, gap): (Option<f64>, f64),
     ) {
+        self.due.push(due);
+        self.gaps.push(gap);
         self.positions.push(p);
         self.radii.push(r);
         self.speeds.push(speed);
@@ -638,6 +645,80 @@ fn check_speed(
         ));
     }
     Ok(speed)
+}
+
+/// `gap`: the least distance a group keeps, ≥ 0 and finite (default 0).
+pub(super) fn check_gap(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    gap: Option<f64>,
+) -> Result<f64, SceneError> {
+    let gap = gap.unwrap_or(0.0);
+    if !(gap.is_finite() && gap >= 0.0) {
+        return Err(cx.err(
+            line,
+            item,
+            format!("gap: must be ≥ 0 and finite, got {gap}"),
+        ));
+    }
+    Ok(gap)
+}
+
+/// A group's radii: a number or a range drawn with the placement (so that the crowds of
+/// earlier scenes keep their places), or a distribution drawn from a stream of its own.
+#[derive(Clone, Copy)]
+pub(super) enum Radii {
+    Placement(f64, f64),
+    Drawn(drawn::Checked),
+}
+
+impl Radii {
+    /// The least and the largest radius.
+    pub fn range(self) -> (f64, f64) {
+        match self {
+            Radii::Placement(a, b) => (a, b),
+            Radii::Drawn(c) => drawn::range(c),
+        }
+    }
+
+    /// As a law to draw from, a range drawn uniformly.
+    pub fn law(self) -> drawn::Checked {
+        match self {
+            Radii::Placement(a, b) if a == b => drawn::Checked::Fixed(a),
+            Radii::Placement(a, b) => drawn::Checked::Uniform(a, b),
+            Radii::Drawn(c) => c,
+        }
+    }
+}
+
+pub(super) fn check_radii(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    radius: RadiusSpec,
+) -> Result<Radii, SceneError> {
+    let (rmin, rmax) = match radius {
+        RadiusSpec::Fixed(r) => (r, r),
+        RadiusSpec::Range([a, b]) => (a, b),
+        RadiusSpec::Distribution(d) => {
+            let law = Drawn::Distribution(d);
+            return drawn::check(cx, line, item, &drawn::RADIUS, Some(&law), 0.0).map(Radii::Drawn);
+        }
+    };
+    if !(rmin.is_finite() && rmax.is_finite() && rmin > 0.0 && rmax >= rmin) {
+        return Err(cx.err(
+            line,
+            item,
+            match radius {
+                RadiusSpec::Range([a, b]) => format!(
+                    "a range of radii needs 0 < min ≤ max, both finite, got radius = [{a:?}, {b:?}]"
+                ),
+                _ => format!("the radius must be positive and finite, got radius = {rmin:?}"),
+            },
+        ));
+    }
+    Ok(Radii::Placement(rmin, rmax))
 }
 
 /// The `[[people]]`, each its own group, then a check that no two of them overlap.
@@ -678,6 +759,7 @@ pub(super) fn explicit_people(
             ));
         }
         let speed = check_speed(cx, line, &item, ps.speed)?;
+        let (radius, gap) = (ps.radius, 0.0);
         let start = match drawn::check(
             cx,
             line,
@@ -693,13 +775,13 @@ pub(super) fn explicit_people(
             check_desired(cx, line, &item, d, exit_count)?;
         }
         clear
-            .walls(ps.position, ps.radius)
+            .walls(ps.position, radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         clear
-            .arena(ps.position, ps.radius)
+            .arena(ps.position, radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         clear
-            .obstacles(ps.position, ps.radius)
+            .obstacles(ps.position, radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         let origin = Origin {
             item: item.clone(),
@@ -707,11 +789,12 @@ pub(super) fn explicit_people(
         };
         people.push(
             ps.position,
-            ps.radius,
+            radius,
             (speed, ps.speed),
             start,
             ps.desired.clone(),
             origin,
+            (None, gap),
         );
         people.groups.push(item);
     }
@@ -767,24 +850,13 @@ pub(super) fn place_crowd(
             "count = 0 places nobody: give at least 1, or drop the crowd",
         ));
     }
-    let (rmin, rmax) = match cs.radius {
-        RadiusSpec::Fixed(r) => (r, r),
-        RadiusSpec::Range([a, b]) => (a, b),
+    let radii = check_radii(cx, line, &item, cs.radius)?;
+    let gap = check_gap(cx, line, &item, cs.gap)?;
+    // The disks of the constraints: each radius grown by half the gap.
+    let (rmin, rmax) = {
+        let (a, b) = radii.range();
+        (a + gap / 2.0, b + gap / 2.0)
     };
-    if !(rmin.is_finite() && rmax.is_finite() && rmin > 0.0 && rmax >= rmin) {
-        return Err(cx.err(
-            line,
-            item,
-            match cs.radius {
-                RadiusSpec::Fixed(r) => {
-                    format!("the radius must be positive and finite, got radius = {r:?}")
-                }
-                RadiusSpec::Range([a, b]) => format!(
-                    "a range of radii needs 0 < min ≤ max, both finite, got radius = [{a:?}, {b:?}]"
-                ),
-            },
-        ));
-    }
     let speed = drawn::check(cx, line, &item, &drawn::SPEED, cs.speed.as_ref(), 1.0)?;
     let pre_movement = drawn::check(
         cx,
@@ -844,6 +916,18 @@ pub(super) fn place_crowd(
         cs.count,
         &mut drawn::source(seed, 2),
     )?;
+    let drawn_radii = match radii {
+        Radii::Placement(..) => None,
+        Radii::Drawn(law) => Some(drawn::draw(
+            cx,
+            line,
+            &item,
+            &drawn::RADIUS,
+            law,
+            cs.count,
+            &mut drawn::source(seed, drawn::RADIUS_STREAM),
+        )?),
+    };
     let max_attempts = cs.count.saturating_mul(2000).saturating_add(10_000);
     let mut placed = 0usize;
     let mut attempts = 0usize;
@@ -857,10 +941,10 @@ pub(super) fn place_crowd(
         if attempts > max_attempts {
             return Err(cx.err(line, item, format!("could place only {placed} of {} people without overlap in the region {region:?} after {max_attempts} attempts; enlarge the region or lower the count", cs.count)));
         }
-        let r = if rmax > rmin {
-            rng.gen_range(rmin..=rmax)
-        } else {
-            rmin
+        let r = match &drawn_radii {
+            Some(drawn) => drawn[placed] + gap / 2.0,
+            None if rmax > rmin => rng.gen_range(rmin..=rmax),
+            None => rmin,
         };
         let p = [
             rng.gen_range(region[0]..=region[2]),
@@ -891,6 +975,7 @@ pub(super) fn place_crowd(
             starts[placed],
             cs.desired.clone(),
             origin,
+            (None, gap),
         );
         placed += 1;
     }

@@ -8,7 +8,7 @@
 
 use super::spec::{
     ArenaSpec, CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec,
-    PersonSpec, RoomSpec, RunSpec, SceneSpec, SegmentSpec,
+    PersonSpec, RadiusSpec, RoomSpec, RunSpec, SceneSpec, SegmentSpec, SourceSpec,
 };
 use super::{BuiltScene, ObstacleShape, Overrides, Scene, SceneError};
 use crate::backends::BackendChoice;
@@ -65,6 +65,7 @@ impl CrowdBuilder {
                 people: Vec::new(),
                 crowds: Vec::new(),
                 arena: None,
+                sources: Vec::new(),
                 desired: None,
                 geodesic: None,
                 run: None,
@@ -147,6 +148,12 @@ impl CrowdBuilder {
     /// `count` people placed at random without overlap (see [`CrowdSpec`]).
     pub fn crowd(mut self, crowd: CrowdSpec) -> Self {
         self.spec.crowds.push(unplaced(crowd));
+        self
+    }
+
+    /// People arriving during the run (see [`SourceSpec`]).
+    pub fn source(mut self, source: SourceSpec) -> Self {
+        self.spec.sources.push(unplaced(source));
         self
     }
 
@@ -289,6 +296,7 @@ impl CrowdSpec {
             pre_movement: None,
             seed: None,
             desired: None,
+            gap: None,
         }
     }
 
@@ -325,6 +333,88 @@ impl CrowdSpec {
     /// Their own desired velocity.
     pub fn desired(mut self, desired: DesiredSpec) -> Self {
         self.desired = Some(desired);
+        self
+    }
+
+    /// The least distance they keep from everybody (their disks grow by `gap / 2`).
+    pub fn gap(mut self, gap: f64) -> Self {
+        self.gap = Some(gap);
+        self
+    }
+}
+
+impl SourceSpec {
+    /// `count` people of `radius` arriving at `rate` people per second from `t = 0`, at
+    /// places drawn in `region` `[x0, y0, x1, y1]`; speed 1, seed 0, the scene's desired
+    /// velocity.
+    pub fn at_rate(region: [f64; 4], rate: f64, count: usize, radius: RadiusSpec) -> Self {
+        SourceSpec {
+            region: Some(region),
+            door: None,
+            rate: Some(rate),
+            count: Some(count),
+            start: None,
+            times: None,
+            counts: None,
+            radius,
+            speed: None,
+            seed: None,
+            desired: None,
+            gap: None,
+        }
+    }
+
+    /// `counts[k]` people of `radius` arriving at `times[k]`, at places drawn in `region`.
+    pub fn on_schedule(
+        region: [f64; 4],
+        times: Vec<f64>,
+        counts: Vec<usize>,
+        radius: RadiusSpec,
+    ) -> Self {
+        SourceSpec {
+            rate: None,
+            count: None,
+            times: Some(times),
+            counts: Some(counts),
+            ..Self::at_rate(region, 1.0, 1, radius)
+        }
+    }
+
+    /// The people appear in the row of places just inside the door `from`–`to` (a segment
+    /// on a wall) rather than in a region.
+    pub fn through_door(mut self, from: [f64; 2], to: [f64; 2]) -> Self {
+        self.region = None;
+        self.door = Some(SegmentSpec { from, to });
+        self
+    }
+
+    /// The first arrival at `rate` (default 0).
+    pub fn start(mut self, start: f64) -> Self {
+        self.start = Some(start);
+        self
+    }
+
+    /// The seed of the places and draws.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = Some(seed);
+        self
+    }
+
+    /// Desired speeds, the same for all or drawn per person.
+    pub fn speeds(mut self, speeds: super::spec::Drawn) -> Self {
+        self.speed = Some(speeds);
+        self
+    }
+
+    /// Their own desired velocity.
+    pub fn desired(mut self, desired: DesiredSpec) -> Self {
+        self.desired = Some(desired);
+        self
+    }
+
+    /// The least distance they keep.
+    pub fn gap(mut self, gap: f64) -> Self {
+        self.gap = Some(gap);
         self
     }
 }

@@ -50,6 +50,7 @@ mod drawn;
 mod effect;
 mod error;
 mod notes;
+mod sources;
 pub mod spec;
 pub mod synthetic;
 
@@ -404,6 +405,10 @@ impl Scene {
         for (g, c) in spec.crowds.iter().enumerate() {
             build::place_crowd(&cx, g, c, overrides.seed, &clear, &mut people)?;
         }
+        for (k, s) in spec.sources.iter().enumerate() {
+            let first = spec.crowds.len();
+            sources::add_source(&cx, k, s, overrides.seed, first, &clear, &mut people)?;
+        }
         if people.positions.is_empty() {
             return Err(cx.err(
                 None,
@@ -414,9 +419,11 @@ impl Scene {
 
         let (terms, still) =
             build::desire_terms(&cx, &mut people, default_desired.as_ref().map(|d| &d.0))?;
-        let population = Population::new(people.radii.clone())
-            .with_room(room.room.clone())
-            .shared();
+        let mut population = Population::new(people.radii.clone()).with_room(room.room.clone());
+        if people.due.iter().any(Option::is_some) {
+            population = population.with_arrivals(people.due.clone());
+        }
+        let population = population.shared();
         let fields = build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
         // Who heads for which exits, for the notes: each person with their own field.
         let routes: Vec<(usize, Arc<DistanceField>)> = terms
@@ -454,6 +461,24 @@ impl Scene {
         );
         if has_exits {
             effects.push(Effect::Exits { count: exits.len() });
+        }
+        if !spec.sources.is_empty() {
+            effects.push(Effect::Sources {
+                sources: spec.sources.len(),
+                people: people.due.iter().flatten().count(),
+            });
+        }
+        if let Some(largest) = people
+            .gaps
+            .iter()
+            .copied()
+            .reduce(f64::max)
+            .filter(|&g| g > 0.0)
+        {
+            effects.push(Effect::Gaps {
+                people: people.gaps.iter().filter(|&&g| g > 0.0).count(),
+                largest,
+            });
         }
         problem
             .validate(1e-9)
@@ -703,11 +728,17 @@ fn check_resolution(
     for c in &spec.crowds {
         let c = c.get_ref();
         c.region.iter().flatten().for_each(|&v| see(v));
-        let r = match c.radius {
-            RadiusSpec::Fixed(r) => r,
-            RadiusSpec::Range([a, _]) => a,
-        };
-        if r > 0.0 {
+        if let Some(r) = least_radius(c.radius) {
+            r_min = r_min.min(r);
+        }
+    }
+    for s in &spec.sources {
+        let s = s.get_ref();
+        s.region.iter().flatten().for_each(|&v| see(v));
+        if let Some(d) = &s.door {
+            d.from.iter().chain(&d.to).for_each(|&v| see(v));
+        }
+        if let Some(r) = least_radius(s.radius) {
             r_min = r_min.min(r);
         }
     }
@@ -730,6 +761,19 @@ fn check_resolution(
         ));
     }
     Ok(())
+}
+
+/// The least radius `radius` allows, when it is positive.
+fn least_radius(radius: RadiusSpec) -> Option<f64> {
+    let r = match radius {
+        RadiusSpec::Fixed(r) => r,
+        RadiusSpec::Range([a, _]) => a,
+        RadiusSpec::Distribution(d) => match (d.uniform, d.within) {
+            (Some([a, _]), _) | (None, Some([a, _])) => a,
+            (None, None) => return None,
+        },
+    };
+    (r > 0.0).then_some(r)
 }
 
 fn polygon_area(p: &[[f64; 2]]) -> f64 {
@@ -990,8 +1034,11 @@ impl BuiltScene {
         observers: &mut [&mut dyn crate::stepper::Observer],
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
-        // A new run from q₀: nobody has left yet, unless it resumes an earlier run.
+        // A new run from q₀: nobody has left yet, unless it resumes an earlier run; who is due
+        // by the start and finds their place free comes in.
         self.latch_departures_at_start();
+        self.population.reset_arrivals();
+        self.population.admit(self.problem.t0(), self.problem.q0());
         let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(error) => {
@@ -1018,8 +1065,10 @@ impl BuiltScene {
         };
         let stop_when_empty = self.stop_when_empty;
         let population = &self.population;
-        stepper.run_until(projector, observers, |_, q| {
-            stop_when_empty && population.present_count(q) == 0
+        // Arrivals come in between steps, before the observers see the step.
+        stepper.run_until(projector, observers, |t, q| {
+            population.admit(t, q);
+            stop_when_empty && population.is_done(q)
         })
     }
 }

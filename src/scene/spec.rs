@@ -62,6 +62,9 @@ pub struct SceneSpec {
     pub crowds: Vec<Spanned<CrowdSpec>>,
     /// A round arena inside the room: everybody kept inside its circle.
     pub arena: Option<Spanned<ArenaSpec>>,
+    /// People arriving during the run.
+    #[serde(default)]
+    pub sources: Vec<Spanned<SourceSpec>>,
     /// The desired velocity of everybody without their own.
     pub desired: Option<Spanned<DesiredSpec>>,
     /// Settings of the geodesic field.
@@ -194,14 +197,20 @@ pub struct Distribution {
     pub within: Option<[f64; 2]>,
 }
 
-/// A radius, or a range `[min, max]` drawn uniformly.
+/// A radius, a range `[min, max]` drawn uniformly, or a distribution.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(untagged, expecting = "a radius (a number) or a range [min, max]")]
+#[serde(
+    untagged,
+    expecting = "a radius (a number), a range [min, max], or a distribution: { uniform = [min, max] } or { normal = [mean, sd], within = [min, max] }"
+)]
 pub enum RadiusSpec {
     /// Everybody the same.
     Fixed(f64),
-    /// Uniform in `[min, max]`.
+    /// Uniform in `[min, max]`, drawn with the placement (a crowd's positions depend on it).
     Range([f64; 2]),
+    /// Drawn per person from a stream of the seed of its own: the positions a crowd's seed
+    /// gives do not depend on the radii's law (only on where bigger people do not fit).
+    Distribution(Distribution),
 }
 
 /// `[[crowds]]`: `count` people placed at random without overlap.
@@ -223,6 +232,43 @@ pub struct CrowdSpec {
     pub seed: Option<u64>,
     /// Own desired velocity (default: the scene's `[desired]`).
     pub desired: Option<DesiredSpec>,
+    /// The least distance (≥ 0) its people keep from everybody, walls and obstacles
+    /// included, half of it each: their disk in the constraints has radius `radius + gap/2`.
+    /// Default 0.
+    pub gap: Option<f64>,
+}
+
+/// `[[sources]]`: people arriving during the run, at a region or a door, at a `rate` or on
+/// a schedule (`times`, with `counts`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SourceSpec {
+    /// `[x0, y0, x1, y1]`: the people appear at places drawn in it without overlap.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub region: Option<[f64; 4]>,
+    /// A segment on a wall: the people appear in a row of places just inside it.
+    pub door: Option<SegmentSpec>,
+    /// People per second (> 0), evenly spaced from `start`; with `count`.
+    pub rate: Option<f64>,
+    /// How many people arrive at `rate`.
+    pub count: Option<usize>,
+    /// When the first person arrives at `rate` (≥ 0). Default 0.
+    pub start: Option<f64>,
+    /// When people arrive (≥ 0, non-decreasing): one at each time, or `counts[k]` at
+    /// `times[k]`.
+    pub times: Option<Vec<f64>>,
+    /// How many people arrive at each of `times`. Default one each.
+    pub counts: Option<Vec<usize>>,
+    /// Radius, range of radii or their distribution.
+    pub radius: RadiusSpec,
+    /// Desired speed (≥ 0), or its distribution. Default 1.
+    pub speed: Option<Drawn>,
+    /// Seed of the places and of the draws. Default 0.
+    pub seed: Option<u64>,
+    /// Own desired velocity (default: the scene's `[desired]`).
+    pub desired: Option<DesiredSpec>,
+    /// The least distance its people keep, as a crowd's `gap`. Default 0.
+    pub gap: Option<f64>,
 }
 
 /// Which desired velocity.

@@ -1,8 +1,9 @@
 //! An independent checker of a run's `trajectory.csv`: it re-reads the file a real run wrote
 //! and recomputes, by its own plain code (no library geometry), the overlaps of present people,
 //! the gaps to the walls (room edges minus exits), to the obstacles and to a round arena's
-//! wall, NaNs, and whether
-//! anyone who left came back.
+//! wall, NaNs, and whether anyone who left came back. A person absent before they are first
+//! present has not arrived yet (a scene's sources); absent after being present, they have
+//! left.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -137,6 +138,7 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
     f.times = states.len();
     let walls = wall_pieces(g);
     let mut left = vec![false; g.radii.len()];
+    let mut arrived = vec![false; g.radii.len()];
     let push = |f: &mut Findings, m: String| {
         if f.problems.len() < 20 {
             f.problems.push(m);
@@ -152,7 +154,9 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
                     format!("t = {t}: person {id} is present again after leaving"),
                 );
             }
-            if !*pres {
+            if *pres {
+                arrived[*id] = true;
+            } else if arrived[*id] {
                 left[*id] = true;
             }
         }

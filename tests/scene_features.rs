@@ -1,0 +1,184 @@
+//! The scene features of groups in motion — sources (people arriving during a run), journeys
+//! (chains of waypoints), radius distributions and gaps, geometry from WKT — each on the
+//! shipped scene that uses it, run to its end with every step written and the trajectory
+//! checked by the independent checker (`tests/common/checker.rs`), plus what each feature
+//! promises and the checker cannot see.
+
+mod common;
+
+use common::checker::{check_trajectory, scratch, still, Findings, Geometry, Obstacle};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use sweeping::backends::make_projector;
+use sweeping::crowd::Motion;
+use sweeping::output::{RunSummary, SummaryCollector, TrajectoryWriter};
+use sweeping::scene::{BuiltScene, ObstacleShape, Overrides, Scene};
+
+/// Overlap and penetration the checker lets through (the projection's tolerance).
+const TOL: f64 = 1e-6;
+
+fn shipped(file: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/scenes")
+        .join(file)
+}
+
+fn build(file: &str) -> BuiltScene {
+    Scene::from_file(shipped(file))
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The scene's geometry as the checker sees it: a polygon obstacle is its edges.
+fn geometry(built: &BuiltScene) -> Geometry {
+    let offset = |m: &Motion| -> Box<dyn Fn(f64) -> [f64; 2]> {
+        match m {
+            Motion::Static => still(),
+            m => {
+                let m = m.clone();
+                Box::new(move |t| m.offset(t))
+            }
+        }
+    };
+    let mut obstacles = Vec::new();
+    for o in &built.geometry.obstacles {
+        match &o.shape {
+            ObstacleShape::Disk { center, radius } => {
+                obstacles.push(Obstacle::Disk(*center, *radius, offset(&o.motion)))
+            }
+            ObstacleShape::Segment { a, b } => {
+                obstacles.push(Obstacle::Segment(*a, *b, offset(&o.motion)))
+            }
+            ObstacleShape::Polygon(p) => {
+                for k in 0..p.len() {
+                    let b = p[(k + 1) % p.len()];
+                    obstacles.push(Obstacle::Segment(p[k], b, offset(&o.motion)));
+                }
+            }
+        }
+    }
+    Geometry {
+        room: built.geometry.room.clone(),
+        exits: built.geometry.exits.iter().map(|e| (e.a, e.b)).collect(),
+        obstacles,
+        radii: built.population.radii().to_vec(),
+    }
+}
+
+/// A run of a shipped scene to its end, every step written.
+struct Checked {
+    built: BuiltScene,
+    summary: RunSummary,
+    findings: Findings,
+    /// Per person: `(t, x, y, present)` at every step.
+    rows: BTreeMap<usize, Vec<(f64, f64, f64, bool)>>,
+}
+
+fn run_checked(file: &str) -> Checked {
+    let built = build(file);
+    let dir = scratch(&format!("features-{file}"));
+    let csv = dir.join("trajectory.csv");
+    let mut writer = TrajectoryWriter::new(&csv, built.population.clone(), 1);
+    let mut summary = SummaryCollector::new(
+        &built.name,
+        &built.problem,
+        built.population.clone(),
+        "native",
+        built.settings.h,
+        built.settings.t_end,
+    );
+    let mut projector = make_projector(built.backend).unwrap();
+    built
+        .run(projector.as_mut(), &mut [&mut writer, &mut summary])
+        .unwrap_or_else(|f| panic!("{file}: {f}"));
+    let findings = check_trajectory(&csv, &geometry(&built), TOL);
+    assert!(
+        findings.problems.is_empty(),
+        "{file}: {:#?}",
+        findings.problems
+    );
+    let mut rows: BTreeMap<usize, Vec<(f64, f64, f64, bool)>> = BTreeMap::new();
+    for line in std::fs::read_to_string(&csv).unwrap().lines().skip(1) {
+        let c: Vec<&str> = line.split(',').collect();
+        let id: usize = c[1].parse().unwrap();
+        rows.entry(id).or_default().push((
+            c[0].parse().unwrap(),
+            c[2].parse().unwrap(),
+            c[3].parse().unwrap(),
+            c[4] == "1",
+        ));
+    }
+    Checked {
+        summary: summary.summary().clone(),
+        built,
+        findings,
+        rows,
+    }
+}
+
+#[test]
+fn arrivals_come_in_when_due_at_their_place_and_wait_when_it_is_taken() {
+    let run = run_checked("arrivals.toml");
+    let (built, s) = (&run.built, &run.summary);
+    let n = built.population.len();
+    let arrivals = s
+        .arrivals
+        .expect("a scene with sources reports its arrivals");
+    assert_eq!(
+        (arrivals.scheduled, arrivals.arrived),
+        (n, n),
+        "{arrivals:?}"
+    );
+    assert_eq!(arrivals.still_waiting, 0);
+    // The door's two places are taken again before they empty: people wait.
+    assert!(
+        arrivals.waited > 0 && arrivals.longest_wait > 0.0,
+        "{arrivals:?}"
+    );
+    assert!(s.evacuation_time.is_some(), "everybody left: {s:?}");
+    let q0 = built.problem.q0();
+    let h = built.settings.h;
+    let mut late = 0;
+    for i in 0..n {
+        let due = built
+            .population
+            .due(i)
+            .expect("everybody comes from a source");
+        let rows = &run.rows[&i];
+        let first = rows.iter().position(|r| r.3).expect("everybody arrives");
+        let (t, x, y, _) = rows[first];
+        // Never before they are due, and at the place they were given, not moved while away.
+        assert!(t >= due - 1e-9, "person {i} arrived at {t}, due at {due}");
+        assert!(
+            rows[..=first]
+                .iter()
+                .all(|r| r.1 == q0[2 * i] && r.2 == q0[2 * i + 1]),
+            "person {i} moved before arriving: {:?}",
+            &rows[..=first]
+        );
+        assert_eq!((x, y), (q0[2 * i], q0[2 * i + 1]));
+        if t > due + h + 1e-9 {
+            late += 1;
+        }
+    }
+    // Who came in later than the first step after they were due is who waited.
+    assert_eq!(late, arrivals.waited);
+    assert!(run.findings.max_overlap <= TOL);
+}
+
+#[test]
+fn arrivals_are_the_same_from_the_same_seed_and_move_with_another() {
+    let a = build("arrivals.toml");
+    let b = build("arrivals.toml");
+    assert_eq!(a.problem.q0(), b.problem.q0());
+    assert_eq!(a.population.radii(), b.population.radii());
+    let c = Scene::from_file(shipped("arrivals.toml"))
+        .and_then(|s| {
+            s.build(&Overrides {
+                seed: Some(40),
+                ..Default::default()
+            })
+        })
+        .unwrap();
+    assert_ne!(a.problem.q0(), c.problem.q0());
+}
