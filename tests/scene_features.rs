@@ -182,3 +182,45 @@ fn arrivals_are_the_same_from_the_same_seed_and_move_with_another() {
         .unwrap();
     assert_ne!(a.problem.q0(), c.problem.q0());
 }
+
+#[test]
+fn a_run_with_arrivals_resumes_with_who_has_not_arrived_yet_still_to_come() {
+    use sweeping::scene::ResumeState;
+    let scene = Scene::from_file(shipped("arrivals.toml")).unwrap();
+    let first = scene
+        .build(&Overrides {
+            t_end: Some(2.0),
+            ..Default::default()
+        })
+        .unwrap();
+    let mut projector = make_projector(first.backend).unwrap();
+    let run = first.run(projector.as_mut(), &mut []).unwrap();
+    let pop = &first.population;
+    let n = pop.len();
+    let present: Vec<bool> = (0..n).map(|i| pop.is_present(&run.q_final, i)).collect();
+    let waiting = pop.pending_count();
+    assert!(waiting > 0 && present.iter().any(|&p| p), "{waiting} still to come");
+    let mut rest = scene.build(&Overrides::default()).unwrap();
+    rest.resume_at(ResumeState {
+        t: run.t_final,
+        q: run.q_final.clone(),
+        // As a trajectory says it: who is not present is written gone.
+        departed: present.iter().map(|p| !p).collect(),
+    })
+    .unwrap();
+    let mut summary = SummaryCollector::new(
+        &rest.name,
+        &rest.problem,
+        rest.population.clone(),
+        "native",
+        rest.settings.h,
+        rest.settings.t_end,
+    );
+    rest.run(projector.as_mut(), &mut [&mut summary]).unwrap();
+    let s = summary.summary();
+    // Who was in stays in, who was to come comes, and everybody leaves.
+    assert!(s.evacuation_time.is_some(), "{s:?}");
+    let arrivals = s.arrivals.unwrap();
+    assert_eq!(arrivals.arrived, n, "{arrivals:?}");
+    assert_eq!(s.people_out.last().unwrap().1, n);
+}

@@ -908,9 +908,20 @@ impl BuiltScene {
                 t_end: self.settings.t_end,
             });
         }
+        let mut state = state;
+        let places = self.problem.q0().to_vec();
         for i in 0..n {
             let p = Population::position(&state.q, i);
             let r = self.population.radius(i);
+            // Someone of a source written absent at their place, never having moved, has not
+            // arrived yet: they are not gone, and come in when due and their place is free.
+            if state.departed[i]
+                && self.population.due(i).is_some()
+                && p == Population::position(&places, i)
+            {
+                state.departed[i] = false;
+                continue;
+            }
             if state.departed[i] {
                 if let Some(what) = self.why_not_gone(p, r) {
                     return Err(ResumeError::GoneInside {
@@ -1008,8 +1019,10 @@ impl BuiltScene {
         })
     }
 
-    /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]: the
-    /// population as the run starts.
+    /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]; clears
+    /// every arrival, then lets in who is due by the start and finds their place free (who
+    /// was present in a resumed state is where nobody else is): the population as the run
+    /// starts.
     fn latch_departures_at_start(&self) {
         self.population.reset_departures();
         for (i, _) in self
@@ -1020,6 +1033,9 @@ impl BuiltScene {
         {
             self.population.set_departed(i);
         }
+        self.population.reset_arrivals();
+        self.population
+            .admit(self.problem.t0(), self.problem.q0());
     }
 
     /// Runs the scene to its horizon (or until everybody has left, when the scene says
@@ -1037,8 +1053,6 @@ impl BuiltScene {
         // A new run from q₀: nobody has left yet, unless it resumes an earlier run; who is due
         // by the start and finds their place free comes in.
         self.latch_departures_at_start();
-        self.population.reset_arrivals();
-        self.population.admit(self.problem.t0(), self.problem.q0());
         let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
             Ok(s) => s,
             Err(error) => {
