@@ -199,7 +199,10 @@ fn a_run_with_arrivals_resumes_with_who_has_not_arrived_yet_still_to_come() {
     let n = pop.len();
     let present: Vec<bool> = (0..n).map(|i| pop.is_present(&run.q_final, i)).collect();
     let waiting = pop.pending_count();
-    assert!(waiting > 0 && present.iter().any(|&p| p), "{waiting} still to come");
+    assert!(
+        waiting > 0 && present.iter().any(|&p| p),
+        "{waiting} still to come"
+    );
     let mut rest = scene.build(&Overrides::default()).unwrap();
     rest.resume_at(ResumeState {
         t: run.t_final,
@@ -223,4 +226,65 @@ fn a_run_with_arrivals_resumes_with_who_has_not_arrived_yet_still_to_come() {
     let arrivals = s.arrivals.unwrap();
     assert_eq!(arrivals.arrived, n, "{arrivals:?}");
     assert_eq!(s.people_out.last().unwrap().1, n);
+}
+
+#[test]
+fn a_group_with_a_gap_keeps_it_and_drawn_radii_stay_in_their_window() {
+    let run = run_checked("distancing.toml");
+    let built = &run.built;
+    assert!(run.summary.evacuation_time.is_some(), "{:?}", run.summary);
+    let gap = 0.4;
+    let keeps = |i: usize| built.group_of[i] == 0;
+    let body = |i: usize| built.population.radius(i) - if keeps(i) { gap / 2.0 } else { 0.0 };
+    let n = built.population.len();
+    for i in 0..n {
+        let window = if keeps(i) { (0.15, 0.26) } else { (0.17, 0.23) };
+        assert!(
+            (window.0..=window.1).contains(&body(i)),
+            "person {i}: radius {}",
+            body(i)
+        );
+    }
+    // The least distance between the bodies of two people of the group, over every step,
+    // from the trajectory: at least the gap, and reached (the gap is what holds them apart).
+    let frames = run.rows[&0].len();
+    let mut least = f64::INFINITY;
+    for f in 0..frames {
+        let at = |i: usize| run.rows[&i][f];
+        for i in (0..n).filter(|&i| keeps(i) && at(i).3) {
+            for j in (i + 1..n).filter(|&j| keeps(j) && at(j).3) {
+                let d = (at(i).1 - at(j).1).hypot(at(i).2 - at(j).2) - body(i) - body(j);
+                least = least.min(d);
+            }
+        }
+    }
+    assert!(
+        least >= gap - TOL && least < gap + 0.01,
+        "least gap {least}"
+    );
+}
+
+#[test]
+fn a_radius_distribution_moves_nobody_and_a_gap_grows_the_disks() {
+    let scene = |radius: &str, gap: &str| {
+        let text = format!(
+            "[room]\nrectangle = [0.0, 0.0, 6.0, 6.0]\n[[crowds]]\ncount = 20\nradius = {radius}\nseed = 9\n{gap}"
+        );
+        Scene::from_toml_str(&text, "inline")
+            .and_then(|s| s.build(&Overrides::default()))
+            .unwrap()
+    };
+    let fixed = scene("0.2", "");
+    // Drawn from a stream of its own: the placement draws the same positions.
+    let drawn = scene("{ uniform = [0.2, 0.2] }", "");
+    assert_eq!(fixed.problem.q0(), drawn.problem.q0());
+    let varied = scene("{ normal = [0.2, 0.02], within = [0.15, 0.25] }", "");
+    let radii = varied.population.radii();
+    assert!(radii.iter().all(|r| (0.15..=0.25).contains(r)));
+    assert!(radii.windows(2).any(|w| w[0] != w[1]));
+    let grown = scene("0.2", "gap = 0.3\n");
+    assert!(grown.population.radii().iter().all(|&r| r == 0.2 + 0.15));
+    assert!(grown.effects.iter().any(|e| e
+        .to_string()
+        .starts_with("gaps: 20 people keep a least distance (up to 0.3)")));
 }

@@ -412,7 +412,7 @@ impl Scene {
         if people.positions.is_empty() {
             return Err(cx.err(
                 None,
-                "[[people]] / [[crowds]]",
+                "[[people]] / [[crowds]] / [[sources]]",
                 "the scene has nobody in it",
             ));
         }
@@ -1034,8 +1034,7 @@ impl BuiltScene {
             self.population.set_departed(i);
         }
         self.population.reset_arrivals();
-        self.population
-            .admit(self.problem.t0(), self.problem.q0());
+        self.population.admit(self.problem.t0(), self.problem.q0());
     }
 
     /// Runs the scene to its horizon (or until everybody has left, when the scene says
