@@ -942,3 +942,60 @@ fn bad_radius_distributions_and_gaps_of_a_crowd() {
         &["cannot fit"],
     );
 }
+
+#[test]
+fn bad_journeys() {
+    let exits = "[[exits]]\nfrom = [4.0, 1.5]\nto = [4.0, 2.5]\n";
+    // Line 6 is the person's header.
+    let person = |desired: &str| {
+        format!(
+            "{ROOM}{exits}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {desired}\n"
+        )
+    };
+    for (desired, fragment) in [
+        ("{ kind = \"journey\" }", "kind = \"journey\" needs `waypoints"),
+        ("{ kind = \"journey\", waypoints = [] }", "waypoints = [] is no journey"),
+        ("{ kind = \"journey\", waypoints = [{ reach = 1.0 }] }", "waypoint 1: give exactly one of `point` and `region`"),
+        ("{ kind = \"journey\", waypoints = [{ point = [1.0, 3.0], region = [0.5, 0.5, 1.0, 1.0] }] }", "waypoint 1: give exactly one"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }, { point = [1.0, 3.0], reach = 0.0 }] }", "waypoint 2: reach must be positive and finite, got 0"),
+        ("{ kind = \"journey\", waypoints = [{ point = [5.0, 2.0] }] }", "waypoint 1: (5, 2) is outside the room"),
+        ("{ kind = \"journey\", waypoints = [{ region = [2.0, 2.0, 1.0, 3.0] }] }", "waypoint 1: the region [x0, y0, x1, y1] = [2.0, 2.0, 1.0, 3.0] needs finite numbers"),
+        ("{ kind = \"journey\", waypoints = [{ region = [1.0, 2.0, 2.0, 3.0], reach = 0.5 }] }", "waypoint 1: `reach` goes with `point`"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], point = [3.0, 3.0], exits = [1] }", "a journey ends at `point` or at the exits (`exits`), not both"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], exits = [2] }", "exits = [2]: exit 2 does not exist"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], velocity = [1.0, 0.0] }", "kind = \"journey\" does not take `velocity`"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], route = \"straight\" }", "`route` goes only with kind = \"point\", or a journey ending at `point`"),
+        ("{ kind = \"exit\", route = \"geodesic\" }", "`route` goes only with kind = \"point\""),
+        ("{ kind = \"point\", point = [2.0, 2.0], waypoints = [{ point = [2.0, 2.0] }] }", "`waypoints` goes only with kind = \"journey\""),
+    ] {
+        assert_message(&error_of(&person(desired)), 6, &["[[people]] #1 desired", fragment]);
+    }
+    // Without exits, a journey must end at a point.
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {{ kind = \"journey\", waypoints = [{{ point = [2.0, 2.0] }}] }}\n"
+    );
+    assert_message(
+        &error_of(&text),
+        3,
+        &["a journey ending at the exits needs at least one [[exits]]"],
+    );
+    // An unknown route, and an unknown key of a waypoint: the parser's errors.
+    let e = error_of(&person(
+        "{ kind = \"point\", point = [2.0, 2.0], route = \"shortest\" }",
+    ));
+    assert!(e.to_string().contains("unknown variant `shortest`"), "{e}");
+    let e = error_of(&person(
+        "{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0], wait = 3.0 }] }",
+    ));
+    assert!(e.to_string().contains("unknown field `wait`"), "{e}");
+    // A waypoint inside an obstacle: the field to it cannot be computed.
+    let text = format!(
+        "{ROOM}{exits}[[obstacles]]\ndisk = {{ center = [2.0, 3.0], radius = 0.5 }}\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {{ kind = \"journey\", waypoints = [{{ point = [2.0, 3.0], reach = 0.2 }}] }}\n"
+    );
+    let e = error_of(&text);
+    assert!(
+        e.to_string()
+            .contains("the field to the point (2, 3): no free node"),
+        "{e}"
+    );
+}

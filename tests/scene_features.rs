@@ -288,3 +288,54 @@ fn a_radius_distribution_moves_nobody_and_a_gap_grows_the_disks() {
         .to_string()
         .starts_with("gaps: 20 people keep a least distance (up to 0.3)")));
 }
+
+#[test]
+fn each_group_passes_its_waypoint_before_leaving_by_its_own_exit() {
+    let run = run_checked("journeys.toml");
+    let built = &run.built;
+    assert!(run.summary.evacuation_time.is_some(), "{:?}", run.summary);
+    let inside = |r: [f64; 4], x: f64, y: f64| r[0] <= x && x <= r[2] && r[1] <= y && y <= r[3];
+    for i in 0..built.population.len() {
+        let rows = &run.rows[&i];
+        let gone = rows.iter().position(|r| !r.3).expect("everybody leaves");
+        let (_, x, y, _) = rows[gone];
+        let reached = rows[..gone].iter().position(|&(_, x, y, _)| {
+            if built.group_of[i] == 0 {
+                inside([9.0, 6.0, 11.0, 7.5], x, y)
+            } else {
+                (x - 7.0).hypot(y - 6.5) <= 0.6
+            }
+        });
+        assert!(
+            reached.is_some(),
+            "person {i} left without passing their waypoint"
+        );
+        if built.group_of[i] == 0 {
+            // Out through the top door (exit 2), left of the partition.
+            assert!(y > 8.0 && x < 6.0, "person {i} left at ({x}, {y})");
+        } else {
+            assert!(x > 12.0 && y < 4.0, "person {i} left at ({x}, {y})");
+        }
+    }
+    // Each journey's record has its 12 people past its one waypoint.
+    assert_eq!(built.journeys.len(), 2);
+    for (g, progress) in built.journeys.iter().enumerate() {
+        let past: Vec<usize> = (0..built.population.len())
+            .filter(|&i| progress.stage(i) == 1)
+            .collect();
+        assert_eq!(past.len(), 12);
+        assert!(past.iter().all(|&i| built.group_of[i] == g));
+    }
+}
+
+#[test]
+fn a_scene_with_journeys_is_not_resumed_since_the_stages_are_not_in_a_state() {
+    let mut built = build("journeys.toml");
+    let state = sweeping::scene::ResumeState {
+        t: 1.0,
+        q: built.problem.q0().to_vec(),
+        departed: vec![false; built.population.len()],
+    };
+    let e = built.resume_at(state).unwrap_err();
+    assert!(e.to_string().contains("cannot be resumed"), "{e}");
+}

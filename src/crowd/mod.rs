@@ -14,6 +14,7 @@
 
 mod arena;
 pub mod fast_marching;
+pub mod journey;
 mod pairs;
 mod population;
 mod shapes;

@@ -18,7 +18,7 @@ use crate::backends::BackendChoice;
 use crate::constraint::ConstraintKernel;
 use crate::crowd::fast_marching::{DistanceField, MarchingDomain};
 use crate::crowd::velocity::{
-    ConstantVelocity, DesiredVelocity, ExitSegment, TowardsExits, TowardsPoint, VelocityField,
+    ConstantVelocity, DesiredVelocity, ExitSegment, TowardsExits, VelocityField,
 };
 use crate::crowd::{
     segment_distance, ArenaWall, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population,
@@ -772,7 +772,7 @@ pub(super) fn explicit_people(
             _ => unreachable!("a number is checked as a number"),
         };
         if let Some(d) = &ps.desired {
-            check_desired(cx, line, &item, d, exit_count)?;
+            check_desired(cx, line, &item, d, (exit_count, &clear.room.room))?;
         }
         clear
             .walls(ps.position, radius)
@@ -867,7 +867,7 @@ pub(super) fn place_crowd(
         0.0,
     )?;
     if let Some(d) = &cs.desired {
-        check_desired(cx, line, &item, d, exit_count)?;
+        check_desired(cx, line, &item, d, (exit_count, &clear.room.room))?;
     }
     let (bx0, by0, bx1, by1) = room.bbox;
     let region = cs.region.unwrap_or([bx0, by0, bx1, by1]);
@@ -1045,7 +1045,8 @@ pub(super) fn chosen_exits(d: &DesiredSpec) -> Option<Vec<usize>> {
 
 /// The geodesic distance to the exits by fast marching, one field per set of exits that
 /// somebody heads for, only when somebody does (`[geodesic] cell` is checked either way);
-/// static obstacles are holes in its domain.
+/// and one per waypoint (or point) somebody heads for by the geodesic route. Static
+/// obstacles are holes in their domain.
 pub(super) fn geodesic_fields(
     cx: &Ctx<'_>,
     spec: &SceneSpec,
@@ -1053,7 +1054,7 @@ pub(super) fn geodesic_fields(
     room: &RoomPlan,
     exits: &[ExitSegment],
     obstacles: &[Placed],
-) -> Result<ExitFields, SceneError> {
+) -> Result<(ExitFields, super::journey::TargetFields), SceneError> {
     let cell = spec
         .geodesic
         .as_ref()
@@ -1069,14 +1070,18 @@ pub(super) fn geodesic_fields(
         ));
     }
     let mut wanted: Vec<Option<Vec<usize>>> = Vec::new();
-    for (d, _) in terms.iter().filter(|(d, _)| d.kind == DesiredKind::Exit) {
+    let heads_for_exits = |d: &DesiredSpec| {
+        d.kind == DesiredKind::Exit || (d.kind == DesiredKind::Journey && d.point.is_none())
+    };
+    for (d, _) in terms.iter().filter(|(d, _)| heads_for_exits(d)) {
         let chosen = chosen_exits(d);
         if !wanted.contains(&chosen) {
             wanted.push(chosen);
         }
     }
-    if wanted.is_empty() {
-        return Ok(Vec::new());
+    let targets = super::journey::geodesic_targets(terms);
+    if wanted.is_empty() && targets.is_empty() {
+        return Ok((Vec::new(), Vec::new()));
     }
     // A grid coarser than the room (or than a door) cannot represent the routes: the field
     // would point people anywhere. Refuse it rather than run with it.
@@ -1133,15 +1138,36 @@ pub(super) fn geodesic_fields(
                 _ => None,
             })
             .collect(),
+        targets: Vec::new(),
     };
-    wanted
+    let exit_fields = wanted
         .into_iter()
         .map(|chosen| {
             let field = DistanceField::compute(&domain(&chosen), cell)
                 .map_err(|e| cx.err(geodesic_line, "[geodesic]", e.to_string()))?;
             Ok((chosen, Arc::new(field)))
         })
-        .collect()
+        .collect::<Result<ExitFields, SceneError>>()?;
+    // A waypoint's field: the room without its exits, the target the only place d = 0.
+    let target_fields = targets
+        .into_iter()
+        .map(|target| {
+            let domain = MarchingDomain {
+                exits: Vec::new(),
+                targets: vec![target],
+                ..domain(&None)
+            };
+            let field = DistanceField::compute(&domain, cell).map_err(|e| {
+                cx.err(
+                    geodesic_line,
+                    "[geodesic]",
+                    format!("the field to {}: {e}", super::journey::describe(&target)),
+                )
+            })?;
+            Ok((target, Arc::new(field)))
+        })
+        .collect::<Result<super::journey::TargetFields, SceneError>>()?;
+    Ok((exit_fields, target_fields))
 }
 
 /// The perturbation `f`: each person's desired velocity (at their speed, from their start
@@ -1151,8 +1177,9 @@ pub(super) fn desired_velocity(
     people: &People,
     exits: &[ExitSegment],
     (terms, still): (DesireTerms, usize),
-    fields: &ExitFields,
+    (fields, targets): (&ExitFields, &super::journey::TargetFields),
     effects: &mut Vec<Effect>,
+    journeys: &mut Vec<Arc<crate::crowd::journey::JourneyProgress>>,
 ) -> DesiredVelocity {
     let starts = &people.starts;
     let mut velocity =
@@ -1172,10 +1199,18 @@ pub(super) fn desired_velocity(
                     None => continue,
                 }
             }
-            DesiredKind::Point => Box::new(TowardsPoint {
-                point: d.point.unwrap_or_default(),
-            }),
+            DesiredKind::Point => super::journey::towards_point(&d, targets),
             DesiredKind::Constant => Box::new(ConstantVelocity(d.velocity.unwrap_or_default())),
+            DesiredKind::Journey => {
+                let progress = Arc::new(crate::crowd::journey::JourneyProgress::new(
+                    population.len(),
+                ));
+                journeys.push(progress.clone());
+                match super::journey::journey(&d, fields, targets, progress) {
+                    Some(j) => Box::new(j),
+                    None => continue,
+                }
+            }
         };
         effects.push(Effect::DesiredVelocity {
             field: field.describe(),

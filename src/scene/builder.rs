@@ -251,6 +251,8 @@ impl DesiredSpec {
             point: None,
             velocity: None,
             exits: None,
+            waypoints: None,
+            route: None,
         }
     }
 
@@ -263,6 +265,28 @@ impl DesiredSpec {
         }
     }
 
+    /// Through `waypoints` in order, then towards the nearest exit (or, with
+    /// [`ending_at`](Self::ending_at), a point).
+    pub fn journey(waypoints: Vec<super::spec::WaypointSpec>) -> Self {
+        DesiredSpec {
+            kind: super::spec::DesiredKind::Journey,
+            waypoints: Some(waypoints),
+            ..Self::exit()
+        }
+    }
+
+    /// A journey's end: the point `point` rather than the exits.
+    pub fn ending_at(mut self, point: [f64; 2]) -> Self {
+        self.point = Some(point);
+        self
+    }
+
+    /// How to head for the point (`kind = "point"`, or a journey's end at a point).
+    pub fn route(mut self, route: super::spec::Route) -> Self {
+        self.route = Some(route);
+        self
+    }
+
     /// Straight towards `point`.
     pub fn point(point: [f64; 2]) -> Self {
         DesiredSpec {
@@ -270,6 +294,8 @@ impl DesiredSpec {
             point: Some(point),
             velocity: None,
             exits: None,
+            waypoints: None,
+            route: None,
         }
     }
 
@@ -280,7 +306,38 @@ impl DesiredSpec {
             point: None,
             velocity: Some(velocity),
             exits: None,
+            waypoints: None,
+            route: None,
         }
+    }
+}
+
+impl super::spec::WaypointSpec {
+    /// The point `at`, reached within `reach`, by the geodesic route.
+    pub fn point(at: [f64; 2], reach: f64) -> Self {
+        Self {
+            point: Some(at),
+            reach: Some(reach),
+            region: None,
+            route: None,
+        }
+    }
+
+    /// The rectangle `[x0, y0, x1, y1]`, reached once the centre is inside, by the geodesic
+    /// route.
+    pub fn region(region: [f64; 4]) -> Self {
+        Self {
+            point: None,
+            reach: None,
+            region: Some(region),
+            route: None,
+        }
+    }
+
+    /// In a straight line rather than around the obstacles.
+    pub fn straight(mut self) -> Self {
+        self.route = Some(super::spec::Route::Straight);
+        self
     }
 }
 

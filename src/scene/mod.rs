@@ -49,6 +49,7 @@ mod builder;
 mod drawn;
 mod effect;
 mod error;
+mod journey;
 mod notes;
 mod sources;
 pub mod spec;
@@ -207,6 +208,9 @@ pub struct BuiltScene {
     /// The people who had left at the start: nobody, unless the run was resumed from a
     /// state of an earlier one ([`BuiltScene::resume_at`]).
     pub departed_at_start: Vec<bool>,
+    /// The waypoint each person of a journey has reached, one record per journey (empty
+    /// without journeys); a run starts them all at the first waypoint.
+    pub journeys: Vec<Arc<crate::crowd::journey::JourneyProgress>>,
 }
 
 /// A state an earlier run of a scene reached, to resume the scene from
@@ -392,7 +396,7 @@ impl Scene {
             .as_ref()
             .map(|d| (d.get_ref().clone(), cx.line_of(d)));
         if let Some((d, line)) = &default_desired {
-            check_desired(&cx, *line, "[desired]", d, exits.len())?;
+            check_desired(&cx, *line, "[desired]", d, (exits.len(), &room.room))?;
         }
         let clear = build::Clearance {
             room: &room,
@@ -424,7 +428,8 @@ impl Scene {
             population = population.with_arrivals(people.due.clone());
         }
         let population = population.shared();
-        let fields = build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
+        let (fields, target_fields) =
+            build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
         // Who heads for which exits, for the notes: each person with their own field.
         let routes: Vec<(usize, Arc<DistanceField>)> = terms
             .iter()
@@ -441,13 +446,15 @@ impl Scene {
             .find(|(chosen, _)| chosen.is_none())
             .map(|(_, field)| field.clone());
         let mut effects = Vec::new();
+        let mut journeys = Vec::new();
         let velocity = build::desired_velocity(
             &population,
             &people,
             &exits,
             (terms, still),
-            &fields,
+            (&fields, &target_fields),
             &mut effects,
+            &mut journeys,
         );
         let q0: Vec<f64> = people.positions.iter().flatten().copied().collect();
         let mut problem = Problem::new(q0, velocity);
@@ -522,6 +529,7 @@ impl Scene {
             effects,
             distance_field,
             departed_at_start,
+            journeys,
         })
     }
 }
@@ -597,81 +605,114 @@ impl BuiltScene {
     }
 }
 
+/// Checks a desired velocity: the keys its kind takes, the exits it names, a journey's
+/// waypoints (inside `room`).
 fn check_desired(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    d: &DesiredSpec,
+    (exit_count, room): (usize, &crate::crowd::Room),
+) -> Result<(), SceneError> {
+    let item = format!("{item} desired");
+    let err = |m: &str| Err(cx.err(line, item.clone(), m.to_string()));
+    if d.exits.is_some() && !matches!(d.kind, DesiredKind::Exit | DesiredKind::Journey) {
+        return err("`exits` goes only with kind = \"exit\" or \"journey\"");
+    }
+    if d.waypoints.is_some() && d.kind != DesiredKind::Journey {
+        return err("`waypoints` goes only with kind = \"journey\"");
+    }
+    let to_point =
+        d.kind == DesiredKind::Point || (d.kind == DesiredKind::Journey && d.point.is_some());
+    if d.route.is_some() && !to_point {
+        return err("`route` goes only with kind = \"point\", or a journey ending at `point`");
+    }
+    match d.kind {
+        DesiredKind::Exit => {
+            check_exits_named(cx, line, &item, d, exit_count)?;
+            if d.point.is_some() || d.velocity.is_some() {
+                return err("kind = \"exit\" takes neither `point` nor `velocity`");
+            }
+        }
+        DesiredKind::Journey => {
+            journey::check_waypoints(cx, line, &item, d, room)?;
+            if d.velocity.is_some() {
+                return err("kind = \"journey\" does not take `velocity`");
+            }
+            match d.point {
+                Some(_) if d.exits.is_some() => {
+                    return err("a journey ends at `point` or at the exits (`exits`), not both")
+                }
+                Some(p) if !finite(&p) => return err("the point is not finite"),
+                Some(_) => {}
+                None => check_exits_named(cx, line, &item, d, exit_count)?,
+            }
+        }
+        DesiredKind::Point => match d.point {
+            None => return err("kind = \"point\" needs `point = [x, y]`"),
+            Some(p) if !finite(&p) => return err("the point is not finite"),
+            Some(_) if d.velocity.is_some() => {
+                return err("kind = \"point\" does not take `velocity`")
+            }
+            _ => {}
+        },
+        DesiredKind::Constant => match d.velocity {
+            None => return err("kind = \"constant\" needs `velocity = [vx, vy]`"),
+            Some(v) if !finite(&v) => return err("the velocity is not finite"),
+            Some(_) if d.point.is_some() => {
+                return err("kind = \"constant\" does not take `point`")
+            }
+            _ => {}
+        },
+    }
+    Ok(())
+}
+
+/// The exits a desire heads for: at least one in the scene, and those it names exist, once
+/// each.
+fn check_exits_named(
     cx: &Ctx<'_>,
     line: Option<usize>,
     item: &str,
     d: &DesiredSpec,
     exit_count: usize,
 ) -> Result<(), SceneError> {
-    let item = format!("{item} desired");
-    if d.exits.is_some() && d.kind != DesiredKind::Exit {
-        return Err(cx.err(line, item, "`exits` goes only with kind = \"exit\""));
+    let kind = if d.kind == DesiredKind::Journey {
+        "a journey ending at the exits"
+    } else {
+        "kind = \"exit\""
+    };
+    if exit_count == 0 {
+        return Err(cx.err(line, item, format!("{kind} needs at least one [[exits]]")));
     }
-    match d.kind {
-        DesiredKind::Exit => {
-            if exit_count == 0 {
-                return Err(cx.err(line, item, "kind = \"exit\" needs at least one [[exits]]"));
-            }
-            if let Some(chosen) = &d.exits {
-                let mut seen = std::collections::BTreeSet::new();
-                if chosen.is_empty() {
-                    return Err(cx.err(
-                        line,
-                        item,
-                        "exits = [] heads nowhere: name at least one exit, or drop `exits`",
-                    ));
-                }
-                for &e in chosen {
-                    if !(1..=exit_count).contains(&e) {
-                        return Err(cx.err(
-                            line,
-                            item,
-                            format!(
-                                "exits = {chosen:?}: exit {e} does not exist; the scene's \
-                                 [[exits]] are numbered 1 to {exit_count} in file order"
-                            ),
-                        ));
-                    }
-                    if !seen.insert(e) {
-                        return Err(cx.err(
-                            line,
-                            item,
-                            format!("exits = {chosen:?} names exit {e} twice"),
-                        ));
-                    }
-                }
-            }
-            if d.point.is_some() || d.velocity.is_some() {
+    if let Some(chosen) = &d.exits {
+        let mut seen = std::collections::BTreeSet::new();
+        if chosen.is_empty() {
+            return Err(cx.err(
+                line,
+                item,
+                "exits = [] heads nowhere: name at least one exit, or drop `exits`",
+            ));
+        }
+        for &e in chosen {
+            if !(1..=exit_count).contains(&e) {
                 return Err(cx.err(
                     line,
                     item,
-                    "kind = \"exit\" takes neither `point` nor `velocity`",
+                    format!(
+                        "exits = {chosen:?}: exit {e} does not exist; the scene's \
+                         [[exits]] are numbered 1 to {exit_count} in file order"
+                    ),
+                ));
+            }
+            if !seen.insert(e) {
+                return Err(cx.err(
+                    line,
+                    item,
+                    format!("exits = {chosen:?} names exit {e} twice"),
                 ));
             }
         }
-        DesiredKind::Point => match d.point {
-            None => return Err(cx.err(line, item, "kind = \"point\" needs `point = [x, y]`")),
-            Some(p) if !finite(&p) => return Err(cx.err(line, item, "the point is not finite")),
-            Some(_) if d.velocity.is_some() => {
-                return Err(cx.err(line, item, "kind = \"point\" does not take `velocity`"))
-            }
-            _ => {}
-        },
-        DesiredKind::Constant => match d.velocity {
-            None => {
-                return Err(cx.err(
-                    line,
-                    item,
-                    "kind = \"constant\" needs `velocity = [vx, vy]`",
-                ))
-            }
-            Some(v) if !finite(&v) => return Err(cx.err(line, item, "the velocity is not finite")),
-            Some(_) if d.point.is_some() => {
-                return Err(cx.err(line, item, "kind = \"constant\" does not take `point`"))
-            }
-            _ => {}
-        },
     }
     Ok(())
 }
@@ -885,6 +926,9 @@ impl BuiltScene {
     /// fault. The scene is left as it was.
     pub fn resume_at(&mut self, state: ResumeState) -> Result<(), ResumeError> {
         let n = self.population.len();
+        if !self.journeys.is_empty() {
+            return Err(ResumeError::Journeys);
+        }
         if state.q.len() != 2 * n || state.departed.len() != n {
             return Err(ResumeError::PeopleCount {
                 found: state.departed.len(),
@@ -1035,6 +1079,9 @@ impl BuiltScene {
         }
         self.population.reset_arrivals();
         self.population.admit(self.problem.t0(), self.problem.q0());
+        for j in &self.journeys {
+            j.reset();
+        }
     }
 
     /// Runs the scene to its horizon (or until everybody has left, when the scene says

@@ -47,7 +47,7 @@ pub(super) fn add_source(
     let gap = check_gap(cx, line, &item, ss.gap)?;
     let speed = drawn::check(cx, line, &item, &drawn::SPEED, ss.speed.as_ref(), 1.0)?;
     if let Some(d) = &ss.desired {
-        check_desired(cx, line, &item, d, clear.exit_count)?;
+        check_desired(cx, line, &item, d, (clear.exit_count, &clear.room.room))?;
     }
     let seed = match seed_override {
         Some(s) => s.wrapping_add((first + k) as u64),

@@ -281,10 +281,39 @@ pub enum DesiredKind {
     Point,
     /// The constant vector `velocity` (the speed is its length).
     Constant,
+    /// Through `waypoints` in order, then towards the exits (or `point`).
+    Journey,
 }
 
-/// A desired velocity: `kind = "exit"`, `kind = "point"` with `point`, or
-/// `kind = "constant"` with `velocity`.
+/// How a person heads for a point or a waypoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Route {
+    /// In a straight line (through whatever is in the way).
+    Straight,
+    /// The shortest way around the fixed obstacles (a geodesic field of its own).
+    Geodesic,
+}
+
+/// A waypoint of a journey: exactly one of `point` (with `reach`) and `region`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointSpec {
+    /// A point, reached within `reach` of it.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub point: Option<[f64; 2]>,
+    /// How near the point counts as reached (> 0). Default `0.5`.
+    pub reach: Option<f64>,
+    /// `[x0, y0, x1, y1]`: reached once the centre is inside.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub region: Option<[f64; 4]>,
+    /// How to head for it. Default `"geodesic"`.
+    pub route: Option<Route>,
+}
+
+/// A desired velocity: `kind = "exit"`, `kind = "point"` with `point`,
+/// `kind = "constant"` with `velocity`, or `kind = "journey"` with `waypoints` (then the exits,
+/// or `point`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DesiredSpec {
@@ -296,9 +325,14 @@ pub struct DesiredSpec {
     /// The vector of `kind = "constant"`.
     #[serde(default, deserialize_with = "exact::option_array")]
     pub velocity: Option<[f64; 2]>,
-    /// With `kind = "exit"`: the exits to head for (the nearest of them), numbered from 1 in
-    /// the order of `[[exits]]`. Default: every exit.
+    /// With `kind = "exit"` (or a journey's end): the exits to head for (the nearest of
+    /// them), numbered from 1 in the order of `[[exits]]`. Default: every exit.
     pub exits: Option<Vec<usize>>,
+    /// With `kind = "journey"`: the waypoints, in order.
+    pub waypoints: Option<Vec<WaypointSpec>>,
+    /// With `kind = "point"`, or a journey ending at `point`: how to head for the point.
+    /// Default `"straight"`.
+    pub route: Option<Route>,
 }
 
 /// `[geodesic]`: the fast-marching grid (used only when someone heads for the exits).
