@@ -999,3 +999,36 @@ fn bad_journeys() {
         "{e}"
     );
 }
+
+#[test]
+fn bad_geometry_in_wkt() {
+    let room = |keys: &str| {
+        format!("name = \"w\"\n[room]\n{keys}\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n")
+    };
+    let square = "wkt = \"POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))\"";
+    for (keys, item, fragment) in [
+        ("wkt = \"POLYGON ((0 0, 4 0, 4 4\"".to_string(), "[room] wkt", "not valid WKT"),
+        ("wkt = \"POINT (1 1)\"".to_string(), "[room] wkt", "a POINT where polygons are expected"),
+        ("wkt = \"POLYGON Z ((0 0 1, 4 0 1, 4 4 1, 0 0 1))\"".to_string(), "[room] wkt", "coordinates with z or m"),
+        ("wkt = \"MULTIPOLYGON (((0 0, 2 0, 2 2, 0 0)), ((3 3, 4 3, 4 4, 3 3)))\"".to_string(), "[room] wkt", "a MULTIPOLYGON of 2 polygons: the walkable area must be one polygon"),
+        (format!("{square}\nrectangle = [0.0, 0.0, 4.0, 4.0]"), "[room]", "give one of `rectangle`, `polygon`, `wkt` and `wkt_file`"),
+        (format!("{square}\nwkt_file = \"x.wkt\""), "[room]", "give one of"),
+        ("wkt_file = \"no-such-file.wkt\"".to_string(), "[room] wkt_file", "cannot read"),
+        (format!("{square}\nexits_wkt = \"POLYGON ((0 0, 1 0, 1 1, 0 0))\""), "[room] exits_wkt", "a POLYGON where exits are expected"),
+        (format!("{square}\nexits_wkt = \"LINESTRING (4 1, 4 2, 4 3)\""), "[room] exits_wkt", "line 1 has 3 points: an exit is a LINESTRING of two points"),
+        (format!("{square}\nobstacles_wkt = \"POLYGON ((1 1, 3 1, 3 3, 1 3, 1 1), (1.5 1.5, 2 1.5, 2 2, 1.5 1.5))\""), "[room] obstacles_wkt", "an obstacle with holes"),
+        // Read into the scene's items, then checked as they are.
+        ("wkt = \"POLYGON ((0 0, 4 0, 0 3, 3 4, 0 0))\"".to_string(), "[room]", "edges 2 and 4 of the polygon meet"),
+        (format!("{square}\nexits_wkt = \"LINESTRING (2 2, 3 3)\""), "[[exits]] #1", "is not on a wall of the room"),
+        ("exits_wkt = \"LINESTRING (4 1, 4 2)\"".to_string(), "[room]", "give `rectangle"),
+    ] {
+        assert_message(&error_of(&room(&keys)), 2, &[item, fragment]);
+    }
+    // A hole is an obstacle: a person inside it is refused, named by its number.
+    let text = room("wkt = \"POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0), (0.5 0.5, 1.5 0.5, 1.5 1.5, 0.5 1.5, 0.5 0.5))\"");
+    assert_message(
+        &error_of(&text),
+        4,
+        &["[[people]] #1", "inside obstacle #1"],
+    );
+}

@@ -339,3 +339,65 @@ fn a_scene_with_journeys_is_not_resumed_since_the_stages_are_not_in_a_state() {
     let e = built.resume_at(state).unwrap_err();
     assert!(e.to_string().contains("cannot be resumed"), "{e}");
 }
+
+#[test]
+fn a_hall_read_from_wkt_is_the_hall_written_out_and_runs_cleanly() {
+    let from_wkt = build("wkt-hall.toml");
+    // The same hall with every coordinate written in TOML.
+    let written = Scene::from_toml_str(
+        r#"
+        name = "wkt-hall"
+        [room]
+        polygon = [[0, 0], [12, 0], [12, 6], [6, 6], [6, 10], [0, 10]]
+        [[exits]]
+        from = [12.0, 1.5]
+        to = [12.0, 3.0]
+        [[exits]]
+        from = [1.5, 10.0]
+        to = [3.0, 10.0]
+        [[obstacles]]
+        polygon = [[2.5, 3.0], [4.0, 3.0], [4.0, 4.5], [2.5, 4.5]]
+        [[obstacles]]
+        polygon = [[8.0, 2.0], [9.0, 2.0], [9.0, 3.5], [8.0, 3.5]]
+        [[crowds]]
+        count = 60
+        region = [0.5, 0.5, 5.5, 9.5]
+        radius = [0.18, 0.23]
+        seed = 6
+        [desired]
+        kind = "exit"
+        [run]
+        h = 0.02
+        t_end = 60.0
+        stop_when_empty = true
+        "#,
+        "written",
+    )
+    .and_then(|s| s.build(&Overrides::default()))
+    .unwrap();
+    assert_eq!(from_wkt.geometry, written.geometry);
+    assert_eq!(from_wkt.problem.q0(), written.problem.q0());
+    let run = run_checked("wkt-hall.toml");
+    assert!(run.summary.evacuation_time.is_some(), "{:?}", run.summary);
+    // Nobody went through the hole (the checker sees its edges as walls).
+    assert!(run.findings.max_penetration <= TOL);
+}
+
+#[test]
+fn wkt_as_shapely_writes_it_multipolygons_of_one_and_the_builder() {
+    use sweeping::scene::spec::{CrowdSpec, DesiredSpec, RadiusSpec};
+    use sweeping::scene::CrowdBuilder;
+    // A MULTIPOLYGON of one polygon, exits as one LINESTRING, in code.
+    let built = CrowdBuilder::new("multi")
+        .wkt(
+            "MULTIPOLYGON (((0 0, 6 0, 6 4, 0 4, 0 0)))",
+            Some("LINESTRING (6 1.5, 6 2.5)".into()),
+        )
+        .crowd(CrowdSpec::new(5, RadiusSpec::Fixed(0.2)).seed(1))
+        .desired(DesiredSpec::exit())
+        .build()
+        .unwrap();
+    assert_eq!(built.geometry.room.len(), 4);
+    assert_eq!(built.geometry.exits.len(), 1);
+    assert_eq!(built.geometry.exits[0].a, [6.0, 1.5]);
+}

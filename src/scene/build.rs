@@ -210,7 +210,7 @@ pub(super) fn room(cx: &Ctx<'_>, spec: &SceneSpec) -> Result<RoomPlan, SceneErro
             return Err(cx.err(
                 room_line,
                 "[room]",
-                "give `rectangle = [x0, y0, x1, y1]` or `polygon = [[x, y], …]`",
+                "give `rectangle = [x0, y0, x1, y1]`, `polygon = [[x, y], …]`, `wkt = \"POLYGON ((…))\"` or `wkt_file`",
             ))
         }
     };

@@ -56,10 +56,7 @@ impl CrowdBuilder {
             spec: SceneSpec {
                 name: Some(name.into()),
                 description: None,
-                room: unplaced(RoomSpec {
-                    rectangle: None,
-                    polygon: None,
-                }),
+                room: unplaced(RoomSpec::default()),
                 exits: Vec::new(),
                 obstacles: Vec::new(),
                 people: Vec::new(),
@@ -78,7 +75,7 @@ impl CrowdBuilder {
     pub fn rectangle(mut self, r: [f64; 4]) -> Self {
         self.spec.room = unplaced(RoomSpec {
             rectangle: Some(r),
-            polygon: None,
+            ..RoomSpec::default()
         });
         self
     }
@@ -86,8 +83,20 @@ impl CrowdBuilder {
     /// A polygonal room (vertices in order).
     pub fn polygon(mut self, vertices: Vec<[f64; 2]>) -> Self {
         self.spec.room = unplaced(RoomSpec {
-            rectangle: None,
             polygon: Some(vertices),
+            ..RoomSpec::default()
+        });
+        self
+    }
+
+    /// The room, its holes (obstacles) and maybe exits and more obstacles, in WKT (see
+    /// [`RoomSpec`]): `walkable` a `POLYGON` or a `MULTIPOLYGON` of one polygon, `exits` a
+    /// `LINESTRING` or `MULTILINESTRING`.
+    pub fn wkt(mut self, walkable: impl Into<String>, exits: Option<String>) -> Self {
+        self.spec.room = unplaced(RoomSpec {
+            wkt: Some(walkable.into()),
+            exits_wkt: exits,
+            ..RoomSpec::default()
         });
         self
     }

@@ -54,6 +54,7 @@ mod notes;
 mod sources;
 pub mod spec;
 pub mod synthetic;
+mod wkt;
 
 pub use builder::CrowdBuilder;
 pub use effect::Effect;
@@ -383,8 +384,10 @@ impl Scene {
     /// inside an obstacle, overlapping people, a crowd that does not fit…
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
         let cx = Ctx::new(&self.origin, self.text.as_deref());
-        let spec = &self.spec;
         self.check_name()?;
+        let base = Path::new(&self.origin).parent();
+        let expanded = wkt::expand(&cx, &self.spec, base)?;
+        let spec = expanded.as_ref().unwrap_or(&self.spec);
         let run = build::run_settings(&cx, spec, overrides)?;
         let room = build::room(&cx, spec)?;
         let (exits, walls) = build::exits_and_walls(&cx, spec, &room)?;

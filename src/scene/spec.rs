@@ -75,8 +75,9 @@ pub struct SceneSpec {
     pub output: Option<Spanned<OutputSpec>>,
 }
 
-/// `[room]`: exactly one of `rectangle` and `polygon`.
-#[derive(Debug, Clone, Deserialize)]
+/// `[room]`: exactly one of `rectangle`, `polygon`, `wkt` and `wkt_file`; maybe exits and
+/// obstacles in WKT too.
+#[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RoomSpec {
     /// `[x0, y0, x1, y1]`.
@@ -85,6 +86,17 @@ pub struct RoomSpec {
     /// Vertices in order, the last joined to the first.
     #[serde(default, deserialize_with = "exact::option_vec_array")]
     pub polygon: Option<Vec<[f64; 2]>>,
+    /// The walkable area in WKT, as shapely and JuPedSim write it: a `POLYGON` (its holes are
+    /// obstacles) or a `MULTIPOLYGON` of one polygon.
+    pub wkt: Option<String>,
+    /// A file holding `wkt` (relative to the scene file's directory).
+    pub wkt_file: Option<String>,
+    /// Exits in WKT: a `LINESTRING` of two points, or a `MULTILINESTRING` of such, numbered
+    /// after the `[[exits]]`.
+    pub exits_wkt: Option<String>,
+    /// Polygon obstacles in WKT: a `POLYGON` or `MULTIPOLYGON`, numbered after the
+    /// `[[obstacles]]` and the holes of `wkt`.
+    pub obstacles_wkt: Option<String>,
 }
 
 /// `[arena]`: a round wall inside the room, `center` and `radius`: every person's disk stays
