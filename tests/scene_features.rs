@@ -401,3 +401,15 @@ fn wkt_as_shapely_writes_it_multipolygons_of_one_and_the_builder() {
     assert_eq!(built.geometry.exits.len(), 1);
     assert_eq!(built.geometry.exits[0].a, [6.0, 1.5]);
 }
+
+#[test]
+fn the_bottleneck_study_scene_runs_cleanly_with_its_inflow() {
+    let run = run_checked("bottleneck/bottleneck.toml");
+    let s = &run.summary;
+    let arrivals = s.arrivals.unwrap();
+    assert_eq!(arrivals.arrived, run.built.population.len());
+    assert!(s.evacuation_time.is_some(), "{s:?}");
+    // The door is exit 1, 1.2 m wide, in the middle of the right wall.
+    let door = &run.built.geometry.exits[0];
+    assert_eq!((door.a, door.b), ([10.0, 3.4], [10.0, 4.6]));
+}
