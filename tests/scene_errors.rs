@@ -796,7 +796,7 @@ fn bad_sources() {
     let source = |body: &str| format!("{ROOM}[[sources]]\nradius = 0.2\n{body}\n");
     let region = "region = [0.5, 0.5, 3.5, 3.5]\n";
     for (body, fragment) in [
-        (format!("{region}"), "say when people arrive: `rate"),
+        (region.to_string(), "say when people arrive: `rate"),
         (format!("{region}rate = 2.0"), "`rate` needs `count`"),
         (
             format!("{region}rate = 0.0\ncount = 3"),

@@ -612,10 +612,9 @@ impl People {
         p: [f64; 2],
         r: f64,
         (speed, given): (f64, Option<f64>),
-        start: f64,
         d: Option<DesiredSpec>,
         origin: Origin,
-        (due, gap): (Option<f64>, f64),
+        (start, due, gap): (f64, Option<f64>, f64),
     ) {
         self.due.push(due);
         self.gaps.push(gap);
@@ -791,10 +790,9 @@ pub(super) fn explicit_people(
             ps.position,
             radius,
             (speed, ps.speed),
-            start,
             ps.desired.clone(),
             origin,
-            (None, gap),
+            (start, None, gap),
         );
         people.groups.push(item);
     }
@@ -972,10 +970,9 @@ pub(super) fn place_crowd(
             p,
             r,
             (speeds[placed], given),
-            starts[placed],
             cs.desired.clone(),
             origin,
-            (None, gap),
+            (starts[placed], None, gap),
         );
         placed += 1;
     }

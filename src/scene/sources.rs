@@ -95,10 +95,9 @@ pub(super) fn add_source(
             places[j % places.len()],
             radius[j] + gap / 2.0,
             (speeds[j], given),
-            0.0,
             ss.desired.clone(),
             origin,
-            (Some(t), gap),
+            (0.0, Some(t), gap),
         );
     }
     let (first_t, last_t) = (due[0], due[n - 1]);
