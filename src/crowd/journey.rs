@@ -52,7 +52,7 @@ impl JourneyProgress {
 ///         target: Target::Point { at: [0.0, 5.0], reach: 0.5 },
 ///         field: Box::new(TowardsPoint { point: [0.0, 5.0] }),
 ///     }],
-///     Box::new(TowardsPoint { point: [5.0, 5.0] }),
+///     Box::new(TowardsPoint { point: [5.0, 4.6] }),
 ///     progress.clone(),
 /// );
 /// // First up, to the waypoint; once within 0.5 of it, right, to the last point.
