@@ -4,15 +4,13 @@
 //! checked by the independent checker (`tests/common/checker.rs`), plus what each feature
 //! promises and the checker cannot see.
 
-mod common;
-
-use common::checker::{check_trajectory, scratch, still, Findings, Geometry, Obstacle};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use sweeping::backends::make_projector;
 use sweeping::crowd::Motion;
 use sweeping::output::{RunSummary, SummaryCollector, TrajectoryWriter};
 use sweeping::scene::{BuiltScene, ObstacleShape, Overrides, Scene};
+use sweeping_testkit::checker::{check_trajectory, scratch, still, Findings, Geometry, Obstacle};
 
 /// Overlap and penetration the checker lets through (the projection's tolerance).
 const TOL: f64 = 1e-6;
