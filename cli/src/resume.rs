@@ -60,9 +60,47 @@ pub struct Saved {
     /// The last frame as the state to resume from: the people present where it has them,
     /// those who had left where they left.
     pub state: ResumeState,
+    /// Who is neither in the last frame nor said to have left: not arrived yet, or missing
+    /// from a frame cut short. Their place in `state` is unset until
+    /// [`place_absent`](Self::place_absent).
+    pub absent: Vec<usize>,
 }
 
 impl Saved {
+    /// Places who is absent from the last frame: someone the scene brings in later (`due`)
+    /// has not arrived yet and is put at their place in `q0`, written absent as the library's
+    /// [`ResumeState`] has them; anyone else was lost from a frame cut short.
+    ///
+    /// # Errors
+    /// Someone absent whom the scene has from the start, by the last frame's line.
+    pub fn place_absent(
+        &mut self,
+        due: impl Fn(usize) -> bool,
+        q0: &[f64],
+        (trajectory, people): (&Path, &Path),
+    ) -> Result<()> {
+        for &i in &self.absent {
+            if !due(i) {
+                bail!(
+                    "{}:{}: the last frame (t = {}) lists {} of {} people, and person {i}, \
+                        missing, has not left ({}:{}): a frame cut short (a run killed while \
+                        writing it) or a run of another scene",
+                    trajectory.display(),
+                    self.last.line,
+                    self.last.t,
+                    self.last.rows.len(),
+                    self.people.len(),
+                    people.display(),
+                    i + 2
+                );
+            }
+            self.state.q[2 * i] = q0[2 * i];
+            self.state.q[2 * i + 1] = q0[2 * i + 1];
+            self.state.departed[i] = true;
+        }
+        Ok(())
+    }
+
     /// Each person's departure before the state, for the resumed run's people table.
     pub fn departures(&self) -> Vec<Option<Departure>> {
         self.people
@@ -89,9 +127,8 @@ impl Saved {
 ///
 /// # Errors
 /// A file cannot be read; a line that is not of its file's form (by its line); a last frame
-/// whose ids are not increasing; no frame at all; a person missing from the last frame whom
-/// the people table does not say left (a frame cut short), or listed there though it says
-/// they had left.
+/// whose ids are not increasing; no frame at all; a person listed in the last frame though
+/// the people table says they had left.
 pub fn read(trajectory: &Path, people: &Path) -> Result<Saved> {
     let (first, last) = read_frames(trajectory)?;
     let table = read_people(people)?;
@@ -117,6 +154,7 @@ pub fn read(trajectory: &Path, people: &Path) -> Result<Saved> {
     };
     let mut q = vec![0.0; 2 * table.len()];
     let mut departed = vec![false; table.len()];
+    let mut absent = Vec::new();
     let tol = 1e-9 * t.abs().max(1.0);
     for (i, person) in table.iter().enumerate() {
         let row = last.rows.iter().find(|r| r.0 == i);
@@ -141,18 +179,9 @@ pub fn read(trajectory: &Path, people: &Path) -> Result<Saved> {
                 q[2 * i + 1] = d.position[1];
                 departed[i] = true;
             }
-            (None, None) => bail!(
-                "{}:{}: the last frame (t = {}) lists {} of {} people, and person {i}, \
-                    missing, has not left ({}:{}): a frame cut short (a run killed while \
-                    writing it) or a run of another scene",
-                trajectory.display(),
-                last.line,
-                last.t,
-                last.rows.len(),
-                table.len(),
-                people.display(),
-                i + 2
-            ),
+            // Not yet arrived (a scene's sources) or a frame cut short: the scene tells
+            // which ([`Saved::place_absent`]).
+            (None, None) => absent.push(i),
         }
     }
     let state = ResumeState { t, q, departed };
@@ -161,6 +190,7 @@ pub fn read(trajectory: &Path, people: &Path) -> Result<Saved> {
         last,
         people: table,
         state,
+        absent,
     })
 }
 
@@ -317,6 +347,7 @@ pub fn check_start(
     start: f64,
     q0: &[f64],
     radii: &[f64],
+    due: impl Fn(usize) -> bool,
 ) -> Result<()> {
     let first = &saved.first;
     let n = q0.len() / 2;
@@ -350,22 +381,25 @@ pub fn check_start(
     if first.t > start {
         return Ok(());
     }
-    if first.rows.len() != n {
+    // At the start everybody is there but who arrives later (a scene's sources).
+    let expected: Vec<usize> = (0..n).filter(|&i| !due(i) || first.line_of(i).is_some()).collect();
+    if first.rows.len() != expected.len() {
         bail!(
             "{}:{}: the first frame (the scene's start, t = {}) lists {} people, the scene has \
-                {n}: {other}",
+                {} there: {other}",
             path.display(),
             first.line,
             first.t,
-            first.rows.len()
+            first.rows.len(),
+            expected.len()
         );
     }
-    for (k, &(id, x, y)) in first.rows.iter().enumerate() {
-        let (x0, y0) = (q0[2 * k], q0[2 * k + 1]);
-        if id != k || !close(x, x0) || !close(y, y0) {
+    for (k, (&(id, x, y), &i)) in first.rows.iter().zip(&expected).enumerate() {
+        let (x0, y0) = (q0[2 * i], q0[2 * i + 1]);
+        if id != i || !close(x, x0) || !close(y, y0) {
             bail!(
                 "{}:{}: the first frame (the scene's start, t = {}) has person {id} at \
-                    ({x}, {y}), where the scene starts person {k} at ({x0}, {y0}): {other}",
+                    ({x}, {y}), where the scene starts person {i} at ({x0}, {y0}): {other}",
                 path.display(),
                 first.line + k,
                 first.t,
@@ -474,11 +508,17 @@ mod tests {
             "t,id,x,y\n0,0,1,2\n0,1,3,4\n0.1,0,1,2\n",
             "id,radius,t_left,x_left,y_left\n0,0.2,,,\n1,0.2,,,\n",
         );
-        let e = format!("{:#}", read(&t, &p).unwrap_err());
+        let mut saved = read(&t, &p).unwrap();
+        assert_eq!(saved.absent, vec![1]);
+        let q0 = [1.0, 2.0, 3.0, 4.0];
+        let e = format!("{:#}", saved.clone().place_absent(|_| false, &q0, (&t, &p)).unwrap_err());
         assert!(
             e.contains("trajectory.csv:4") && e.contains("person 1, missing, has not left"),
             "{e}"
         );
+        // Unless the scene brings them in later: not arrived yet, at their place, absent.
+        saved.place_absent(|i| i == 1, &q0, (&t, &p)).unwrap();
+        assert_eq!((saved.state.q, saved.state.departed), (q0.to_vec(), vec![false, true]));
         // Listed though the table says they left.
         let (t, p) = write(
             "listed",
@@ -512,17 +552,17 @@ mod tests {
         );
         let radii = [0.2, 0.25];
         let files = (t.as_path(), p.as_path());
-        check_start(&saved, files, 0.0, &[1.0, 2.0, 3.0, 4.0], &radii).unwrap();
+        check_start(&saved, files, 0.0, &[1.0, 2.0, 3.0, 4.0], &radii, |_| false).unwrap();
         // A trajectory that starts later (of a resumed run) has no start to compare.
-        check_start(&saved, files, -1.0, &[9.0; 4], &radii).unwrap();
+        check_start(&saved, files, -1.0, &[9.0; 4], &radii, |_| false).unwrap();
         let e = format!(
             "{:#}",
-            check_start(&saved, files, 0.0, &[1.0, 2.0, 3.0, 4.5], &radii).unwrap_err()
+            check_start(&saved, files, 0.0, &[1.0, 2.0, 3.0, 4.5], &radii, |_| false).unwrap_err()
         );
         assert!(e.contains(":3") && e.contains("another scene"), "{e}");
         let e = format!(
             "{:#}",
-            check_start(&saved, files, 0.1, &[1.0, 2.0, 3.0, 4.0], &radii).unwrap_err()
+            check_start(&saved, files, 0.1, &[1.0, 2.0, 3.0, 4.0], &radii, |_| false).unwrap_err()
         );
         assert!(
             e.contains(":2") && e.contains("before the scene's start"),
@@ -530,13 +570,23 @@ mod tests {
         );
         let e = format!(
             "{:#}",
-            check_start(&saved, files, 0.0, &[1.0, 2.0, 3.0, 4.0], &[0.2, 0.2]).unwrap_err()
+            check_start(&saved, files, 0.0, &[1.0, 2.0, 3.0, 4.0], &[0.2, 0.2], |_| false).unwrap_err()
         );
         assert!(
             e.contains("people.csv:3") && e.contains("radius 0.25"),
             "{e}"
         );
+        // Who arrives later is not in the start's frame; anyone else must be.
+        let (t, p) = write("later", "t,id,x,y\n0,1,3,4\n0.5,0,1,2\n0.5,1,3,4\n", TWO_STAYING);
+        let saved = read(&t, &p).unwrap();
+        let files = (t.as_path(), p.as_path());
+        let q0 = [1.0, 2.0, 3.0, 4.0];
+        check_start(&saved, files, 0.0, &q0, &[0.2, 0.2], |i| i == 0).unwrap();
+        let e = format!("{:#}", check_start(&saved, files, 0.0, &q0, &[0.2, 0.2], |_| false).unwrap_err());
+        assert!(e.contains("lists 1 people, the scene has 2 there"), "{e}");
     }
+
+    const TWO_STAYING: &str = "id,radius,t_left,x_left,y_left\n0,0.2,,,\n1,0.2,,,\n";
 
     #[test]
     fn a_resumed_run_goes_beside_the_one_it_resumes() {

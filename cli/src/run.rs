@@ -252,16 +252,19 @@ fn resume_scene(
         dir,
         path,
         people,
-        saved,
+        mut saved,
     } = resume;
     let t = saved.state.t;
+    let due = |i| built.population.due(i).is_some();
     resume::check_start(
         &saved,
         (&path, &people),
         built.problem.t0(),
         built.problem.q0(),
         built.population.radii(),
+        due,
     )
+    .and_then(|()| saved.place_absent(due, built.problem.q0(), (&path, &people)))
     .with_context(|| format!("--resume {}", dir.display()))?;
     // An error about one person points at the row it was read from.
     let departures = saved.departures();
@@ -442,9 +445,20 @@ fn print_summary(
     outln!(
         "  people: {}, left: {}, remaining: {}",
         s.people,
-        s.people - s.people_remaining,
+        s.people_out.last().map_or(0, |&(_, out)| out),
         s.people_remaining
     );
+    if let Some(a) = &s.arrivals {
+        outln!(
+            "  arrivals: {} of {} arrived, {} waited for their place (longest {:.2} s, {:.2} s in all), {} still waiting",
+            a.arrived,
+            a.scheduled,
+            a.waited,
+            a.longest_wait,
+            a.total_wait,
+            a.still_waiting
+        );
+    }
     match s.evacuation_time {
         Some(t) => outln!("  evacuation time: {t:.2} s"),
         None => outln!(

@@ -103,12 +103,13 @@ impl ConstraintFamily for ArenaWall {
         )
     }
 
-    /// The people within `cutoff` of the wall (a pass over everyone: one number each).
+    /// The people within `cutoff` of the wall (a pass over everyone: one number each); who
+    /// has not arrived yet is in no constraint, as who has left.
     fn candidates(&self, _t: f64, q: &[f64], cutoff: f64, out: &mut Vec<usize>) {
-        out.extend(
-            (0..self.population.len())
-                .filter(|&i| !self.population.has_departed(i) && self.value_at(i, q) <= cutoff),
-        );
+        let pop = &self.population;
+        out.extend((0..pop.len()).filter(|&i| {
+            !pop.has_departed(i) && pop.has_arrived(i) && self.value_at(i, q) <= cutoff
+        }));
     }
 
     fn culls(&self) -> bool {

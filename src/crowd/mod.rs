@@ -14,6 +14,7 @@
 
 mod arena;
 pub mod fast_marching;
+pub mod journey;
 mod pairs;
 mod population;
 mod shapes;
@@ -22,5 +23,5 @@ mod verlet;
 
 pub use arena::{ArenaWall, InsideCircleKernel};
 pub use pairs::{DiskPairKernel, DiskPairs};
-pub use population::{segment_distance, Population, Room};
+pub use population::{segment_distance, ArrivalReport, Population, Room};
 pub use shapes::{rectangle_walls, Motion, PersonShapeKernel, PersonShapes, Shape, ShapeParams};

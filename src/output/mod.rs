@@ -3,7 +3,7 @@
 //! [`Observer`], so a run writes them as it goes and a failed run still leaves what it
 //! computed.
 //!
-//! * [`TrajectoryWriter`] — `t,id,x,y,present`, buffered, flushed at the end even on failure;
+//! * [`TrajectoryWriter`] — `t,id,x,y` (and `pressure` with contact forces) for the people present, buffered, flushed at the end even on failure;
 //! * `SqliteTrajectoryWriter` (cargo feature `sqlite`, on by default) — JuPedSim's trajectory
 //!   schema with the [`WalkableArea`] as WKT, streamed in transactions;
 //! * [`SummaryCollector`] — evacuation time, people out over time, steps, time per stage,
@@ -410,6 +410,10 @@ pub struct RunSummary {
     /// start. Everything above counts this run's steps alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resumed_from: Option<ResumedFrom>,
+    /// With people arriving during the run (a scene's `[[sources]]`): how many were due,
+    /// arrived, and waited because their place was taken, and how long. `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arrivals: Option<crate::crowd::ArrivalReport>,
 }
 
 /// Where a resumed run started: the earlier run's output directory and the time of the state
@@ -523,13 +527,15 @@ impl<'a> SummaryCollector<'a> {
 
     fn record(&mut self, t: f64, q: &[f64]) {
         let present = self.population.present_count(q);
-        let out = self.population.len() - present;
+        // Who has not arrived yet is neither in the room nor out.
+        let pending = self.population.pending_count();
+        let out = self.population.len() - present - pending;
         if out != self.last_out || self.summary.people_out.is_empty() {
             self.summary.people_out.push((t, out));
             self.last_out = out;
         }
         self.summary.people_remaining = present;
-        if present == 0 && self.summary.evacuation_time.is_none() {
+        if present == 0 && pending == 0 && self.summary.evacuation_time.is_none() {
             self.summary.evacuation_time = Some(t);
         }
         let [(ov, ow), (pv, pw)] = self.violations(t, q);
@@ -580,6 +586,7 @@ impl Observer for SummaryCollector<'_> {
 
     fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let s = &mut self.summary;
+        s.arrivals = self.population.arrival_report(s.t_final);
         s.peak_memory_mib = crate::meter::peak_memory_bytes().map(|b| b as f64 / 1048576.0);
         let per = |v: f64| {
             if s.steps > 0 {

@@ -39,7 +39,7 @@ impl DepartureLog {
     pub(crate) fn update(&mut self, population: &Population, t: f64, q: &[f64]) -> Vec<usize> {
         let mut new = Vec::new();
         for (i, slot) in self.0.iter_mut().enumerate() {
-            if slot.is_none() && !population.is_present(q, i) {
+            if slot.is_none() && population.has_arrived(i) && !population.is_present(q, i) {
                 *slot = Some(Departure {
                     t,
                     position: Population::position(q, i),

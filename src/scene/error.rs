@@ -137,6 +137,9 @@ pub enum ResumeError {
         /// What is wrong.
         what: String,
     },
+    /// A scene with journeys: the waypoint each person had reached is not in a state.
+    #[error("the scene has journeys (kind = \"journey\"), and the waypoint each person had reached is not in the state: a run of it cannot be resumed; run it from its start")]
+    Journeys,
     /// People present overlapping each other, a wall or an obstacle, as a scene's start is
     /// refused for.
     #[error("the state at t = {} is not one a run of the scene reaches: {source}", display_number(*t))]

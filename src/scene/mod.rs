@@ -49,10 +49,13 @@ mod builder;
 mod drawn;
 mod effect;
 mod error;
+mod journey;
 mod notes;
 mod set;
+mod sources;
 pub mod spec;
 pub mod synthetic;
+mod wkt;
 
 pub use builder::CrowdBuilder;
 pub use effect::Effect;
@@ -214,6 +217,9 @@ pub struct BuiltScene {
     /// The people who had left at the start: nobody, unless the run was resumed from a
     /// state of an earlier one ([`BuiltScene::resume_at`]).
     pub departed_at_start: Vec<bool>,
+    /// The waypoint each person of a journey has reached, one record per journey (empty
+    /// without journeys); a run starts them all at the first waypoint.
+    pub journeys: Vec<Arc<crate::crowd::journey::JourneyProgress>>,
 }
 
 /// A state an earlier run of a scene reached, to resume the scene from
@@ -453,8 +459,10 @@ impl Scene {
     /// inside an obstacle, overlapping people, a crowd that does not fit…
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
         let cx = self.ctx();
-        let spec = &self.spec;
         self.check_name()?;
+        let base = Path::new(&self.origin).parent();
+        let expanded = wkt::expand(&cx, &self.spec, base)?;
+        let spec = expanded.as_ref().unwrap_or(&self.spec);
         let run = build::run_settings(&cx, spec, overrides)?;
         let room = build::room(&cx, spec)?;
         let (exits, walls) = build::exits_and_walls(&cx, spec, &room)?;
@@ -466,7 +474,7 @@ impl Scene {
             .as_ref()
             .map(|d| (d.get_ref().clone(), cx.line_of(d)));
         if let Some((d, line)) = &default_desired {
-            check_desired(&cx, *line, "[desired]", d, exits.len())?;
+            check_desired(&cx, *line, "[desired]", d, (exits.len(), &room.room))?;
         }
         let clear = build::Clearance {
             room: &room,
@@ -479,20 +487,27 @@ impl Scene {
         for (g, c) in spec.crowds.iter().enumerate() {
             build::place_crowd(&cx, g, c, overrides.seed, &clear, &mut people)?;
         }
+        for (k, s) in spec.sources.iter().enumerate() {
+            let first = spec.crowds.len();
+            sources::add_source(&cx, k, s, overrides.seed, first, &clear, &mut people)?;
+        }
         if people.positions.is_empty() {
             return Err(cx.err(
                 None,
-                "[[people]] / [[crowds]]",
+                "[[people]] / [[crowds]] / [[sources]]",
                 "the scene has nobody in it",
             ));
         }
 
         let (terms, still) =
             build::desire_terms(&cx, &mut people, default_desired.as_ref().map(|d| &d.0))?;
-        let population = Population::new(people.radii.clone())
-            .with_room(room.room.clone())
-            .shared();
-        let fields = build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
+        let mut population = Population::new(people.radii.clone()).with_room(room.room.clone());
+        if people.due.iter().any(Option::is_some) {
+            population = population.with_arrivals(people.due.clone());
+        }
+        let population = population.shared();
+        let (fields, target_fields) =
+            build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
         // Who heads for which exits, for the notes: each person with their own field.
         let routes: Vec<(usize, Arc<DistanceField>)> = terms
             .iter()
@@ -509,13 +524,15 @@ impl Scene {
             .find(|(chosen, _)| chosen.is_none())
             .map(|(_, field)| field.clone());
         let mut effects = Vec::new();
+        let mut journeys = Vec::new();
         let velocity = build::desired_velocity(
             &population,
             &people,
             &exits,
             (terms, still),
-            &fields,
+            (&fields, &target_fields),
             &mut effects,
+            &mut journeys,
         );
         let q0: Vec<f64> = people.positions.iter().flatten().copied().collect();
         let mut problem = Problem::new(q0, velocity);
@@ -529,6 +546,24 @@ impl Scene {
         );
         if has_exits {
             effects.push(Effect::Exits { count: exits.len() });
+        }
+        if !spec.sources.is_empty() {
+            effects.push(Effect::Sources {
+                sources: spec.sources.len(),
+                people: people.due.iter().flatten().count(),
+            });
+        }
+        if let Some(largest) = people
+            .gaps
+            .iter()
+            .copied()
+            .reduce(f64::max)
+            .filter(|&g| g > 0.0)
+        {
+            effects.push(Effect::Gaps {
+                people: people.gaps.iter().filter(|&&g| g > 0.0).count(),
+                largest,
+            });
         }
         problem
             .validate(1e-9)
@@ -572,6 +607,7 @@ impl Scene {
             effects,
             distance_field,
             departed_at_start,
+            journeys,
         })
     }
 }
@@ -647,81 +683,114 @@ impl BuiltScene {
     }
 }
 
+/// Checks a desired velocity: the keys its kind takes, the exits it names, a journey's
+/// waypoints (inside `room`).
 fn check_desired(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    d: &DesiredSpec,
+    (exit_count, room): (usize, &crate::crowd::Room),
+) -> Result<(), SceneError> {
+    let item = format!("{item} desired");
+    let err = |m: &str| Err(cx.err(line, item.clone(), m.to_string()));
+    if d.exits.is_some() && !matches!(d.kind, DesiredKind::Exit | DesiredKind::Journey) {
+        return err("`exits` goes only with kind = \"exit\" or \"journey\"");
+    }
+    if d.waypoints.is_some() && d.kind != DesiredKind::Journey {
+        return err("`waypoints` goes only with kind = \"journey\"");
+    }
+    let to_point =
+        d.kind == DesiredKind::Point || (d.kind == DesiredKind::Journey && d.point.is_some());
+    if d.route.is_some() && !to_point {
+        return err("`route` goes only with kind = \"point\", or a journey ending at `point`");
+    }
+    match d.kind {
+        DesiredKind::Exit => {
+            check_exits_named(cx, line, &item, d, exit_count)?;
+            if d.point.is_some() || d.velocity.is_some() {
+                return err("kind = \"exit\" takes neither `point` nor `velocity`");
+            }
+        }
+        DesiredKind::Journey => {
+            journey::check_waypoints(cx, line, &item, d, room)?;
+            if d.velocity.is_some() {
+                return err("kind = \"journey\" does not take `velocity`");
+            }
+            match d.point {
+                Some(_) if d.exits.is_some() => {
+                    return err("a journey ends at `point` or at the exits (`exits`), not both")
+                }
+                Some(p) if !finite(&p) => return err("the point is not finite"),
+                Some(_) => {}
+                None => check_exits_named(cx, line, &item, d, exit_count)?,
+            }
+        }
+        DesiredKind::Point => match d.point {
+            None => return err("kind = \"point\" needs `point = [x, y]`"),
+            Some(p) if !finite(&p) => return err("the point is not finite"),
+            Some(_) if d.velocity.is_some() => {
+                return err("kind = \"point\" does not take `velocity`")
+            }
+            _ => {}
+        },
+        DesiredKind::Constant => match d.velocity {
+            None => return err("kind = \"constant\" needs `velocity = [vx, vy]`"),
+            Some(v) if !finite(&v) => return err("the velocity is not finite"),
+            Some(_) if d.point.is_some() => {
+                return err("kind = \"constant\" does not take `point`")
+            }
+            _ => {}
+        },
+    }
+    Ok(())
+}
+
+/// The exits a desire heads for: at least one in the scene, and those it names exist, once
+/// each.
+fn check_exits_named(
     cx: &Ctx<'_>,
     line: Option<usize>,
     item: &str,
     d: &DesiredSpec,
     exit_count: usize,
 ) -> Result<(), SceneError> {
-    let item = format!("{item} desired");
-    if d.exits.is_some() && d.kind != DesiredKind::Exit {
-        return Err(cx.err(line, item, "`exits` goes only with kind = \"exit\""));
+    let kind = if d.kind == DesiredKind::Journey {
+        "a journey ending at the exits"
+    } else {
+        "kind = \"exit\""
+    };
+    if exit_count == 0 {
+        return Err(cx.err(line, item, format!("{kind} needs at least one [[exits]]")));
     }
-    match d.kind {
-        DesiredKind::Exit => {
-            if exit_count == 0 {
-                return Err(cx.err(line, item, "kind = \"exit\" needs at least one [[exits]]"));
-            }
-            if let Some(chosen) = &d.exits {
-                let mut seen = std::collections::BTreeSet::new();
-                if chosen.is_empty() {
-                    return Err(cx.err(
-                        line,
-                        item,
-                        "exits = [] heads nowhere: name at least one exit, or drop `exits`",
-                    ));
-                }
-                for &e in chosen {
-                    if !(1..=exit_count).contains(&e) {
-                        return Err(cx.err(
-                            line,
-                            item,
-                            format!(
-                                "exits = {chosen:?}: exit {e} does not exist; the scene's \
-                                 [[exits]] are numbered 1 to {exit_count} in file order"
-                            ),
-                        ));
-                    }
-                    if !seen.insert(e) {
-                        return Err(cx.err(
-                            line,
-                            item,
-                            format!("exits = {chosen:?} names exit {e} twice"),
-                        ));
-                    }
-                }
-            }
-            if d.point.is_some() || d.velocity.is_some() {
+    if let Some(chosen) = &d.exits {
+        let mut seen = std::collections::BTreeSet::new();
+        if chosen.is_empty() {
+            return Err(cx.err(
+                line,
+                item,
+                "exits = [] heads nowhere: name at least one exit, or drop `exits`",
+            ));
+        }
+        for &e in chosen {
+            if !(1..=exit_count).contains(&e) {
                 return Err(cx.err(
                     line,
                     item,
-                    "kind = \"exit\" takes neither `point` nor `velocity`",
+                    format!(
+                        "exits = {chosen:?}: exit {e} does not exist; the scene's \
+                         [[exits]] are numbered 1 to {exit_count} in file order"
+                    ),
+                ));
+            }
+            if !seen.insert(e) {
+                return Err(cx.err(
+                    line,
+                    item,
+                    format!("exits = {chosen:?} names exit {e} twice"),
                 ));
             }
         }
-        DesiredKind::Point => match d.point {
-            None => return Err(cx.err(line, item, "kind = \"point\" needs `point = [x, y]`")),
-            Some(p) if !finite(&p) => return Err(cx.err(line, item, "the point is not finite")),
-            Some(_) if d.velocity.is_some() => {
-                return Err(cx.err(line, item, "kind = \"point\" does not take `velocity`"))
-            }
-            _ => {}
-        },
-        DesiredKind::Constant => match d.velocity {
-            None => {
-                return Err(cx.err(
-                    line,
-                    item,
-                    "kind = \"constant\" needs `velocity = [vx, vy]`",
-                ))
-            }
-            Some(v) if !finite(&v) => return Err(cx.err(line, item, "the velocity is not finite")),
-            Some(_) if d.point.is_some() => {
-                return Err(cx.err(line, item, "kind = \"constant\" does not take `point`"))
-            }
-            _ => {}
-        },
     }
     Ok(())
 }
@@ -778,11 +847,17 @@ fn check_resolution(
     for c in &spec.crowds {
         let c = c.get_ref();
         c.region.iter().flatten().for_each(|&v| see(v));
-        let r = match c.radius {
-            RadiusSpec::Fixed(r) => r,
-            RadiusSpec::Range([a, _]) => a,
-        };
-        if r > 0.0 {
+        if let Some(r) = least_radius(c.radius) {
+            r_min = r_min.min(r);
+        }
+    }
+    for s in &spec.sources {
+        let s = s.get_ref();
+        s.region.iter().flatten().for_each(|&v| see(v));
+        if let Some(d) = &s.door {
+            d.from.iter().chain(&d.to).for_each(|&v| see(v));
+        }
+        if let Some(r) = least_radius(s.radius) {
             r_min = r_min.min(r);
         }
     }
@@ -805,6 +880,19 @@ fn check_resolution(
         ));
     }
     Ok(())
+}
+
+/// The least radius `radius` allows, when it is positive.
+fn least_radius(radius: RadiusSpec) -> Option<f64> {
+    let r = match radius {
+        RadiusSpec::Fixed(r) => r,
+        RadiusSpec::Range([a, _]) => a,
+        RadiusSpec::Distribution(d) => match (d.uniform, d.within) {
+            (Some([a, _]), _) | (None, Some([a, _])) => a,
+            (None, None) => return None,
+        },
+    };
+    (r > 0.0).then_some(r)
 }
 
 fn polygon_area(p: &[[f64; 2]]) -> f64 {
@@ -916,6 +1004,9 @@ impl BuiltScene {
     /// fault. The scene is left as it was.
     pub fn resume_at(&mut self, state: ResumeState) -> Result<(), ResumeError> {
         let n = self.population.len();
+        if !self.journeys.is_empty() {
+            return Err(ResumeError::Journeys);
+        }
         if state.q.len() != 2 * n || state.departed.len() != n {
             return Err(ResumeError::PeopleCount {
                 found: state.departed.len(),
@@ -939,9 +1030,20 @@ impl BuiltScene {
                 t_end: self.settings.t_end,
             });
         }
+        let mut state = state;
+        let places = self.problem.q0().to_vec();
         for i in 0..n {
             let p = Population::position(&state.q, i);
             let r = self.population.radius(i);
+            // Someone of a source written absent at their place, never having moved, has not
+            // arrived yet: they are not gone, and come in when due and their place is free.
+            if state.departed[i]
+                && self.population.due(i).is_some()
+                && p == Population::position(&places, i)
+            {
+                state.departed[i] = false;
+                continue;
+            }
             if state.departed[i] {
                 if let Some(what) = self.why_not_gone(p, r) {
                     return Err(ResumeError::GoneInside {
@@ -1039,8 +1141,10 @@ impl BuiltScene {
         })
     }
 
-    /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]: the
-    /// population as the run starts.
+    /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]; clears
+    /// every arrival, then lets in who is due by the start and finds their place free (who
+    /// was present in a resumed state is where nobody else is): the population as the run
+    /// starts.
     fn latch_departures_at_start(&self) {
         self.population.reset_departures();
         for (i, _) in self
@@ -1050,6 +1154,11 @@ impl BuiltScene {
             .filter(|(_, &d)| d)
         {
             self.population.set_departed(i);
+        }
+        self.population.reset_arrivals();
+        self.population.admit(self.problem.t0(), self.problem.q0());
+        for j in &self.journeys {
+            j.reset();
         }
     }
 
@@ -1065,7 +1174,8 @@ impl BuiltScene {
         observers: &mut [&mut dyn crate::stepper::Observer],
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
-        // A new run from q₀: nobody has left yet, unless it resumes an earlier run.
+        // A new run from q₀: nobody has left yet, unless it resumes an earlier run; who is due
+        // by the start and finds their place free comes in.
         self.latch_departures_at_start();
         let mut settings = self.settings.clone();
         settings.record_contacts |= self.output.contact_forces;
@@ -1095,8 +1205,10 @@ impl BuiltScene {
         };
         let stop_when_empty = self.stop_when_empty;
         let population = &self.population;
-        stepper.run_until(projector, observers, |_, q| {
-            stop_when_empty && population.present_count(q) == 0
+        // Arrivals come in between steps, before the observers see the step.
+        stepper.run_until(projector, observers, |t, q| {
+            population.admit(t, q);
+            stop_when_empty && population.is_done(q)
         })
     }
 }

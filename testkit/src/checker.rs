@@ -2,7 +2,8 @@
 //! and recomputes, by its own plain code (no library geometry), the overlaps of the people
 //! written (those present), the gaps to the walls (room edges minus exits), to the obstacles
 //! and to a round arena's wall, NaNs, whether anyone is written though their disk is wholly
-//! outside the room, and whether anyone who left (was no longer written) came back.
+//! outside the room, and whether anyone who left came back. A person not yet written has not
+//! arrived (a scene's sources); written and then missing from a frame, they have left.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
