@@ -63,6 +63,9 @@ fn geometry(built: &BuiltScene) -> Geometry {
     }
 }
 
+/// The people of one written state: id → position.
+type Frame = BTreeMap<usize, (f64, f64)>;
+
 /// A run of a shipped scene to its end, every step written.
 struct Checked {
     built: BuiltScene,
@@ -91,7 +94,10 @@ fn run_checked(file: &str) -> Checked {
     );
     let mut projector = make_projector(built.backend).unwrap();
     built
-        .run(projector.as_mut(), &mut [&mut writer, &mut summary, &mut people])
+        .run(
+            projector.as_mut(),
+            &mut [&mut writer, &mut summary, &mut people],
+        )
         .unwrap_or_else(|f| panic!("{file}: {f}"));
     let findings = check_trajectory(&csv, &geometry(&built), TOL);
     assert!(
@@ -99,7 +105,7 @@ fn run_checked(file: &str) -> Checked {
         "{file}: {:#?}",
         findings.problems
     );
-    let mut frames: Vec<(f64, BTreeMap<usize, (f64, f64)>)> = Vec::new();
+    let mut frames: Vec<(f64, Frame)> = Vec::new();
     for line in std::fs::read_to_string(&csv).unwrap().lines().skip(1) {
         let c: Vec<&str> = line.split(',').collect();
         let t: f64 = c[0].parse().unwrap();
@@ -307,15 +313,18 @@ fn each_group_passes_its_waypoint_before_leaving_by_its_own_exit() {
     let inside = |r: [f64; 4], x: f64, y: f64| r[0] <= x && x <= r[2] && r[1] <= y && y <= r[3];
     for i in 0..built.population.len() {
         let rows = &run.rows[&i];
-        let gone = rows.iter().position(|r| !r.3).expect("everybody leaves");
-        let [x, y] = run.departures[i].expect("who leaves is in the people table").position;
-        let reached = rows[..gone].iter().position(|&(_, x, y, _)| {
-            if built.group_of[i] == 0 {
-                inside([9.0, 6.0, 11.0, 7.5], x, y)
-            } else {
-                (x - 7.0).hypot(y - 6.5) <= 0.6
-            }
-        });
+        let left = run.departures[i].expect("everybody leaves");
+        let [x, y] = left.position;
+        let reached = rows
+            .iter()
+            .take_while(|r| r.0 < left.t)
+            .position(|&(_, x, y, _)| {
+                if built.group_of[i] == 0 {
+                    inside([9.0, 6.0, 11.0, 7.5], x, y)
+                } else {
+                    (x - 7.0).hypot(y - 6.5) <= 0.6
+                }
+            });
         assert!(
             reached.is_some(),
             "person {i} left without passing their waypoint"

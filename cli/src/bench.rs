@@ -1,13 +1,13 @@
 //! `sweep bench`: milliseconds per step, by stage, on synthetic crowds of growing size, on a
 //! door queue of a real evacuation, or on any scene from a time of its run.
 
-use crate::resume;
 use crate::stdout::{out, outln};
 use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 use sweeping::backends::{make_projector, make_projector_with, BackendChoice, ProjectorOptions};
+use sweeping::output::SavedRun;
 use sweeping::scene::synthetic::{Start, SyntheticCrowd};
 use sweeping::scene::{BuiltScene, Overrides, ResumeState, Scene};
 use sweeping::stepper::{
@@ -210,7 +210,7 @@ fn prepare_scene(
     scene: &Scene,
     label: &str,
     from: Option<f64>,
-    resume: Option<ResumeState>,
+    resume: Option<&SavedRun>,
     args: &BenchArgs,
 ) -> Result<PreparedScene> {
     let overrides = Overrides {
@@ -222,19 +222,25 @@ fn prepare_scene(
         .build(&overrides)
         .with_context(|| format!("building {}", scene.origin()))?;
     let t0 = built.problem.t0();
-    let state = match (from, resume) {
+    let steps = args.steps as f64 * built.settings.h;
+    match (from, resume) {
         (Some(t), _) if !(t.is_finite() && t >= t0) => {
             anyhow::bail!("--from {t}: not a time of the run, which starts at t = {t0}")
         }
-        (Some(t), _) if t > t0 => Some(run_untimed(&mut built, label, t)?),
-        (_, resume) => resume,
-    };
-    let t_start = state.as_ref().map_or(t0, |s| s.t);
-    built.settings.t_end = t_start + args.steps as f64 * built.settings.h;
-    if let Some(state) = state {
-        built
-            .resume_at(state)
-            .map_err(|e| anyhow::anyhow!("{label}: its state at t = {t_start}: {e}"))?;
+        (Some(t), _) if t > t0 => {
+            let state = run_untimed(&mut built, label, t)?;
+            built.settings.t_end = t + steps;
+            built
+                .resume_at(state)
+                .map_err(|e| anyhow::anyhow!("{label}: its state at t = {t}: {e}"))?;
+        }
+        (_, Some(saved)) => {
+            built.settings.t_end = saved.state.t + steps;
+            saved
+                .resume(&mut built)
+                .with_context(|| format!("{label}: its state at t = {}", saved.state.t))?;
+        }
+        (_, None) => built.settings.t_end = t0 + steps,
     }
     Ok(PreparedScene {
         label: label.to_string(),
@@ -337,13 +343,9 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
     let scene = match &args.scene {
         Some(path) => {
             let resume = match &args.resume {
-                Some(dir) => Some(
-                    resume::read(&dir.join(resume::TRAJECTORY), &dir.join(resume::PEOPLE))
-                        .with_context(|| {
-                            format!("--resume {}: reading the run's last state", dir.display())
-                        })?
-                        .state,
-                ),
+                Some(dir) => Some(SavedRun::read(dir).with_context(|| {
+                    format!("--resume {}: reading the run's last state", dir.display())
+                })?),
                 None => None,
             };
             Some((Scene::from_file(path)?, resume))
@@ -366,7 +368,7 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
     };
     if let Some((scene, resume)) = scene {
         let label = scene.name.clone();
-        let prepared = prepare_scene(&scene, &label, args.from, resume, &args)?;
+        let prepared = prepare_scene(&scene, &label, args.from, resume.as_ref(), &args)?;
         for &backend in &args.backends {
             print(&measure_scene(&prepared, backend, &args)?)?;
         }

@@ -11,6 +11,8 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use sweeping::backends::{threads_phrase, BackendChoice};
 use sweeping::error::SweepError;
+use sweeping::numbers::display_number;
+use sweeping::output::SavedRun;
 use sweeping::output::{
     prepare_output_dir, run_scene, ResumedFrom, RunHooks, RunOptions, RunSceneError, RunSummary,
     SceneRun, TrajectoryFormat,
@@ -205,39 +207,35 @@ impl RunHooks for Terminal {
     }
 }
 
-/// An earlier run to go on from: its directory, its trajectory and people table, and what
-/// was read there.
+/// An earlier run to go on from: its directory and what was read there.
 struct Resume {
     dir: PathBuf,
-    path: PathBuf,
-    people: PathBuf,
-    saved: resume::Saved,
+    saved: SavedRun,
 }
 
 /// The state the run in `dir` left, read before any work: a missing or malformed file is an
-/// error now.
+/// error now. Frames the run wrote after its people table was last written (a run killed
+/// outright) are passed over, and said.
 fn read_resume(dir: &Path) -> Result<Resume> {
-    let path = dir.join(resume::TRAJECTORY);
-    let sqlite = TrajectoryFormat::Sqlite.file_name();
-    if !path.exists() && dir.join(sqlite).exists() {
-        // The SQLite trajectory leaves out who had left and rounds the time to its
-        // frame: not a state to go on from to the bit.
-        anyhow::bail!(
-            "--resume {}: the run wrote no {} but a {sqlite}, which keeps only the \
-             people still inside; --resume reads the CSV (every position to the bit, \
-             and who had left): run with --format csv or --format csv,sqlite to be \
-             able to resume",
+    let saved = SavedRun::read(dir)
+        .with_context(|| format!("--resume {}: reading the run's last state", dir.display()))?;
+    if let Some(p) = saved.passed_over {
+        let cut = if p.cut_line {
+            ", and its last line cut short"
+        } else {
+            ""
+        };
+        errln!(
+            "note: --resume {}: the run was stopped while writing (frames up to t = {}{cut}, \
+             its people table older): it goes on from t = {}, the last frame the people table \
+             accounts for",
             dir.display(),
-            resume::TRAJECTORY
+            display_number(p.last_t),
+            display_number(saved.state.t)
         );
     }
-    let people = dir.join(resume::PEOPLE);
-    let saved = resume::read(&path, &people)
-        .with_context(|| format!("--resume {}: reading the run's last state", dir.display()))?;
     Ok(Resume {
         dir: dir.to_path_buf(),
-        path,
-        people,
         saved,
     })
 }
@@ -246,34 +244,13 @@ fn read_resume(dir: &Path) -> Result<Resume> {
 /// returns its time and each person's departure before it.
 fn resume_scene(
     built: &mut BuiltScene,
-    resume: Resume,
+    resume: &Resume,
 ) -> Result<(f64, Vec<Option<sweeping::output::Departure>>)> {
-    let Resume {
-        dir,
-        path,
-        people,
-        mut saved,
-    } = resume;
-    let t = saved.state.t;
-    let due = |i| built.population.due(i).is_some();
-    resume::check_start(
-        &saved,
-        (&path, &people),
-        built.problem.t0(),
-        built.problem.q0(),
-        built.population.radii(),
-        due,
-    )
-    .and_then(|()| saved.place_absent(due, built.problem.q0(), (&path, &people)))
-    .with_context(|| format!("--resume {}", dir.display()))?;
-    // An error about one person points at the row it was read from.
-    let departures = saved.departures();
-    let place = |i| saved.place_of(i, &path, &people);
-    built.resume_at(saved.state.clone()).map_err(|e| {
-        let at = e.person().map_or(path.display().to_string(), place);
-        anyhow::anyhow!("--resume {}: {at}: {e}", dir.display())
-    })?;
-    Ok((t, departures))
+    resume
+        .saved
+        .resume(built)
+        .with_context(|| format!("--resume {}", resume.dir.display()))?;
+    Ok((resume.saved.state.t, resume.saved.departures()))
 }
 
 /// Entry point of `sweep run`.
@@ -316,7 +293,7 @@ pub fn main(args: RunArgs) -> Result<()> {
     let (resumed_at, departures_before) = match resume {
         Some(r) => {
             let dir = r.dir.clone();
-            let (t, departures) = resume_scene(&mut built, r)?;
+            let (t, departures) = resume_scene(&mut built, &r)?;
             (Some((dir, t)), departures)
         }
         None => (None, Vec::new()),

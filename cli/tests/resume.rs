@@ -249,36 +249,41 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
         "people.csv:2: person 0 has radius 0.2, the scene gives them 0.19",
     );
 
-    // A last frame cut short, as a run killed while writing it leaves it.
+    // A last frame cut short, as a run killed while writing it leaves it: the run goes on
+    // from the frame before, the last whole one, and says so.
     let csv = first.join("trajectory.csv");
     let text = std::fs::read_to_string(&csv).unwrap();
-    let cut = scratch_dir.join("cut");
-    std::fs::create_dir_all(&cut).unwrap();
-    std::fs::copy(first.join("people.csv"), cut.join("people.csv")).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    std::fs::write(
-        cut.join("trajectory.csv"),
-        lines[..lines.len() - 3].join("\n"),
-    )
-    .unwrap();
-    let cut = cut.to_str().unwrap();
-    refused(
-        "resume-cut",
-        ROOM,
-        &["--resume", cut],
-        "lists 9 of 12 people, and person 9, missing, has not left",
-    );
-    // Cut inside a line: a line of four fields is refused by its number.
-    let inside = scratch_dir.join("inside");
-    std::fs::create_dir_all(&inside).unwrap();
-    std::fs::copy(first.join("people.csv"), inside.join("people.csv")).unwrap();
+    let time_of = |line: &str| line[..line.find(',').unwrap()].to_string();
+    let last_t = time_of(lines[lines.len() - 1]);
+    let before = lines
+        .iter()
+        .rev()
+        .map(|l| time_of(l))
+        .find(|t| *t != last_t)
+        .unwrap();
+    let goes_on = |name: &str, trajectory: String| {
+        let dir = scratch_dir.join(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::copy(first.join("people.csv"), dir.join("people.csv")).unwrap();
+        std::fs::write(dir.join("trajectory.csv"), trajectory).unwrap();
+        let (ok, printed, _) = sweep(
+            &format!("resume-{name}"),
+            ROOM,
+            &["--resume", dir.to_str().unwrap(), "--out", "resumed"],
+        );
+        assert!(
+            ok && printed.contains(&format!("frames up to t = {last_t}"))
+                && printed.contains(&format!("it goes on from t = {before}")),
+            "{name}: {printed}"
+        );
+    };
+    goes_on("cut", lines[..lines.len() - 3].join("\n") + "\n");
+    // Cut inside a line (no line end): that line is passed over too.
     let mut short = lines[..lines.len() - 1].join("\n");
     short.push('\n');
     short.push_str(&lines[lines.len() - 1][..lines[lines.len() - 1].rfind(',').unwrap()]);
-    std::fs::write(inside.join("trajectory.csv"), short).unwrap();
-    let inside = inside.to_str().unwrap();
-    let says = format!("trajectory.csv:{}", lines.len());
-    refused("resume-inside", ROOM, &["--resume", inside], &says);
+    goes_on("inside", short);
 
     // A state at the horizon: nothing left to run.
     let args = ["--resume", dir, "--t-end", "0.5"];
@@ -387,7 +392,7 @@ fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
             );
         }
     };
-    // `people.csv` with person `id` marked as having left at t = 1.9 at (x, y).
+    // `people.csv` with person `id` marked as having left at t = 2 (the last frame, which lists them no more) at (x, y).
     let left_at = |people: &str, id: usize, x: f64, y: f64| -> String {
         people
             .lines()
@@ -395,7 +400,7 @@ fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
             .map(|(k, l)| {
                 if k == id + 1 {
                     let r: Vec<&str> = l.split(',').collect();
-                    format!("{id},{},1.9,{x},{y}", r[1])
+                    format!("{id},{},2,{x},{y}", r[1])
                 } else {
                     l.to_string()
                 }

@@ -19,6 +19,7 @@ mod contacts;
 mod html;
 mod people;
 mod run;
+mod saved;
 #[cfg(feature = "sqlite")]
 mod sqlite;
 mod svg;
@@ -26,10 +27,11 @@ mod walkable;
 
 pub use contacts::{pressures, ContactForce, ContactKinds, ContactWith};
 pub use html::AnimationWriter;
-pub use people::{Departure, PeopleWriter, PEOPLE_FILE};
+pub use people::{Departure, PeopleWriter, PEOPLE_FILE, PEOPLE_REWRITE_EVERY};
 pub use run::{
     run_scene, RunHooks, RunOptions, RunSceneError, SceneRun, DISAGREEMENT_FILE, LARGEST_GAP_FILE,
 };
+pub use saved::{Frame, PassedOver, SavedPerson, SavedRun, SavedRunError};
 #[cfg(feature = "sqlite")]
 pub use sqlite::{SqliteTrajectoryWriter, DEFAULT_FRAMES_PER_COMMIT, JUPEDSIM_DATABASE_VERSION};
 pub use svg::{render_svg, SnapshotWriter};

@@ -61,12 +61,22 @@ impl DepartureLog {
 
 /// Writes [`PEOPLE_FILE`]: one row per person, `id,radius,t_left,x_left,y_left`, the last
 /// three empty for who has not left. Written at the start (so that a run that dies still has
-/// the radii) and again at the end, with the departures.
+/// the radii), again after departures (at most once per [`PEOPLE_REWRITE_EVERY`] of wall-clock
+/// time, so that a run killed outright can be resumed close to where it stopped) and at the
+/// end. Each write replaces the file whole (written beside it, then renamed), so a kill
+/// never leaves half a table.
 pub struct PeopleWriter {
     path: PathBuf,
     population: Arc<Population>,
     log: DepartureLog,
+    /// When the file was last written, and whether departures came since.
+    written_at: std::time::Instant,
+    stale: bool,
 }
+
+/// The least wall-clock time between two writes of the people table during a run: a table
+/// of `n` people rewritten at every departure would cost `n²` rows over an evacuation.
+pub const PEOPLE_REWRITE_EVERY: std::time::Duration = std::time::Duration::from_secs(1);
 
 impl PeopleWriter {
     /// A writer to `path` for the people of `population`.
@@ -76,6 +86,8 @@ impl PeopleWriter {
             path: path.into(),
             population,
             log,
+            written_at: std::time::Instant::now(),
+            stale: false,
         }
     }
 
@@ -97,7 +109,9 @@ impl PeopleWriter {
         self.log.all()
     }
 
-    fn write(&self) -> Result<(), String> {
+    fn write(&mut self) -> Result<(), String> {
+        self.written_at = std::time::Instant::now();
+        self.stale = false;
         use std::fmt::Write;
         let mut text = String::from("id,radius,t_left,x_left,y_left\n");
         for (i, r) in self.population.radii().iter().enumerate() {
@@ -106,7 +120,11 @@ impl PeopleWriter {
                 None => writeln!(text, "{i},{r},,,"),
             };
         }
-        super::write_whole(&self.path, text).map_err(|e| format!("{}: {e}", self.path.display()))
+        let io = |e: std::io::Error| format!("{}: {e}", self.path.display());
+        let mut beside = self.path.clone().into_os_string();
+        beside.push(".part");
+        super::write_whole(Path::new(&beside), text).map_err(io)?;
+        std::fs::rename(&beside, &self.path).map_err(io)
     }
 }
 
@@ -121,7 +139,11 @@ impl Observer for PeopleWriter {
     }
 
     fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
-        self.log.update(&self.population, report.t, q);
+        let left = self.log.update(&self.population, report.t, q);
+        self.stale |= !left.is_empty();
+        if self.stale && self.written_at.elapsed() >= PEOPLE_REWRITE_EVERY {
+            self.write()?;
+        }
         Ok(())
     }
 

@@ -46,7 +46,8 @@ pub struct Findings {
     pub max_penetration: f64,
     /// Everything wrong beyond the tolerance (capped).
     pub problems: Vec<String>,
-    /// Present people at the last time.
+    /// People in the last frame written (a state with nobody left in the room writes no
+    /// rows: who left is in the run's `people.csv`, [`left_from_people`]).
     pub present_at_end: usize,
 }
 
@@ -255,6 +256,21 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
         f.present_at_end = present.len();
     }
     f
+}
+
+/// When each person left, read from a run's `people.csv` (`None`: still in the room, or not
+/// arrived).
+pub fn left_from_people(people: &Path) -> Vec<Option<f64>> {
+    let text =
+        std::fs::read_to_string(people).unwrap_or_else(|e| panic!("{}: {e}", people.display()));
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("id,radius,t_left,x_left,y_left"));
+    lines
+        .map(|line| {
+            let t = line.split(',').nth(2).expect("t_left");
+            (!t.is_empty()).then(|| t.parse().expect("t_left"))
+        })
+        .collect()
 }
 
 /// A fresh directory under the system's temporary directory.
