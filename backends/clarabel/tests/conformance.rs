@@ -34,6 +34,7 @@ fn agrees_with_reference_on_random_instances() {
             m_spread: 80,
             kkt: 1e-7,
             gap: 1e-6,
+            weighted: false,
         },
         |_| Ok(()),
     )

@@ -53,6 +53,7 @@ fn agrees_with_clarabel_on_random_instances_without_fallback() {
             m_spread: 80,
             kkt: 1e-10,
             gap: 1e-8,
+            weighted: false,
         },
         |sol| match sol.stats.counters.fallbacks {
             0 => Ok(()),
@@ -100,6 +101,7 @@ fn interior_point_answers_agree_with_clarabel_on_random_instances() {
             m_spread: 80,
             kkt: 1e-10,
             gap: 1e-8,
+            weighted: false,
         },
         |sol| {
             interior += sol.stats.counters.escalations;

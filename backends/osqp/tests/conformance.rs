@@ -71,6 +71,7 @@ fn agrees_with_reference_on_random_instances() {
             m_spread: 60,
             kkt: tolerance,
             gap: 1e-6,
+            weighted: false,
         },
         |_| Ok(()),
     )
