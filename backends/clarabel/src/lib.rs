@@ -9,7 +9,9 @@
 //! Clarabel solves `min ½ uᵀPu + qᵀu s.t. G u + s = h, s ∈ K`. The projection is handed to it
 //! in the **displacement** `d = x − y`: `P = I`, `q = 0`, `G = −A`, `h = A y − b`, cone
 //! `ℝᵐ₊`; then `x = y + d`, the cone's dual variable is the vector of multipliers `λ`
-//! (stationarity reads `d = Aᵀλ`) and the slack is `A x − b`. Written in `x`, the cost
+//! (stationarity reads `d = Aᵀλ`) and the slack is `A x − b`. A problem in a metric `W` has
+//! `P = W`; its equality rows (the leading ones) have their slacks in the zero cone, and
+//! their multipliers have either sign. Written in `x`, the cost
 //! `½‖x‖² − yᵀx` is dominated by `‖y‖²` when the configuration lies far from the origin (crowds
 //! sit at coordinates ~10²), and Clarabel's relative duality-gap rule stops while the point is
 //! still visibly off; in `d` the cost is the squared step itself.
@@ -31,7 +33,8 @@
 //! the dual of the projection finishes the job from the interior-point answer, block by block
 //! (connected components of the rows, each under its own cap of iterations; each step one
 //! sparse `LDLᵀ` factorization in QDLDL's arithmetic; linearly dependent active rows are
-//! handled). **KKT acceptance:** the polished answer replaces the interior-point one when its
+//! handled); it works in the identity metric on inequalities, so a problem with a metric or
+//! equality rows keeps the interior point's answer. **KKT acceptance:** the polished answer replaces the interior-point one when its
 //! KKT residuals are no larger, or below a hundredth of [`ClarabelSettings::kkt_tolerance`];
 //! a solve that stops short (iteration limit, insufficient progress) is kept only if its KKT
 //! residuals are within tolerance. Measurements, with the commands that reproduce them:
@@ -70,7 +73,7 @@ use clarabel::solver::{
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use sweeping_api::{
-    BackendCounters, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats,
+    BackendCounters, Metric, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats,
     SolveStatus,
 };
 
@@ -409,6 +412,37 @@ fn negated_csc(problem: &ProjectionProblem) -> (CscMatrix<f64>, Vec<bool>) {
     (CscMatrix::new(m, n, colptr, rowval, nzval), nonzero_row)
 }
 
+/// `P = W`, its upper triangle compressed by columns (Clarabel reads only that triangle).
+fn metric_csc(metric: &Metric, n: usize) -> CscMatrix<f64> {
+    match metric {
+        Metric::Identity => CscMatrix::identity(n),
+        Metric::Diagonal(w) => CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), w.clone()),
+        Metric::Symmetric(w) => {
+            // Column j of the upper triangle is row j's part left of the diagonal (W is
+            // symmetric), rows sorted and repeats summed.
+            let mut colptr = vec![0];
+            let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
+            for j in 0..n {
+                let mut entries: Vec<(usize, f64)> = w.row(j).filter(|&(i, _)| i <= j).collect();
+                entries.sort_by_key(|&(i, _)| i);
+                let start = rowval.len();
+                for (i, v) in entries {
+                    if rowval.len() > start && rowval.last() == Some(&i) {
+                        if let Some(last) = nzval.last_mut() {
+                            *last += v;
+                        }
+                    } else {
+                        rowval.push(i);
+                        nzval.push(v);
+                    }
+                }
+                colptr.push(rowval.len());
+            }
+            CscMatrix::new(n, n, colptr, rowval, nzval)
+        }
+    }
+}
+
 fn status_name(status: SolverStatus) -> String {
     format!("{status:?}")
 }
@@ -441,12 +475,17 @@ impl Projector for ClarabelProjector {
                 h[i]
             )));
         }
-        let violation = h.iter().fold(0.0, |worst: f64, hi| worst.max(-hi));
+        let k = problem.equalities();
+        let violation = h.iter().enumerate().fold(0.0, |worst: f64, (i, hi)| {
+            worst.max(if i < k { hi.abs() } else { -hi })
+        });
         if m == 0 || violation <= self.settings.tol_feas {
             return Ok(Projection::identity(problem, NAME));
         }
         let (g, nonzero_row) = negated_csc(problem);
-        if let Some(r) = (0..m).find(|&r| !nonzero_row[r] && problem.b()[r] > 0.0) {
+        if let Some(r) = (0..m).find(|&r| {
+            !nonzero_row[r] && (problem.b()[r] > 0.0 || (r < k && problem.b()[r] != 0.0))
+        }) {
             return Err(ProjectionError::Infeasible {
                 backend: NAME.to_string(),
                 detail: format!(
@@ -456,9 +495,16 @@ impl Projector for ClarabelProjector {
                 rows: vec![r],
             });
         }
-        let p = CscMatrix::identity(n);
+        let p = metric_csc(problem.metric(), n);
         let q = vec![0.0; n];
-        let cones = [SupportedConeT::NonnegativeConeT(m)];
+        // Equality rows are the leading ones: their slacks lie in the zero cone.
+        let cones: Vec<SupportedConeT<f64>> = [
+            (k > 0).then_some(SupportedConeT::ZeroConeT(k)),
+            (m > k).then_some(SupportedConeT::NonnegativeConeT(m - k)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
         let mut solver = DefaultSolver::new(&p, &q, &g, &h, &cones, settings)
             .map_err(|e| Self::backend_error(format!("set-up failed: {e}")))?;
         let setup_seconds = setup_start.elapsed().as_secs_f64();
@@ -505,6 +551,14 @@ impl Projector for ClarabelProjector {
         let clamp = self.tolerance();
         let mut multipliers = Vec::with_capacity(m);
         for (i, &z) in solution.z.iter().enumerate() {
+            if i < k {
+                // An equality's multiplier has either sign.
+                if !z.is_finite() {
+                    return Err(malformed(format!("multiplier {i} = {z} is not finite")));
+                }
+                multipliers.push(z);
+                continue;
+            }
             if !z.is_finite() || z < -clamp {
                 return Err(malformed(format!(
                     "multiplier {i} = {z} is not a finite non-negative number"
@@ -514,7 +568,10 @@ impl Projector for ClarabelProjector {
         }
         let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
         let mut unfinished = (0, 0.0);
-        if self.settings.polish {
+        // The polish is an active set in the identity metric on inequalities: a problem with
+        // a metric or equality rows keeps the interior point's answer.
+        let plain = problem.metric().is_identity() && k == 0;
+        if self.settings.polish && plain {
             let mut polish_used = false;
             if let Some(polish::Polished {
                 x: px,

@@ -43,6 +43,26 @@ fn agrees_with_reference_on_random_instances() {
 }
 
 #[test]
+fn agrees_with_reference_on_weighted_instances_with_equalities() {
+    let compared = agreement_on_random_instances(
+        &mut ClarabelProjector::default(),
+        &mut ReferenceProjector::default(),
+        &Agreement {
+            first_seed: 1500,
+            instances: 80,
+            n_spread: 30,
+            m_spread: 40,
+            kkt: 1e-7,
+            gap: 1e-6,
+            weighted: true,
+        },
+        |_| Ok(()),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(compared >= 70, "only {compared} instances compared");
+}
+
+#[test]
 fn cross_check_with_reference_passes() {
     let mut both = CrossCheck::new(
         ClarabelProjector::default(),
