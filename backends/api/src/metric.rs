@@ -59,6 +59,48 @@ impl Metric {
         }
     }
 
+    /// `W`'s upper triangle for `n` unknowns, compressed by columns with sorted row indices
+    /// and repeats summed, as `(col_ptr, row_idx, values)`: the form in which Clarabel and
+    /// OSQP take the quadratic cost `P`.
+    ///
+    /// ```
+    /// use sweeping_api::{Metric, SparseRows};
+    /// let w = SparseRows::from_rows(2, &[vec![(1, -1.0), (0, 2.0)], vec![(0, -1.0), (1, 2.0)]]);
+    /// let (ptr, idx, val) = Metric::Symmetric(w).upper_triangle_csc(2);
+    /// assert_eq!((ptr, idx, val), (vec![0, 1, 3], vec![0, 0, 1], vec![2.0, -1.0, 2.0]));
+    /// assert_eq!(Metric::Identity.upper_triangle_csc(2).2, vec![1.0, 1.0]);
+    /// ```
+    pub fn upper_triangle_csc(&self, n: usize) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+        match self {
+            Metric::Identity => ((0..=n).collect(), (0..n).collect(), vec![1.0; n]),
+            Metric::Diagonal(w) => ((0..=n).collect(), (0..n).collect(), w.clone()),
+            Metric::Symmetric(w) => {
+                // Column j of the upper triangle is row j's part left of the diagonal (W is
+                // symmetric).
+                let mut col_ptr = vec![0];
+                let (mut row_idx, mut values) = (Vec::new(), Vec::new());
+                for j in 0..n {
+                    let mut entries: Vec<(usize, f64)> =
+                        w.row(j).filter(|&(i, _)| i <= j).collect();
+                    entries.sort_by_key(|&(i, _)| i);
+                    let start = row_idx.len();
+                    for (i, v) in entries {
+                        if row_idx.len() > start && row_idx.last() == Some(&i) {
+                            if let Some(last) = values.last_mut() {
+                                *last += v;
+                            }
+                        } else {
+                            row_idx.push(i);
+                            values.push(v);
+                        }
+                    }
+                    col_ptr.push(row_idx.len());
+                }
+                (col_ptr, row_idx, values)
+            }
+        }
+    }
+
     /// Checks that the metric fits a problem of dimension `n` and is symmetric positive
     /// definite, and returns its Cholesky factor (`None` for the identity).
     ///

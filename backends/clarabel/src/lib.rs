@@ -414,33 +414,8 @@ fn negated_csc(problem: &ProjectionProblem) -> (CscMatrix<f64>, Vec<bool>) {
 
 /// `P = W`, its upper triangle compressed by columns (Clarabel reads only that triangle).
 fn metric_csc(metric: &Metric, n: usize) -> CscMatrix<f64> {
-    match metric {
-        Metric::Identity => CscMatrix::identity(n),
-        Metric::Diagonal(w) => CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), w.clone()),
-        Metric::Symmetric(w) => {
-            // Column j of the upper triangle is row j's part left of the diagonal (W is
-            // symmetric), rows sorted and repeats summed.
-            let mut colptr = vec![0];
-            let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
-            for j in 0..n {
-                let mut entries: Vec<(usize, f64)> = w.row(j).filter(|&(i, _)| i <= j).collect();
-                entries.sort_by_key(|&(i, _)| i);
-                let start = rowval.len();
-                for (i, v) in entries {
-                    if rowval.len() > start && rowval.last() == Some(&i) {
-                        if let Some(last) = nzval.last_mut() {
-                            *last += v;
-                        }
-                    } else {
-                        rowval.push(i);
-                        nzval.push(v);
-                    }
-                }
-                colptr.push(rowval.len());
-            }
-            CscMatrix::new(n, n, colptr, rowval, nzval)
-        }
-    }
+    let (col_ptr, row_idx, values) = metric.upper_triangle_csc(n);
+    CscMatrix::new(n, n, col_ptr, row_idx, values)
 }
 
 fn status_name(status: SolverStatus) -> String {
