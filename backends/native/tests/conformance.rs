@@ -65,6 +65,38 @@ fn agrees_with_clarabel_on_random_instances_without_fallback() {
     assert_eq!(compared, 200);
 }
 
+/// Weighted instances with equality rows (the engine solves them in `z = Lᵀx`, equalities as
+/// pairs of inequalities), by the active set and by the interior point alone: the KKT
+/// conditions in `W` with free-sign multipliers, and agreement with Clarabel (`P = W`, zero
+/// cone).
+#[test]
+fn weighted_instances_with_equalities_agree_with_clarabel() {
+    for active_set_iterations in [48, 0] {
+        let compared = agreement_on_random_instances(
+            &mut NativeProjector::new(NativeSettings {
+                active_set_iterations,
+                ..NativeSettings::default()
+            }),
+            &mut ClarabelProjector::default(),
+            &Agreement {
+                first_seed: 9000,
+                instances: 120,
+                n_spread: 40,
+                m_spread: 60,
+                kkt: 1e-9,
+                gap: 1e-6,
+                weighted: true,
+            },
+            |sol| match sol.stats.counters.fallbacks {
+                0 => Ok(()),
+                k => Err(format!("{k} fallbacks")),
+            },
+        )
+        .unwrap_or_else(|e| panic!("active set iterations {active_set_iterations}: {e}"));
+        assert_eq!(compared, 120);
+    }
+}
+
 /// The kit with the active set's warm attempt off, so that every block goes to the interior
 /// point (and its finish): the same KKT tolerance, and points within `1e-6`, the measure of
 /// an interior point accepted short of its tolerance (it stalls from a `y` already on the
