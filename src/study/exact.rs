@@ -10,6 +10,11 @@
 //!   of radius `R`, sliding around it and leaving it at its top (derived below): a curved,
 //!   non-convex constraint, where the linearization matters.
 //!
+//! * [`MassesAgainstMovingWall`] — a point with masses `(m₁, m₂)` pushed by a moving wall,
+//!   projected in the metric `W = diag(m)`: the reaction moves it along `W⁻¹n`.
+//! * [`PointOnMovingCircle`] — a point held on a moving circle by an equality constraint,
+//!   sliding round it (`tan(θ/2) = tan(θ₀/2) e^{−wt/R}`).
+//!
 //! [`true_error_study`] measures `|q(tᵢ) − qⁿ(tᵢ)|` with the paper's protocol and the sup
 //! over `[t₀, T]` of `|q(t) − qⁿ(t)|`, in the same [`ConvergenceReport`] form as
 //! [`super::converge`].
@@ -22,6 +27,11 @@ use crate::constraint::{ConstraintKernel, KernelFamily};
 use crate::problem::Problem;
 use crate::stepper::{StepperSettings, Trajectory};
 use num_dual::DualNum;
+
+mod weighted;
+pub use weighted::{
+    MassesAgainstMovingWall, ObliqueWallKernel, OnMovingCircleKernel, PointOnMovingCircle,
+};
 
 /// A sweeping process with a known solution.
 ///
@@ -355,12 +365,14 @@ impl ExactCase for PointAroundDisk {
     }
 }
 
-/// The three cases above with their default parameters.
+/// The cases above with their default parameters.
 pub fn standard_cases() -> Vec<Box<dyn ExactCase>> {
     vec![
         Box::new(TwoDisksOnALine::default()),
         Box::new(PointBehindMovingWall::default()),
         Box::new(PointAroundDisk::default()),
+        Box::new(MassesAgainstMovingWall::default()),
+        Box::new(PointOnMovingCircle::default()),
     ]
 }
 

@@ -379,6 +379,12 @@ impl MetricChange {
         &self.problem
     }
 
+    /// A point in the new variables, `z = Lᵀx` (to start a solver of [`Self::problem`] from
+    /// a known `x`).
+    pub fn point(&self, x: &[f64]) -> Vec<f64> {
+        self.factor.mul_lt(x)
+    }
+
     /// The answer in `x = L⁻ᵀz` from an answer of [`Self::problem`]; the multipliers and the
     /// statistics are kept.
     pub fn answer(&self, mut z: Projection) -> Projection {
@@ -458,6 +464,39 @@ impl EqualityPairs {
     /// The problem in inequalities.
     pub fn problem(&self) -> &ProjectionProblem {
         &self.problem
+    }
+
+    /// One value per row of [`Self::problem`] from one per row of the original problem:
+    /// `positive` of it on the original rows, `mirror` of the equality's value on the
+    /// appended ones. Multipliers split as `(λ⁺, λ⁻)` with `positive = max(·, 0)` and
+    /// `mirror = max(−·, 0)`; slacks are copied (`|x| → x`).
+    ///
+    /// ```
+    /// use sweeping_api::{EqualityPairs, ProjectionProblem, SparseRows};
+    /// let a = SparseRows::from_rows(1, &[vec![(0, 1.0)], vec![(0, 1.0)]]);
+    /// let p = ProjectionProblem::new(vec![0.0], a, vec![1.0, 0.0]).unwrap()
+    ///     .with_leading_equalities(1).unwrap();
+    /// let pairs = EqualityPairs::new(&p).unwrap().unwrap();
+    /// let split = pairs.per_row(&[-2.0, 3.0], |l| l.max(0.0), |l| (-l).max(0.0));
+    /// assert_eq!(split, vec![0.0, 3.0, 2.0]);
+    /// ```
+    pub fn per_row(
+        &self,
+        values: &[f64],
+        positive: impl Fn(f64) -> f64,
+        mirror: impl Fn(f64) -> f64,
+    ) -> Vec<f64> {
+        self.origin
+            .iter()
+            .enumerate()
+            .map(|(t, &r)| {
+                if t < self.rows {
+                    positive(values[r])
+                } else {
+                    mirror(values[r])
+                }
+            })
+            .collect()
     }
 
     /// The answer of the original problem: the point, and each equality's multiplier as the

@@ -34,7 +34,8 @@
 //! (connected components of the rows, each under its own cap of iterations; each step one
 //! sparse `LDLᵀ` factorization in QDLDL's arithmetic; linearly dependent active rows are
 //! handled); it works in the identity metric on inequalities, so a problem with a metric or
-//! equality rows keeps the interior point's answer. **KKT acceptance:** the polished answer replaces the interior-point one when its
+//! equality rows is polished in `z = Lᵀx` with each equality as a pair of opposite
+//! inequalities, and said back in `x`. **KKT acceptance:** the polished answer replaces the interior-point one when its
 //! KKT residuals are no larger, or below a hundredth of [`ClarabelSettings::kkt_tolerance`];
 //! a solve that stops short (iteration limit, insufficient progress) is kept only if its KKT
 //! residuals are within tolerance. Measurements, with the commands that reproduce them:
@@ -544,20 +545,25 @@ impl Projector for ClarabelProjector {
         let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
         let mut unfinished = (0, 0.0);
         // The polish is an active set in the identity metric on inequalities: a problem with
-        // a metric or equality rows keeps the interior point's answer.
+        // a metric or equality rows is polished in z = Lᵀx with its equalities as pairs.
         let plain = problem.metric().is_identity() && k == 0;
-        if self.settings.polish && plain {
+        if self.settings.polish {
             let mut polish_used = false;
+            let polished = if plain {
+                polish::polish(problem, &x, &solution.z, &solution.s)
+            } else {
+                polish::polish_general(problem, &x, &solution.z, &solution.s)
+            };
             if let Some(polish::Polished {
                 x: px,
                 lambda: mut pl,
                 unfinished: left,
-            }) = polish::polish(problem, &x, &solution.z, &solution.s)
+            }) = polished
             {
                 // Tiny negative multipliers of weakly active rows are clamped as above; a
-                // larger one disqualifies the polished answer.
-                let valid = pl.iter().all(|l| *l >= -clamp);
-                pl.iter_mut().for_each(|l| *l = l.max(0.0));
+                // larger one disqualifies the polished answer (an equality's has no sign).
+                let valid = pl[k..].iter().all(|l| *l >= -clamp);
+                pl[k..].iter_mut().for_each(|l| *l = l.max(0.0));
                 let polished = problem.kkt_residuals(&px, &pl).max();
                 // Small KKT residuals of the interior-point iterate do not make its point
                 // accurate (weakly active rows leave it off by ~√gap), so the polished answer
@@ -577,8 +583,13 @@ impl Projector for ClarabelProjector {
             // which says so, as one (a problem without rows returned `y` above).
             if !polish_used {
                 // Slacks of the point itself (Clarabel's cone slacks are never negative).
+                // An equality row is off by its |slack|, whatever its multiplier.
                 let slack = problem.shortfall(&x).into_iter().map(|r| -r);
-                let off = polish::iterate_off(multipliers.iter().copied().zip(slack));
+                let rows = multipliers.iter().copied().zip(slack).enumerate();
+                let off =
+                    polish::iterate_off(
+                        rows.map(|(i, (l, s))| if i < k { (0.0, -s.abs()) } else { (l, s) }),
+                    );
                 unfinished = (1, off);
             }
         }

@@ -53,7 +53,7 @@ fn agrees_with_reference_on_weighted_instances_with_equalities() {
             n_spread: 30,
             m_spread: 40,
             kkt: 1e-7,
-            gap: 1e-6,
+            gap: 1e-8,
             weighted: true,
         },
         |_| Ok(()),
