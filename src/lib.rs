@@ -107,4 +107,6 @@ pub mod guide_doctests {
     pub struct Theory;
     #[doc = include_str!("../docs/guide/src/development.md")]
     pub struct Development;
+    #[doc = include_str!("../docs/guide/src/metric-and-equalities.md")]
+    pub struct MetricAndEqualities;
 }
