@@ -390,7 +390,7 @@ impl Problem {
         for fam in &self.equalities {
             for member in 0..fam.count() {
                 let h = fam.value(member, self.t0, &self.q0, &mut row);
-                if !(h.abs() <= tolerance) {
+                if h.is_nan() || h.abs() > tolerance {
                     // Listed by −|h|, with the orders of the inequalities' violations.
                     violations.push(Violation {
                         constraint: format!("equality {} (h = {h:.3e})", fam.describe(member)),

@@ -393,9 +393,9 @@ pub fn random_instance(seed: u64, n: usize, m: usize) -> ProjectionProblem {
 /// equalities through the known feasible point. Shared by the kit and the backends' tests.
 pub fn random_weighted_instance(seed: u64, n: usize, m: usize) -> ProjectionProblem {
     let base = random_instance(seed, n, m);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_0f_3e7c);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_f3e7);
     let masses: Vec<f64> = (0..n).map(|_| rng.gen_range(0.5..4.0)).collect();
-    let metric = if seed % 2 == 0 {
+    let metric = if seed.is_multiple_of(2) {
         Metric::Diagonal(masses)
     } else {
         let mut dense = vec![vec![0.0; n]; n];

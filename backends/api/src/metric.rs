@@ -262,7 +262,8 @@ impl Factor {
                     factor.values[slot] = (wij(j) - dot) / factor.at(j, j);
                 } else {
                     let pivot = wij(i) - dot;
-                    if !(pivot > PIVOT * wij(i).abs()) || !pivot.is_finite() {
+                    let positive = pivot.is_finite() && pivot > PIVOT * wij(i).abs();
+                    if !positive {
                         return Err(format!(
                             "not positive definite (the Cholesky pivot of row {i} is {pivot:.3e})"
                         ));
@@ -576,17 +577,13 @@ mod tests {
         let w = banded(9);
         let f = Metric::Symmetric(w.clone()).validate(9).unwrap().unwrap();
         let d = dense(&w);
-        for i in 0..9 {
-            for j in 0..=i {
+        for (i, row) in d.iter().enumerate() {
+            for (j, &dij) in row.iter().enumerate().take(i + 1) {
                 let llt: f64 = (0..=j)
                     .filter(|&k| k >= f.first[i] && k >= f.first[j])
                     .map(|k| f.at(i, k) * f.at(j, k))
                     .sum();
-                assert!(
-                    (llt - d[i][j]).abs() < 1e-13,
-                    "({i}, {j}): {llt} vs {}",
-                    d[i][j]
-                );
+                assert!((llt - dij).abs() < 1e-13, "({i}, {j}): {llt} vs {dij}");
             }
         }
         let x: Vec<f64> = (0..9).map(|i| (i as f64 * 0.7).sin()).collect();

@@ -172,8 +172,9 @@ impl ConstraintKernel<2> for OnMovingCircleKernel {
 /// the tangential part of `f − c' = (w, 0)`: `R θ' = −w sin θ`, whence
 /// `tan(θ/2) = tan(θ₀/2) e^{−w t/R}`: the point slides round to the circle's front (`θ → 0`).
 /// The constraint is not affine: the scheme projects onto the tangent line at `q_k`, leaves
-/// the circle by `O(h²)` per step (measured, [`StepReport::max_equality_residual`]
-/// (crate::stepper::StepReport::max_equality_residual)) and corrects it at the next step.
+/// the circle by `O(h²)` per step (measured,
+/// [`StepReport::max_equality_residual`](crate::stepper::StepReport::max_equality_residual))
+/// and corrects it at the next step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointOnMovingCircle {
     /// Radius `R`.
