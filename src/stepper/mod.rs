@@ -114,7 +114,7 @@ pub struct Stepper<'p> {
     row_origin: Vec<(usize, usize)>,
     /// How many leading rows are equalities.
     equality_rows: usize,
-    /// `‖W‖∞` (1 for the identity): the scale of `W(x − y)` in the KKT check.
+    /// `max(1, ‖W‖∞)`: the scale of `W(x − y)` in the KKT check.
     metric_scale: f64,
     /// `|∇gᵢ|` of each assembled row, for the A1 check on the active ones.
     row_norms: Vec<f64>,
@@ -263,16 +263,19 @@ impl<'p> Stepper<'p> {
     }
 }
 
-/// `‖W‖∞`, the largest absolute row sum of the metric (1 for the identity).
+/// `max(1, ‖W‖∞)`, with `‖W‖∞` the largest absolute row sum of the metric: `W(x − y)` is up
+/// to that times the displacement, and a small `W` does not ask more of a backend's absolute
+/// accuracy than the identity does (1 for the identity).
 fn metric_scale(metric: &sweeping_api::Metric) -> f64 {
     use sweeping_api::Metric;
-    match metric {
+    let norm = match metric {
         Metric::Identity => 1.0,
         Metric::Diagonal(w) => w.iter().fold(0.0, |m: f64, v| m.max(v.abs())),
         Metric::Symmetric(w) => (0..w.n_rows())
             .map(|r| w.row(r).map(|(_, v)| v.abs()).sum::<f64>())
             .fold(0.0, f64::max),
-    }
+    };
+    norm.max(1.0)
 }
 
 #[cfg(test)]

@@ -351,17 +351,24 @@ impl MetricChange {
         let a = problem.a();
         let n = problem.dim();
         let mut rows = SparseRows::with_capacity(n, a.n_rows(), a.nnz());
-        let mut v = vec![0.0; n];
-        for r in 0..a.n_rows() {
-            // Row r of A L⁻ᵀ is (L⁻¹ aᵣ)ᵀ; zero up to the row's first column.
-            let Some(from) = a.row(r).filter(|(_, x)| *x != 0.0).map(|(c, _)| c).min() else {
-                rows.push_row(std::iter::empty());
-                continue;
-            };
-            v[from..].iter_mut().for_each(|x| *x = 0.0);
-            a.row(r).for_each(|(c, x)| v[c] += x);
-            factor.solve_l(&mut v, from);
-            rows.push_row((from..n).filter(|&c| v[c] != 0.0).map(|c| (c, v[c])));
+        if let Metric::Diagonal(_) = problem.metric() {
+            // L = diag(√w): each column scaled, the rows' sparsity kept.
+            for r in 0..a.n_rows() {
+                rows.push_row(a.row(r).map(|(c, x)| (c, x / factor.at(c, c))));
+            }
+        } else {
+            let mut v = vec![0.0; n];
+            for r in 0..a.n_rows() {
+                // Row r of A L⁻ᵀ is (L⁻¹ aᵣ)ᵀ; zero up to the row's first column.
+                let Some(from) = a.row(r).filter(|(_, x)| *x != 0.0).map(|(c, _)| c).min() else {
+                    rows.push_row(std::iter::empty());
+                    continue;
+                };
+                v[from..].iter_mut().for_each(|x| *x = 0.0);
+                a.row(r).for_each(|(c, x)| v[c] += x);
+                factor.solve_l(&mut v, from);
+                rows.push_row((from..n).filter(|&c| v[c] != 0.0).map(|c| (c, v[c])));
+            }
         }
         let y = factor.mul_lt(problem.y());
         let mut changed = ProjectionProblem::new(y, rows, problem.b().to_vec())?
