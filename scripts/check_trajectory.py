@@ -4,17 +4,19 @@
 usage: python3 scripts/check_trajectory.py SCENE.toml OUTDIR [--tol 1e-9]
 
 Reads the scene file (room, exits, obstacles and their motion, people and crowds) and the
-run's `trajectory.csv` and `summary.json`, and recomputes at every recorded frame: overlaps
-of people, penetrations of walls and obstacles (of obstacles on a path also at each waypoint
-between two frames, against both frames' positions), people outside the room not through an exit,
-non-finite numbers, people who came back after leaving, the largest speed between frames;
-then compares the summary's counts, times and largest overlap and penetration with what the
-trajectory shows. Standard library only (Python 3.11 or later, for tomllib).
+run's `trajectory.csv`, `people.csv` and `summary.json`, and recomputes at every recorded
+frame: overlaps of people, penetrations of walls and obstacles (of obstacles on a path also at
+each waypoint between two frames, against both frames' positions), people written outside the
+room (the trajectory writes only people present: their disk not wholly outside), non-finite
+numbers, people who came back after leaving (written again after a frame without them), the
+largest speed between frames; compares who is missing from each frame with the departures of
+`people.csv` (each one wholly outside the room); then compares the summary's counts, times and
+largest overlap and penetration with what the trajectory shows. Standard library only
+(Python 3.11 or later, for tomllib).
 
 People are numbered as `sweep run` numbers them: the `[[people]]` first, then each crowd in
-order. A crowd with a range of radii draws them at random and no output records them, so
-they are read back from the first snapshot (`snapshots/t0000.00.svg`, four digits): a
-check of such a scene is good to about 1e-4, and says so.
+order. Their radii are read from `people.csv`, and checked against the scene's where it gives
+them (a crowd with a range of radii draws them at random: they must lie in the range).
 
 Prints what it found; exits with 1 when a flag is raised (anything beyond `--tol`, or a
 summary that disagrees with the trajectory), 0 otherwise.
@@ -163,29 +165,40 @@ def obstacle_gap(p, r, ob, t):
 
 
 # ---------- people radii and speeds
-radii, speeds = [], []
+scene_radii, speeds = [], []
 for p in sc.get('people', []):
-    radii.append(p['radius']); speeds.append(p.get('speed', 1.0))
-svg_radii = None
+    scene_radii.append((p['radius'], p['radius'])); speeds.append(p.get('speed', 1.0))
 for c in sc.get('crowds', []):
     r = c['radius']
-    if isinstance(r, list):
-        if svg_radii is None:
-            f = os.path.join(out, 'snapshots', 't0000.00.svg')
-            svg_radii = [float(m) for m in re.findall(r'<circle[^>]* r="([0-9.eE+-]+)" fill="#3b75af', open(f).read())]
-        radii.extend([None] * c['count'])
-    else:
-        radii.extend([r] * c['count'])
-    speeds.extend([c.get('speed', 1.0)] * c['count'])
-if svg_radii is not None and len(svg_radii) == len(radii):
-    radii = [r if r is not None else s for r, s in zip(radii, svg_radii)]
-    print('note: ranged radii read from the first snapshot (4 digits): good to about 1e-4,'
-          ' so nothing below 2e-4 is flagged')
-    TOL = max(TOL, 2e-4)
-elif svg_radii is not None:
-    radii = [r if r is not None else 1e-9 for r in radii]
-    print('could not read the ranged radii from the first snapshot'); sys.exit(2)
-N = len(radii)
+    lo, hi = (r[0], r[1]) if isinstance(r, list) else (r, r)
+    scene_radii.extend([(lo, hi)] * c['count'])
+    sp = c.get('speed', 1.0)
+    speeds.extend([sp if isinstance(sp, (int, float)) else float('nan')] * c['count'])
+N = len(scene_radii)
+flags = []
+radii, departures = [], []
+with open(os.path.join(out, 'people.csv')) as f:
+    rd = csv.reader(f)
+    hdr = next(rd)
+    assert hdr == ['id', 'radius', 't_left', 'x_left', 'y_left'], hdr
+    for k, (i, r, tl, xl, yl) in enumerate(rd):
+        assert int(i) == k, (i, k)
+        radii.append(float(r))
+        departures.append((float(tl), float(xl), float(yl)) if tl else None)
+if len(radii) != N:
+    print(f'people.csv lists {len(radii)} people, the scene {N}'); flags.append('PEOPLE_COUNT')
+    radii = (radii + [max(radii or [0.0])] * N)[:N]
+    departures = (departures + [None] * N)[:N]
+for i, (r, (lo, hi)) in enumerate(zip(radii, scene_radii)):
+    if not (lo - 1e-12 <= r <= hi + 1e-12):
+        print(f'person {i}: radius {r} in people.csv, the scene gives [{lo}, {hi}]')
+        flags.append('RADIUS'); break
+for i, d in enumerate(departures):
+    if d is not None:
+        _, xl, yl = d
+        if inside_poly((xl, yl), poly) or dist_to_boundary((xl, yl), poly) < radii[i] - 1e-9:
+            print(f'person {i} left at ({xl}, {yl}), where their disk is not wholly outside the room')
+            flags.append('LEFT_INSIDE'); break
 
 # ---------- read trajectory
 rows = defaultdict(dict)
@@ -194,25 +207,33 @@ ids = set()
 with open(os.path.join(out, 'trajectory.csv')) as f:
     rd = csv.reader(f)
     hdr = next(rd)
-    assert hdr == ['t', 'id', 'x', 'y', 'present'], hdr
+    assert hdr in (['t', 'id', 'x', 'y'], ['t', 'id', 'x', 'y', 'pressure']), hdr
     for line in rd:
-        t, i, x, y, pr = line
+        t, i, x, y = line[:4]
         tf, xf, yf = float(t), float(x), float(y)
         for v, nm in ((tf, 't'), (xf, 'x'), (yf, 'y')):
             if not math.isfinite(v):
                 bad.append((t, i, nm, v))
-        rows[tf][int(i)] = (xf, yf, int(pr))
+        rows[tf][int(i)] = (xf, yf, 1)
         ids.add(int(i))
 times = sorted(rows)
 print(f'frames {len(times)}, t {times[0] if times else None}..{times[-1] if times else None}, ids {len(ids)}, scene people {N}')
 if bad:
     print(f'NON-FINITE values: {len(bad)}, first {bad[:3]}')
-if ids and (min(ids) != 0 or max(ids) != N - 1 or len(ids) != N):
-    print(f'ID MISMATCH: ids {sorted(ids)[:5]}..{max(ids)} vs N={N}')
+if ids and (min(ids) < 0 or max(ids) > N - 1):
+    print(f'ID MISMATCH: ids {sorted(ids)[:5]}..{max(ids)} vs N={N}'); flags.append('IDS')
+# Who is missing from a frame has left by then, as people.csv says, and who is written has not.
 for t in times:
-    if len(rows[t]) != len(ids):
-        print(f'frame t={t} has {len(rows[t])} rows, expected {len(ids)}')
-        break
+    for i in range(N):
+        d = departures[i]
+        gone = d is not None and d[0] <= t + 1e-9 * max(1.0, abs(t))
+        if (i in rows[t]) == gone:
+            print(f'frame t={t}: person {i} is {"written" if gone else "missing"}, people.csv says '
+                  f'{"they left at t=" + str(d[0]) if gone else "they had not left"}')
+            flags.append('DEPARTURES'); break
+    else:
+        continue
+    break
 
 # ---------- checks
 worst_ov = (0.0, None)
@@ -227,16 +248,12 @@ first_empty = None
 maxr = max(radii) if radii else 0
 for t in times:
     fr = rows[t]
-    pres = [(i, x, y) for i, (x, y, p) in fr.items() if p == 1]
-    for i, (x, y, p) in fr.items():
-        if p == 0:
-            left_ever.add(i)
-        elif i in left_ever:
+    pres = [(i, x, y) for i, (x, y, p) in fr.items()]
+    for i in fr:
+        if i in left_ever:
             relapse.append((t, i))
-        if p == 0 and math.isfinite(x) and math.isfinite(y):
-            # left: disk wholly outside the room?
-            if inside_poly((x, y), poly) and dist_to_boundary((x, y), poly) > 1e-9:
-                outside_present = max(outside_present, (dist_to_boundary((x, y), poly), f'left person {i} has centre inside room at t={t}'), key=lambda z: z[0])
+    if prev is not None:
+        left_ever.update(i for i in prev[1] if i not in fr)
     # pairs via grid
     cell = 2 * maxr if maxr > 0 else 1.0
     grid = defaultdict(list)
@@ -269,6 +286,9 @@ for t in times:
             pen = -obstacle_gap((x, y), r, ob, t)
             if pen > worst_obs[0]:
                 worst_obs = (pen, f'person {i} obstacle #{k} at t={t}')
+        # a person written is present: their disk is not wholly outside the room
+        if not inside_poly((x, y), poly) and dist_to_boundary((x, y), poly) >= r:
+            outside_present = max(outside_present, (dist_to_boundary((x, y), poly), f'person {i} written wholly outside the room at t={t} ({x},{y})'), key=lambda z: z[0])
         # a present person's centre must be in the room or beyond an exit
         if not inside_poly((x, y), poly):
             d = dist_to_boundary((x, y), poly)
@@ -313,8 +333,7 @@ print(f'max obstacle pen.  {worst_obs[0]:.3e}  {worst_obs[1]}')
 print(f'outside/left issue {outside_present[0]:.3e}  {outside_present[1]}')
 print(f'max speed seen     {worst_disp[0]:.6g}  {worst_disp[1]}  (max desired speed {max(speeds) if speeds else None})')
 if relapse:
-    print(f'RELAPSE (present after left): {relapse[:5]}')
-flags = []
+    print(f'RELAPSE (written again after leaving): {relapse[:5]}')
 if worst_ov[0] > TOL: flags.append('OVERLAP')
 if worst_wall[0] > TOL: flags.append('WALL')
 if worst_obs[0] > TOL: flags.append('OBSTACLE')
@@ -330,7 +349,7 @@ if os.path.exists(sp):
         print('summary.json contains NaN/Infinity tokens'); flags.append('SUMMARY_NONFINITE')
     s = json.loads(raw)
     last = rows[times[-1]] if times else {}
-    remaining = sum(1 for v in last.values() if v[2] == 1)
+    remaining = len(last)
     print(f"summary: status {s.get('status')} people {s.get('people')} remaining {s.get('people_remaining')} "
           f"evac {s.get('evacuation_time')} t_final {s.get('t_final')} max_overlap {s.get('max_overlap')} "
           f"max_wall_pen {s.get('max_wall_penetration')} error {str(s.get('error'))[:300]}")
@@ -346,10 +365,10 @@ if os.path.exists(sp):
     if ev is not None and first_empty is None:
         flags.append(f'EVAC_BUT_NOT_EMPTY')
     mo = s.get('max_overlap')
-    if isinstance(mo, (int, float)) and worst_ov[0] > max(mo, 0) + max(1e-12, TOL if svg_radii else 0):
+    if isinstance(mo, (int, float)) and worst_ov[0] > max(mo, 0) + 1e-12:
         flags.append(f'SUMMARY_OVERLAP_UNDER({mo} < {worst_ov[0]})')
     mw = s.get('max_wall_penetration')
-    if isinstance(mw, (int, float)) and worst_wall[0] > max(mw, 0) + max(1e-12, TOL if svg_radii else 0):
+    if isinstance(mw, (int, float)) and worst_wall[0] > max(mw, 0) + 1e-12:
         flags.append(f'SUMMARY_WALL_UNDER({mw} < {worst_wall[0]})')
     po = s.get('people_out')
     if po:
@@ -361,7 +380,7 @@ if os.path.exists(sp):
                     c = k
             return c
         for t in times:
-            k = sum(1 for v in rows[t].values() if v[2] == 0)
+            k = N - len(rows[t])
             if k != out_at(t):
                 flags.append(f'PEOPLE_OUT_MISMATCH(t={t}: csv {k} vs summary {out_at(t)})'); break
 else:

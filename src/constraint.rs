@@ -69,6 +69,31 @@ pub trait Scalar: DualNum<Primitive = f64> + Copy {
 
 impl<D: DualNum<Primitive = f64> + Copy> Scalar for D {}
 
+/// The curvature of `g` in `q`, which says which of the two classes of sweeping processes a
+/// constraint belongs to and how each step treats it.
+///
+/// | `Curvature` | `g` | `{g ≥ 0}` | example | each step projects onto |
+/// |---|---|---|---|---|
+/// | [`Convex`](Self::Convex) (default) | convex | complement of a convex set (prox-regular) | outside a disk: `|z − c| − r` | the linearization at `q_k`, an inner approximation (the paper) |
+/// | [`Concave`](Self::Concave) | concave | a convex set (Moreau) | inside a disk: `R − |z − c|` | the set itself, by linearizations refined at the iterate until certified |
+///
+/// An affine `g` is both; leave the default. A concave declaration is checked like convexity
+/// is (the largest eigenvalue of `D²g` must not be positive beyond rounding): by the stepper at
+/// the start and wherever it refines a linearization, by
+/// [`crate::assumptions::BoundsMonitor`] and by [`crate::assumptions::estimate_problem`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Curvature {
+    /// `g` convex in `q`: the paper's class. Its linearization at `q_k` lies inside
+    /// `{g ≥ 0}`, so the step's single projection is feasible.
+    #[default]
+    Convex,
+    /// `g` concave in `q`: `{g ≥ 0}` is convex (Moreau's sweeping process). Its linearization
+    /// is an outer approximation, so the stepper refines it at each iterate (cutting planes)
+    /// until the projection onto the true set is certified.
+    Concave,
+}
+
 /// One kind of constraint `g(t, z) ≥ 0`, written once over dual numbers on its `K` coordinates.
 ///
 /// # The theory's requirement: `g` convex in `z`
@@ -133,6 +158,13 @@ pub trait ConstraintKernel<const K: usize>: Send + Sync {
     fn is_affine(&self) -> bool {
         false
     }
+
+    /// The curvature of `g` in `z` (see [`Curvature`]): [`Curvature::Concave`] declares
+    /// `{g ≥ 0}` convex, and each step then projects onto it exactly instead of onto its
+    /// linearization. Checked, not trusted. Default [`Curvature::Convex`] (the paper's class).
+    fn curvature(&self) -> Curvature {
+        Curvature::Convex
+    }
 }
 
 /// A constraint without parameters, `g(t, z) ≥ 0` on `K` coordinates: the short form of
@@ -174,6 +206,12 @@ pub trait Constraint<const K: usize>: Send + Sync {
     fn is_affine(&self) -> bool {
         false
     }
+
+    /// The curvature of `g` in `z` (see [`ConstraintKernel::curvature`]). Default
+    /// [`Curvature::Convex`].
+    fn curvature(&self) -> Curvature {
+        Curvature::Convex
+    }
 }
 
 impl<C: Constraint<K>, const K: usize> ConstraintKernel<K> for C {
@@ -186,6 +224,9 @@ impl<C: Constraint<K>, const K: usize> ConstraintKernel<K> for C {
     }
     fn is_affine(&self) -> bool {
         Constraint::is_affine(self)
+    }
+    fn curvature(&self) -> Curvature {
+        Constraint::curvature(self)
     }
 }
 
@@ -444,6 +485,13 @@ pub trait ConstraintFamily: Send + Sync {
     /// Whether every member is affine in `q` (zero Hessian).
     fn is_affine(&self) -> bool;
 
+    /// The curvature of every member in `q` (see [`Curvature`]). Default
+    /// [`Curvature::Convex`]. A [`Curvature::Concave`] family is checked member by member
+    /// after each solve (its culling, if any, cannot prove an omitted member satisfied).
+    fn curvature(&self) -> Curvature {
+        Curvature::Convex
+    }
+
     /// A human-readable name of member `index`, for errors ("pair of people 3 and 17").
     fn describe(&self, index: usize) -> String;
 
@@ -666,6 +714,10 @@ impl<C: ConstraintKernel<K>, const K: usize> ConstraintFamily for KernelFamily<C
 
     fn is_affine(&self) -> bool {
         self.kernel.is_affine()
+    }
+
+    fn curvature(&self) -> Curvature {
+        self.kernel.curvature()
     }
 
     fn describe(&self, index: usize) -> String {

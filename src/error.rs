@@ -253,6 +253,31 @@ pub enum SweepError {
         /// Solves made.
         solves: usize,
     },
+    /// The projection onto a convex set declared by a concave constraint
+    /// ([`Curvature::Concave`](crate::constraint::Curvature::Concave)) was not certified
+    /// after [`StepperSettings::max_concave_iterations`](crate::stepper::StepperSettings)
+    /// refinements of its linearization: the last iterate is still outside the set, or its
+    /// KKT conditions with the constraint's gradient at the iterate still fail.
+    #[error("step {step}, t = {}: the projection onto {constraint} (a convex set, g declared concave) is not certified after {iterations} refinements: the iterate is {violation:.3e} outside it, stationarity residual {residual:.3e} (tolerances {tolerance:.1e} and {stationarity_tolerance:.1e}); raise max_concave_iterations or concave_tolerance, or shorten the step", display_number(*t))]
+    ConcaveNotCertified {
+        /// Step index.
+        step: usize,
+        /// Time `t_{k+1}`.
+        t: f64,
+        /// The constraint furthest from certification.
+        constraint: String,
+        /// Refinements made (each one more projection).
+        iterations: usize,
+        /// Its distance outside `{g ≥ 0}` at the last iterate: `max(0, −g)/|∇g|`.
+        violation: f64,
+        /// Its part of the stationarity residual, `‖Σ λ_r a_r − μ ∇g(x)‖∞` over its rows.
+        residual: f64,
+        /// [`StepperSettings::concave_tolerance`](crate::stepper::StepperSettings).
+        tolerance: f64,
+        /// The absolute stationarity tolerance it was held to:
+        /// `kkt_tolerance · max(1, ‖x − y‖∞)`.
+        stationarity_tolerance: f64,
+    },
     /// The user asked the run to stop (Ctrl-C, SIGTERM or SIGHUP in `sweep run`): not a failure of the run,
     /// which stops after the step it was taking.
     #[error("step {step}, t = {}: interrupted (Ctrl-C, SIGTERM or SIGHUP)", display_number(*t))]

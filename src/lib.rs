@@ -32,6 +32,7 @@ pub mod assumptions;
 pub mod backends;
 pub mod constraint;
 pub mod crowd;
+pub mod curvature;
 pub mod error;
 pub mod meter;
 pub mod numbers;
@@ -42,6 +43,8 @@ pub mod scene;
 mod solve;
 pub mod stepper;
 pub mod study;
+// Many runs of scenes, one results table (`sweep batch`): a client of `scene` and `output`.
+pub mod batch;
 
 pub use error::SweepError;
 #[doc(inline)]
@@ -55,7 +58,7 @@ pub mod prelude {
     };
     pub use crate::backends::{make_projector, BackendChoice, BackendError};
     pub use crate::constraint::{
-        Constraint, ConstraintFamily, ConstraintKernel, KernelFamily, Scalar,
+        Constraint, ConstraintFamily, ConstraintKernel, Curvature, KernelFamily, Scalar,
     };
     pub use crate::error::SweepError;
     pub use crate::problem::{NoPerturbation, Perturbation, Problem};
@@ -107,6 +110,10 @@ pub mod guide_doctests {
     pub struct Theory;
     #[doc = include_str!("../docs/guide/src/development.md")]
     pub struct Development;
+    #[doc = include_str!("../docs/guide/src/two-classes.md")]
+    pub struct TwoClasses;
+    #[doc = include_str!("../docs/guide/src/batch.md")]
+    pub struct Batch;
     #[doc = include_str!("../docs/guide/src/metric-and-equalities.md")]
     pub struct MetricAndEqualities;
 }

@@ -251,3 +251,63 @@ fn a_wall_ending_at_an_exit_is_walked_around() {
     // In front of the exit, the distance is the straight one.
     assert!((field.distance([9.0, 5.0]) - 1.0).abs() < 0.1);
 }
+
+/// A waypoint's field: the distance to a point target (or a region) inside the room, with no
+/// exit, against the exact Euclidean distance; the error shrinks with the cell; and round a
+/// thin wall, the hand-computed geodesic.
+#[test]
+fn a_target_inside_the_room_is_where_the_distance_vanishes() {
+    use sweeping::crowd::fast_marching::Target;
+    let at = [3.0, 7.0];
+    let domain = MarchingDomain {
+        room: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
+        targets: vec![Target::Point { at, reach: 0.3 }],
+        ..Default::default()
+    };
+    let exact = |p: [f64; 2]| (p[0] - at[0]).hypot(p[1] - at[1]);
+    let coarse = max_error(&DistanceField::compute(&domain, 0.2).unwrap(), exact);
+    let fine = max_error(&DistanceField::compute(&domain, 0.05).unwrap(), exact);
+    assert!(fine < 0.15 && coarse < 0.6, "errors {coarse}, {fine}");
+    assert!(fine < 0.5 * coarse, "no convergence: {coarse} → {fine}");
+    // The direction points at the target.
+    let field = DistanceField::compute(&domain, 0.05).unwrap();
+    let v = field.direction([8.0, 2.0]);
+    let want = [-5.0 / 50f64.sqrt(), 5.0 / 50f64.sqrt()];
+    assert!(
+        (v[0] - want[0]).abs() < 0.02 && (v[1] - want[1]).abs() < 0.02,
+        "{v:?}"
+    );
+    // A region: zero inside, the distance to the rectangle outside.
+    let region = MarchingDomain {
+        targets: vec![Target::Region([6.0, 6.0, 8.0, 8.0])],
+        ..domain.clone()
+    };
+    let field = DistanceField::compute(&region, 0.05).unwrap();
+    assert!(field.distance([7.0, 7.0]).abs() < 1e-9);
+    assert!((field.distance([7.0, 2.0]) - 4.0).abs() < 0.1);
+    // Round a thin wall x = 5, 0 ≤ y ≤ 8 from (2, 5) to the point (8, 5): over its top end.
+    let walled = MarchingDomain {
+        segments: vec![([5.0, 0.0], [5.0, 8.0])],
+        targets: vec![Target::Point {
+            at: [8.0, 5.0],
+            reach: 0.3,
+        }],
+        ..domain.clone()
+    };
+    let field = DistanceField::compute(&walled, 0.05).unwrap();
+    let geodesic = 2.0 * (9.0f64 + 9.0).sqrt();
+    let d = field.distance([2.0, 5.0]);
+    assert!(
+        (d - geodesic).abs() < 0.25,
+        "fast marching {d}, geodesic {geodesic}"
+    );
+    // A target inside an obstacle has no free node: an error, not a field of infinities.
+    let buried = MarchingDomain {
+        disks: vec![([3.0, 7.0], 1.0)],
+        ..domain
+    };
+    assert!(DistanceField::compute(&buried, 0.05)
+        .unwrap_err()
+        .to_string()
+        .contains("lies at the target"));
+}

@@ -137,7 +137,7 @@ fn a_scene_built_in_code_is_refused_like_its_file() {
         (
             CrowdBuilder::new("no-room").person([1.0, 1.0], 0.2),
             "[room]",
-            "give `rectangle = [x0, y0, x1, y1]` or `polygon = [[x, y], …]`",
+            "give `rectangle = [x0, y0, x1, y1]`, `polygon = [[x, y], …]`",
         ),
         (
             CrowdBuilder::new("overlap")

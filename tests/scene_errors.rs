@@ -79,7 +79,7 @@ fn bad_radius_of_a_crowd() {
     assert_message(
         &error_of(&text),
         5,
-        &["a radius (a number) or a range [min, max]"],
+        &["a radius (a number), a range [min, max], or a distribution"],
     );
 }
 
@@ -788,4 +788,259 @@ fn exits_of_a_desire_must_exist_and_go_with_kind_exit() {
             &["[[people]] #1 desired", fragment],
         );
     }
+}
+
+#[test]
+fn contact_forces_must_be_true_or_false() {
+    for value in ["\"yes\"", "1", "[true]"] {
+        let text = format!(
+            "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n[output]\ncontact_forces = {value}\n"
+        );
+        let e = error_of(&text);
+        assert!(matches!(e, SceneError::Parse { .. }), "{e}");
+        assert_message(&e, 7, &["invalid type", "expected a boolean"]);
+    }
+}
+
+#[test]
+fn bad_sources() {
+    // Line 3 is the `[[sources]]` header.
+    let source = |body: &str| format!("{ROOM}[[sources]]\nradius = 0.2\n{body}\n");
+    let region = "region = [0.5, 0.5, 3.5, 3.5]\n";
+    for (body, fragment) in [
+        (region.to_string(), "say when people arrive: `rate"),
+        (format!("{region}rate = 2.0"), "`rate` needs `count`"),
+        (
+            format!("{region}rate = 0.0\ncount = 3"),
+            "rate: people per second must be positive",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 0"),
+            "count = 0 brings nobody",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 3\nstart = -1.0"),
+            "start: must be ≥ 0",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 3\ntimes = [1.0]"),
+            "not both",
+        ),
+        (
+            format!("{region}rate = 2.0\ncount = 3\ncounts = [1]"),
+            "`counts` goes with `times`",
+        ),
+        (format!("{region}times = []"), "times = [] brings nobody"),
+        (
+            format!("{region}times = [2.0, 1.0]"),
+            "times: must not decrease, got 1 after 2",
+        ),
+        (
+            format!("{region}times = [-1.0]"),
+            "times: every time must be ≥ 0",
+        ),
+        (
+            format!("{region}times = [1.0, 2.0]\ncounts = [1]"),
+            "counts: one count per time, got 1 counts for 2 times",
+        ),
+        (
+            format!("{region}times = [1.0, 2.0]\ncounts = [1, 0]"),
+            "counts[1] = 0 brings nobody at t = 2",
+        ),
+        (
+            format!("{region}times = [1.0]\ncount = 2"),
+            "`count` and `start` go with `rate`",
+        ),
+        ("times = [1.0]".to_string(), "give exactly one of `region"),
+        (
+            format!("{region}times = [1.0]\ndoor = {{ from = [0.0, 1.0], to = [0.0, 2.0] }}"),
+            "give exactly one of `region",
+        ),
+        (
+            "times = [1.0]\nregion = [3.0, 0.5, 1.0, 3.5]".to_string(),
+            "needs finite numbers, x1 > x0",
+        ),
+        (
+            "times = [1.0]\nregion = [5.0, 5.0, 6.0, 6.0]".to_string(),
+            "no place for a person of radius 0.2 in the region",
+        ),
+        (
+            "times = [1.0]\ndoor = { from = [1.0, 1.0], to = [2.0, 1.0] }".to_string(),
+            "door: (1, 1)–(2, 1) is not on a wall",
+        ),
+        (
+            "times = [1.0]\ndoor = { from = [0.0, 1.0], to = [0.0, 1.3] }".to_string(),
+            "door: 0.3 wide, narrower than one person",
+        ),
+        (
+            format!("{region}times = [1.0]\ngap = -0.1"),
+            "gap: must be ≥ 0 and finite, got -0.1",
+        ),
+        (
+            format!("{region}times = [1.0]\nspeed = -1.0"),
+            "speed: must be ≥ 0",
+        ),
+        (
+            format!("{region}times = [1.0]\ndesired = {{ kind = \"exit\" }}"),
+            "kind = \"exit\" needs at least one [[exits]]",
+        ),
+    ] {
+        assert_message(&error_of(&source(&body)), 3, &["[[sources]] #1", fragment]);
+    }
+    // A door whose places are all taken by an obstacle.
+    let text = format!(
+        "{ROOM}[[obstacles]]\ndisk = {{ center = [0.5, 2.0], radius = 0.4 }}\n[[sources]]\nradius = 0.2\ntimes = [1.0]\ndoor = {{ from = [0.0, 1.6], to = [0.0, 2.4] }}\n"
+    );
+    assert_message(
+        &error_of(&text),
+        5,
+        &["door: no place inside it", "inside obstacle #1"],
+    );
+    // An unknown key, at its line.
+    assert_message(
+        &error_of(&source(
+            "times = [1.0]\nregion = [0.5, 0.5, 3.5, 3.5]\nflow = 2.0",
+        )),
+        7,
+        &["unknown field `flow`"],
+    );
+}
+
+#[test]
+fn bad_radius_distributions_and_gaps_of_a_crowd() {
+    let crowd = |radius: &str, extra: &str| {
+        format!("{ROOM}[[crowds]]\ncount = 3\nradius = {radius}\n{extra}")
+    };
+    for (text, fragment) in [
+        (
+            crowd("{ uniform = [0.0, 0.2] }", ""),
+            "radius: uniform = [min, max] needs 0 < min ≤ max",
+        ),
+        (
+            crowd("{ uniform = [0.3, 0.2] }", ""),
+            "radius: uniform = [min, max] needs 0 < min ≤ max",
+        ),
+        (
+            crowd("{ normal = [0.2, 0.02] }", ""),
+            "radius: a normal distribution needs `within",
+        ),
+        (
+            crowd("{ normal = [0.2, 0.02], within = [0.0, 0.3] }", ""),
+            "radius: within = [min, max] needs 0 < min ≤ max",
+        ),
+        (
+            crowd("{ normal = [0.2, 0.001], within = [0.3, 0.4] }", ""),
+            "radius: no value of normal = [0.2, 0.001] fell within [0.3, 0.4]",
+        ),
+        (
+            crowd("0.2", "gap = -0.5\n"),
+            "gap: must be ≥ 0 and finite, got -0.5",
+        ),
+        (
+            crowd("0.2", "gap = inf\n"),
+            "gap: must be ≥ 0 and finite, got inf",
+        ),
+        (
+            crowd("[0.2, 0.1]", ""),
+            "a range of radii needs 0 < min ≤ max",
+        ),
+    ] {
+        assert_message(&error_of(&text), 3, &["[[crowds]] #1", fragment]);
+    }
+    // A gap that no longer lets the crowd fit: the area bound counts the grown disks.
+    assert_message(
+        &error_of(&crowd("0.2", "count = 40\ngap = 0.6\n").replace("count = 3\n", "")),
+        3,
+        &["cannot fit"],
+    );
+}
+
+#[test]
+fn bad_journeys() {
+    let exits = "[[exits]]\nfrom = [4.0, 1.5]\nto = [4.0, 2.5]\n";
+    // Line 6 is the person's header.
+    let person = |desired: &str| {
+        format!(
+            "{ROOM}{exits}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {desired}\n"
+        )
+    };
+    for (desired, fragment) in [
+        ("{ kind = \"journey\" }", "kind = \"journey\" needs `waypoints"),
+        ("{ kind = \"journey\", waypoints = [] }", "waypoints = [] is no journey"),
+        ("{ kind = \"journey\", waypoints = [{ reach = 1.0 }] }", "waypoint 1: give exactly one of `point` and `region`"),
+        ("{ kind = \"journey\", waypoints = [{ point = [1.0, 3.0], region = [0.5, 0.5, 1.0, 1.0] }] }", "waypoint 1: give exactly one"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }, { point = [1.0, 3.0], reach = 0.0 }] }", "waypoint 2: reach must be positive and finite, got 0"),
+        ("{ kind = \"journey\", waypoints = [{ point = [5.0, 2.0] }] }", "waypoint 1: (5, 2) is outside the room"),
+        ("{ kind = \"journey\", waypoints = [{ region = [2.0, 2.0, 1.0, 3.0] }] }", "waypoint 1: the region [x0, y0, x1, y1] = [2.0, 2.0, 1.0, 3.0] needs finite numbers"),
+        ("{ kind = \"journey\", waypoints = [{ region = [1.0, 2.0, 2.0, 3.0], reach = 0.5 }] }", "waypoint 1: `reach` goes with `point`"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], point = [3.0, 3.0], exits = [1] }", "a journey ends at `point` or at the exits (`exits`), not both"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], exits = [2] }", "exits = [2]: exit 2 does not exist"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], velocity = [1.0, 0.0] }", "kind = \"journey\" does not take `velocity`"),
+        ("{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0] }], route = \"straight\" }", "`route` goes only with kind = \"point\", or a journey ending at `point`"),
+        ("{ kind = \"exit\", route = \"geodesic\" }", "`route` goes only with kind = \"point\""),
+        ("{ kind = \"point\", point = [2.0, 2.0], waypoints = [{ point = [2.0, 2.0] }] }", "`waypoints` goes only with kind = \"journey\""),
+    ] {
+        assert_message(&error_of(&person(desired)), 6, &["[[people]] #1 desired", fragment]);
+    }
+    // Without exits, a journey must end at a point.
+    let text = format!(
+        "{ROOM}[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {{ kind = \"journey\", waypoints = [{{ point = [2.0, 2.0] }}] }}\n"
+    );
+    assert_message(
+        &error_of(&text),
+        3,
+        &["a journey ending at the exits needs at least one [[exits]]"],
+    );
+    // An unknown route, and an unknown key of a waypoint: the parser's errors.
+    let e = error_of(&person(
+        "{ kind = \"point\", point = [2.0, 2.0], route = \"shortest\" }",
+    ));
+    assert!(e.to_string().contains("unknown variant `shortest`"), "{e}");
+    let e = error_of(&person(
+        "{ kind = \"journey\", waypoints = [{ point = [2.0, 2.0], wait = 3.0 }] }",
+    ));
+    assert!(e.to_string().contains("unknown field `wait`"), "{e}");
+    // A waypoint inside an obstacle: the field to it cannot be computed.
+    let text = format!(
+        "{ROOM}{exits}[[obstacles]]\ndisk = {{ center = [2.0, 3.0], radius = 0.5 }}\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\ndesired = {{ kind = \"journey\", waypoints = [{{ point = [2.0, 3.0], reach = 0.2 }}] }}\n"
+    );
+    let e = error_of(&text);
+    assert!(
+        e.to_string()
+            .contains("the field to the point (2, 3): no free node"),
+        "{e}"
+    );
+}
+
+#[test]
+fn bad_geometry_in_wkt() {
+    let room = |keys: &str| {
+        format!("name = \"w\"\n[room]\n{keys}\n[[people]]\nposition = [1.0, 1.0]\nradius = 0.2\n")
+    };
+    let square = "wkt = \"POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))\"";
+    for (keys, item, fragment) in [
+        ("wkt = \"POLYGON ((0 0, 4 0, 4 4\"".to_string(), "[room] wkt", "not valid WKT"),
+        ("wkt = \"POINT (1 1)\"".to_string(), "[room] wkt", "a POINT where polygons are expected"),
+        ("wkt = \"POLYGON Z ((0 0 1, 4 0 1, 4 4 1, 0 0 1))\"".to_string(), "[room] wkt", "coordinates with z or m"),
+        ("wkt = \"MULTIPOLYGON (((0 0, 2 0, 2 2, 0 0)), ((3 3, 4 3, 4 4, 3 3)))\"".to_string(), "[room] wkt", "a MULTIPOLYGON of 2 polygons: the walkable area must be one polygon"),
+        (format!("{square}\nrectangle = [0.0, 0.0, 4.0, 4.0]"), "[room]", "give one of `rectangle`, `polygon`, `wkt` and `wkt_file`"),
+        (format!("{square}\nwkt_file = \"x.wkt\""), "[room]", "give one of"),
+        ("wkt_file = \"no-such-file.wkt\"".to_string(), "[room] wkt_file", "cannot read"),
+        (format!("{square}\nexits_wkt = \"POLYGON ((0 0, 1 0, 1 1, 0 0))\""), "[room] exits_wkt", "a POLYGON where exits are expected"),
+        (format!("{square}\nexits_wkt = \"LINESTRING (4 1, 4 2, 4 3)\""), "[room] exits_wkt", "line 1 has 3 points: an exit is a LINESTRING of two points"),
+        (format!("{square}\nobstacles_wkt = \"POLYGON ((1 1, 3 1, 3 3, 1 3, 1 1), (1.5 1.5, 2 1.5, 2 2, 1.5 1.5))\""), "[room] obstacles_wkt", "an obstacle with holes"),
+        // Read into the scene's items, then checked as they are.
+        ("wkt = \"POLYGON ((0 0, 4 0, 0 3, 3 4, 0 0))\"".to_string(), "[room]", "edges 2 and 4 of the polygon meet"),
+        (format!("{square}\nexits_wkt = \"LINESTRING (2 2, 3 3)\""), "[[exits]] #1", "is not on a wall of the room"),
+        ("exits_wkt = \"LINESTRING (4 1, 4 2)\"".to_string(), "[room]", "give `rectangle"),
+    ] {
+        assert_message(&error_of(&room(&keys)), 2, &[item, fragment]);
+    }
+    // A hole is an obstacle: a person inside it is refused, named by its number.
+    let text = room("wkt = \"POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0), (0.5 0.5, 1.5 0.5, 1.5 1.5, 0.5 1.5, 0.5 0.5))\"");
+    assert_message(
+        &error_of(&text),
+        4,
+        &["[[people]] #1", "inside obstacle #1"],
+    );
 }

@@ -338,9 +338,11 @@ pub fn main(mut args: BenchArgs) -> Result<()> {
         Some(path) => {
             let resume = match &args.resume {
                 Some(dir) => Some(
-                    resume::last_frame(&dir.join(resume::TRAJECTORY)).with_context(|| {
-                        format!("--resume {}: reading the run's last state", dir.display())
-                    })?,
+                    resume::read(&dir.join(resume::TRAJECTORY), &dir.join(resume::PEOPLE))
+                        .with_context(|| {
+                            format!("--resume {}: reading the run's last state", dir.display())
+                        })?
+                        .state,
                 ),
                 None => None,
             };

@@ -29,6 +29,9 @@ pub struct CheckArgs {
     /// Only validate the scene; skip the assumption constants.
     #[arg(long)]
     pub no_constants: bool,
+    /// Override a scene field, as `sweep run --set` does (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<sweeping::scene::SetOverride>,
 }
 
 /// Entry point of `sweep check`: parses and builds the scene (placing random people, solving
@@ -43,8 +46,10 @@ pub fn main(args: CheckArgs) -> Result<()> {
             args.sample_run
         );
     }
-    let scene = Scene::from_file(&args.scene)?;
-    let built = scene.build(&Overrides::default())?;
+    let scene = Scene::from_file_with(&args.scene, &args.sets)?;
+    let built = scene
+        .build(&Overrides::default())
+        .map_err(|e| crate::run::with_sets(e.into(), &args.sets))?;
     refuse_as_run_would(&args.scene, &built)?;
     out!("{}", built.describe());
     outln!("ok: {} is a valid scene", args.scene.display());

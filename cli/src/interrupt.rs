@@ -105,6 +105,13 @@ fn sighup_ignored() -> bool {
         .is_none_or(|mask| mask & (1 << (signal_hook::consts::SIGHUP - 1)) != 0)
 }
 
+impl Interrupt {
+    /// Whether a stop was asked for (`sweep batch` starts no trial after it).
+    pub fn requested(&self) -> bool {
+        self.requested.load(Ordering::SeqCst) != 0
+    }
+}
+
 impl Observer for Interrupt {
     fn name(&self) -> &str {
         "interrupt"

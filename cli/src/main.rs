@@ -4,6 +4,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod batch;
 mod bench;
 mod check;
 mod converge;
@@ -37,6 +38,9 @@ enum Command {
     WorkPrecision(work_precision::WorkPrecisionArgs),
     /// Milliseconds per step, by stage, on synthetic crowds of growing size, per backend.
     Bench(bench::BenchArgs),
+    /// Run a plan of many trials (scenes × overrides × seeds), one per core, into one
+    /// results table; or write it as a Slurm job array.
+    Batch(batch::BatchArgs),
 }
 
 fn main() {
@@ -49,6 +53,7 @@ fn main() {
         Command::Converge(a) => converge::main(a),
         Command::WorkPrecision(a) => work_precision::main(a),
         Command::Bench(a) => bench::main(a),
+        Command::Batch(a) => batch::main(a),
     };
     if let Err(e) = result {
         errln!("error: {e:#}");

@@ -10,7 +10,7 @@ use anyhow::{bail, Context, Result};
 use std::fs::TryLockError;
 use std::io::{ErrorKind, Write};
 use std::path::Path;
-use sweeping::output::{TrajectoryFormat, DISAGREEMENT_FILE, LARGEST_GAP_FILE};
+use sweeping::output::{TrajectoryFormat, CONTACTS_FILE, DISAGREEMENT_FILE, LARGEST_GAP_FILE};
 
 /// The file a run holds locked while it writes in its output directory. Left in place after
 /// the run, it marks the directory as `sweep run`'s; the lock itself ends with the process,
@@ -128,7 +128,7 @@ fn entries(out: &Path) -> Result<Vec<String>> {
 }
 
 /// Removes from `out` what an earlier run wrote there and this one will not overwrite: a
-/// trajectory in a format not asked for now, and the snapshots (named by their times, so a
+/// trajectory in a format not asked for now, the contact forces, and the snapshots (named by their times, so a
 /// longer earlier run's outlast this one's), so that a run into the same directory never
 /// leaves an earlier trajectory beside its own summary. Only the names `sweep run` writes are
 /// touched.
@@ -149,6 +149,8 @@ fn remove_stale_outputs(out: &Path, formats: &[TrajectoryFormat]) -> Result<()> 
     // if any.
     remove(&out.join(DISAGREEMENT_FILE))?;
     remove(&out.join(LARGEST_GAP_FILE))?;
+    // An earlier run's contact forces: this run writes its own, if asked.
+    remove(&out.join(CONTACTS_FILE))?;
     let snapshots = out.join("snapshots");
     if let Ok(entries) = std::fs::read_dir(&snapshots) {
         for entry in entries.flatten() {

@@ -26,7 +26,8 @@ pub struct RunArgs {
     /// Output directory (default `out/<scene name>/`): new, empty, or an earlier run's, never
     /// one holding other files (refused, so that none of them is replaced or deleted). In an
     /// earlier run's, the files `sweep run` writes (trajectory.csv, trajectory.sqlite,
-    /// summary.json, animation.html, snapshots/t*.svg, disagreement.json, largest-gap.json) are
+    /// people.csv, contacts.csv, summary.json, animation.html, snapshots/t*.svg,
+    /// disagreement.json, largest-gap.json) are
     /// taken for that run's and replaced or removed; other files are left alone. One run at a
     /// time: a folder another run is writing to is refused (the lock file .sweep.lock).
     #[arg(long)]
@@ -53,11 +54,22 @@ pub struct RunArgs {
     /// JuPedSim's format, read by PedPy). Default: the scene's `[output] formats`, else csv.
     #[arg(long = "format", value_delimiter = ',')]
     pub formats: Vec<TrajectoryFormat>,
+    /// Write the contact forces: each person's pressure in the trajectory, each contact in
+    /// contacts.csv (and the SQLite tables pressure and contacts), people coloured by pressure
+    /// in the pictures (default: the scene's `[output] contact_forces`, else off).
+    #[arg(long = "contact-forces")]
+    pub contact_forces: bool,
     /// Go on from where an earlier run of this scene stopped: the output directory it wrote
-    /// (the last frame of its trajectory.csv: the time, every position, who had left), up to
-    /// the same horizon. The outputs go to a new directory (default: DIR-from-t followed by the time resumed at).
+    /// (the last frame of its trajectory.csv, the time and the positions, and its people.csv,
+    /// who had left), up to the same horizon. The outputs go to a new directory (default: DIR-from-t followed by the time resumed at).
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
+    /// Override a scene field, as if the file said it: a dotted path through the scene's
+    /// tables, list items numbered from 0, and a TOML value (a bare word is a string), e.g.
+    /// `--set crowds.0.count=200 --set exits.0.to=[10.0,5.8] --set run.backend=native`.
+    /// Repeatable; applied in order.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<sweeping::scene::SetOverride>,
 }
 
 /// A progress bar on stderr when stderr is a terminal; otherwise (a run under `nohup`, in a
@@ -193,10 +205,12 @@ impl RunHooks for Terminal {
     }
 }
 
-/// An earlier run to go on from: its directory, its trajectory and what was read there.
+/// An earlier run to go on from: its directory, its trajectory and people table, and what
+/// was read there.
 struct Resume {
     dir: PathBuf,
     path: PathBuf,
+    people: PathBuf,
     saved: resume::Saved,
 }
 
@@ -217,47 +231,54 @@ fn read_resume(dir: &Path) -> Result<Resume> {
             resume::TRAJECTORY
         );
     }
-    let saved = resume::read(&path)
+    let people = dir.join(resume::PEOPLE);
+    let saved = resume::read(&path, &people)
         .with_context(|| format!("--resume {}: reading the run's last state", dir.display()))?;
     Ok(Resume {
         dir: dir.to_path_buf(),
         path,
+        people,
         saved,
     })
 }
 
 /// Sets `built` to the state `resume` read, once it is known to be a state of this scene;
-/// returns its time.
-fn resume_scene(built: &mut BuiltScene, resume: Resume) -> Result<f64> {
-    let Resume { dir, path, saved } = resume;
+/// returns its time and each person's departure before it.
+fn resume_scene(
+    built: &mut BuiltScene,
+    resume: Resume,
+) -> Result<(f64, Vec<Option<sweeping::output::Departure>>)> {
+    let Resume {
+        dir,
+        path,
+        people,
+        mut saved,
+    } = resume;
     let t = saved.state.t;
-    let (listed, people) = (saved.state.departed.len(), built.population.len());
-    if listed != people {
-        anyhow::bail!(
-            "--resume {}: {}: its last frame (t = {}) lists {listed} people, the scene \
-             has {people}: a frame cut short (a run killed while writing it) or a run \
-             of another scene",
-            dir.display(),
-            path.display(),
-            sweeping::stepper::display_number(t)
-        );
-    }
-    resume::check_start(&saved, &path, built.problem.t0(), built.problem.q0())
-        .with_context(|| format!("--resume {}", dir.display()))?;
-    // An error about one person points at their row of the last frame.
-    let last_line = saved.last.line;
-    built.resume_at(saved.state).map_err(|e| {
-        let row = e
-            .person()
-            .map_or(String::new(), |i| format!(":{}", last_line + i));
-        anyhow::anyhow!("--resume {}: {}{row}: {e}", dir.display(), path.display())
+    let due = |i| built.population.due(i).is_some();
+    resume::check_start(
+        &saved,
+        (&path, &people),
+        built.problem.t0(),
+        built.problem.q0(),
+        built.population.radii(),
+        due,
+    )
+    .and_then(|()| saved.place_absent(due, built.problem.q0(), (&path, &people)))
+    .with_context(|| format!("--resume {}", dir.display()))?;
+    // An error about one person points at the row it was read from.
+    let departures = saved.departures();
+    let place = |i| saved.place_of(i, &path, &people);
+    built.resume_at(saved.state.clone()).map_err(|e| {
+        let at = e.person().map_or(path.display().to_string(), place);
+        anyhow::anyhow!("--resume {}: {at}: {e}", dir.display())
     })?;
-    Ok(t)
+    Ok((t, departures))
 }
 
 /// Entry point of `sweep run`.
 pub fn main(args: RunArgs) -> Result<()> {
-    let scene = Scene::from_file(&args.scene)?;
+    let scene = Scene::from_file_with(&args.scene, &args.sets)?;
     // Before `out/<name>/` is created: a name such as `../x` would create a directory elsewhere.
     scene.check_name()?;
     let overrides = Overrides {
@@ -286,13 +307,19 @@ pub fn main(args: RunArgs) -> Result<()> {
     }
     // Before any work: a directory that cannot be written is an error now, not after the run.
     prepare_output_dir(&out)?;
-    let mut built = scene.build(&overrides)?;
-    let resumed_at = match resume {
+    let mut built = scene
+        .build(&overrides)
+        .map_err(|e| with_sets(e.into(), &args.sets))?;
+    if args.contact_forces {
+        built.output.contact_forces = true;
+    }
+    let (resumed_at, departures_before) = match resume {
         Some(r) => {
             let dir = r.dir.clone();
-            Some((dir, resume_scene(&mut built, r)?))
+            let (t, departures) = resume_scene(&mut built, r)?;
+            (Some((dir, t)), departures)
         }
-        None => None,
+        None => (None, Vec::new()),
     };
     let built = built;
     let options = RunOptions {
@@ -302,6 +329,7 @@ pub fn main(args: RunArgs) -> Result<()> {
             run: dir.display().to_string(),
             t: *t,
         }),
+        departures_before,
     };
     let formats = options.trajectory_formats(&built);
     // Held until the run ends: a second run into `out` is refused rather than mixed in.
@@ -324,7 +352,12 @@ pub fn main(args: RunArgs) -> Result<()> {
         }
         Err(e) => anyhow::bail!("{e}"),
     };
-    print_summary(&scene_run.summary, &out, &formats);
+    print_summary(
+        &scene_run.summary,
+        &out,
+        &formats,
+        built.output.contact_forces,
+    );
     if let Some(path) = &scene_run.largest_gap {
         outln!(
             "  the largest gap that passed, its problem and both answers: {}",
@@ -332,6 +365,15 @@ pub fn main(args: RunArgs) -> Result<()> {
         );
     }
     outcome(scene_run, &out)
+}
+
+/// `error`, said to be of the scene as the overrides `sets` changed it (when there are any).
+pub fn with_sets(error: anyhow::Error, sets: &[sweeping::scene::SetOverride]) -> anyhow::Error {
+    if sets.is_empty() {
+        return error;
+    }
+    let sets: Vec<String> = sets.iter().map(ToString::to_string).collect();
+    error.context(format!("with {}", sets.join(" ")))
 }
 
 /// What the run is, said before its first step.
@@ -386,7 +428,12 @@ fn outcome(scene_run: SceneRun, out: &Path) -> Result<()> {
 }
 
 /// The summary on stdout, and where the outputs are.
-fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFormat]) {
+fn print_summary(
+    s: &RunSummary,
+    out: &std::path::Path,
+    formats: &[TrajectoryFormat],
+    contact_forces: bool,
+) {
     outln!("scene `{}` ({}, backend {})", s.scene, s.status, s.backend);
     if let Some(r) = &s.resumed_from {
         outln!(
@@ -398,9 +445,20 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
     outln!(
         "  people: {}, left: {}, remaining: {}",
         s.people,
-        s.people - s.people_remaining,
+        s.people_out.last().map_or(0, |&(_, out)| out),
         s.people_remaining
     );
+    if let Some(a) = &s.arrivals {
+        outln!(
+            "  arrivals: {} of {} arrived, {} waited for their place (longest {:.2} s, {:.2} s in all), {} still waiting",
+            a.arrived,
+            a.scheduled,
+            a.waited,
+            a.longest_wait,
+            a.total_wait,
+            a.still_waiting
+        );
+    }
     match s.evacuation_time {
         Some(t) => outln!("  evacuation time: {t:.2} s"),
         None => outln!(
@@ -460,7 +518,11 @@ fn print_summary(s: &RunSummary, out: &std::path::Path, formats: &[TrajectoryFor
     if let Some(e) = &s.error {
         outln!("  error: {e}");
     }
-    let files: Vec<&str> = formats.iter().map(|f| f.file_name()).collect();
+    let mut files: Vec<&str> = formats.iter().map(|f| f.file_name()).collect();
+    files.push(sweeping::output::PEOPLE_FILE);
+    if contact_forces && formats.contains(&TrajectoryFormat::Csv) {
+        files.push(sweeping::output::CONTACTS_FILE);
+    }
     outln!(
         "  outputs: {}/{{{}, summary.json, snapshots/, animation.html}}",
         out.display(),

@@ -1,6 +1,6 @@
 //! `sweep run --resume DIR`: a run that goes on from the last frame an earlier run of the
-//! same scene wrote, read back from its `trajectory.csv`, agrees with the run that never
-//! stopped, and what does not fit is refused by name.
+//! same scene wrote, read back from its `trajectory.csv` and `people.csv`, agrees with the run
+//! that never stopped, and what does not fit is refused by name.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -55,8 +55,8 @@ fn sweep(name: &str, scene: &str, args: &[&str]) -> (bool, String, PathBuf) {
     (o.status.success(), printed, dir)
 }
 
-/// A frame: person → (x, y, present).
-type Frame = BTreeMap<usize, (f64, f64, bool)>;
+/// A frame: person present → (x, y).
+type Frame = BTreeMap<usize, (f64, f64)>;
 
 /// The frames of a run's `trajectory.csv`, by time rounded to 1e-6 (a resumed run's times
 /// are `t₀ + k h`, the other's `k h`: equal but for the last bits).
@@ -68,10 +68,22 @@ fn frames(out: &Path) -> BTreeMap<i64, Frame> {
         let t: f64 = f[0].parse().unwrap();
         frames.entry((t * 1e6).round() as i64).or_default().insert(
             f[1].parse().unwrap(),
-            (f[2].parse().unwrap(), f[3].parse().unwrap(), f[4] == "1"),
+            (f[2].parse().unwrap(), f[3].parse().unwrap()),
         );
     }
     frames
+}
+
+/// Each person's `[t_left, x_left, y_left]` in a run's `people.csv`, `None` while present.
+fn departures(out: &Path) -> Vec<Option<Vec<f64>>> {
+    let text = std::fs::read_to_string(out.join("people.csv")).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (!f[2].is_empty()).then(|| f[2..].iter().map(|v| v.parse().unwrap()).collect())
+        })
+        .collect()
 }
 
 fn gap(a: &Frame, b: &Frame) -> f64 {
@@ -103,6 +115,7 @@ fn a_resumed_run_goes_on_as_the_run_that_never_stopped() {
     );
     let resumed_out = dir.join("first-from-t2");
     let dir = first_out.to_str().unwrap();
+    let whole_out = whole.join("whole");
 
     let (whole, first, second) = (
         frames(&whole.join("whole")),
@@ -114,16 +127,12 @@ fn a_resumed_run_goes_on_as_the_run_that_never_stopped() {
     // gone: somebody had, so the latches are what is tested.
     assert_eq!(second.keys().next(), Some(&t2));
     assert_eq!(second[&t2], first[&t2]);
-    let gone: Vec<usize> = first[&t2]
-        .iter()
-        .filter(|(_, p)| !p.2)
-        .map(|(&i, _)| i)
-        .collect();
+    let gone: Vec<usize> = (0..12).filter(|i| !first[&t2].contains_key(i)).collect();
     assert!(!gone.is_empty(), "nobody left by t = 2 s");
     assert!(gone.len() < 12, "everybody left by t = 2 s");
     for frame in second.values() {
         assert!(
-            gone.iter().all(|i| !frame[i].2),
+            gone.iter().all(|i| !frame.contains_key(i)),
             "a person who had left came back"
         );
     }
@@ -138,10 +147,24 @@ fn a_resumed_run_goes_on_as_the_run_that_never_stopped() {
             *t as f64 * 1e-6
         );
         assert!(
-            frame.iter().all(|(i, p)| p.2 == whole[t][i].2),
+            frame.keys().eq(whole[t].keys()),
             "t = {}: another set of people present",
             *t as f64 * 1e-6
         );
+    }
+    // The people table of the resumed run keeps the departures of the first, and has the
+    // later ones: the whole run's, but for rounding (times `t₀ + k h` against `k h`).
+    let (resumed_people, whole_people) = (departures(&resumed_out), departures(&whole_out));
+    assert_eq!(resumed_people.len(), 12);
+    for (i, (a, b)) in resumed_people.iter().zip(&whole_people).enumerate() {
+        match (a, b) {
+            (None, None) => {}
+            (Some(a), Some(b)) => assert!(
+                a.iter().zip(b).all(|(u, v)| (u - v).abs() < 1e-9),
+                "person {i}: {a:?} against {b:?}"
+            ),
+            _ => panic!("person {i}: {a:?} against {b:?}"),
+        }
     }
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(resumed_out.join("summary.json")).unwrap())
@@ -184,6 +207,17 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
         &["--resume", empty],
         "empty/trajectory.csv",
     );
+    // A trajectory without its people table.
+    let alone = scratch_dir.join("alone");
+    std::fs::create_dir_all(&alone).unwrap();
+    std::fs::copy(first.join("trajectory.csv"), alone.join("trajectory.csv")).unwrap();
+    let alone = alone.to_str().unwrap();
+    refused(
+        "resume-alone",
+        ROOM,
+        &["--resume", alone],
+        "alone/people.csv",
+    );
 
     // A run that wrote its trajectory in SQLite only: the file that can be resumed from is
     // named, and how to get it.
@@ -204,14 +238,23 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
 
     // Another crowd: the scene with two people fewer.
     let fewer = ROOM.replace("count = 12", "count = 10");
-    let says = "lists 12 people, the scene has 10: a frame cut short";
+    let says = "people.csv: lists 12 people, the scene has 10: the trajectory of another scene";
     refused("resume-other", &fewer, &["--resume", dir], says);
+    // Another crowd of as many people with other radii.
+    let wider = ROOM.replace("radius = 0.2", "radius = 0.19");
+    refused(
+        "resume-radii",
+        &wider,
+        &["--resume", dir],
+        "people.csv:2: person 0 has radius 0.2, the scene gives them 0.19",
+    );
 
     // A last frame cut short, as a run killed while writing it leaves it.
     let csv = first.join("trajectory.csv");
     let text = std::fs::read_to_string(&csv).unwrap();
     let cut = scratch_dir.join("cut");
     std::fs::create_dir_all(&cut).unwrap();
+    std::fs::copy(first.join("people.csv"), cut.join("people.csv")).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     std::fs::write(
         cut.join("trajectory.csv"),
@@ -223,11 +266,12 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
         "resume-cut",
         ROOM,
         &["--resume", cut],
-        "lists 9 people, the scene has 12",
+        "lists 9 of 12 people, and person 9, missing, has not left",
     );
     // Cut inside a line: a line of four fields is refused by its number.
     let inside = scratch_dir.join("inside");
     std::fs::create_dir_all(&inside).unwrap();
+    std::fs::copy(first.join("people.csv"), inside.join("people.csv")).unwrap();
     let mut short = lines[..lines.len() - 1].join("\n");
     short.push('\n');
     short.push_str(&lines[lines.len() - 1][..lines[lines.len() - 1].rfind(',').unwrap()]);
@@ -246,9 +290,10 @@ fn a_resume_that_does_not_fit_is_refused_by_name() {
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     let last = lines.len() - 1;
     let f: Vec<String> = lines[last].split(',').map(str::to_string).collect();
-    lines[last] = format!("{},{},-0.05,2,1", f[0], f[1]);
+    lines[last] = format!("{},{},-0.05,2", f[0], f[1]);
     let broken = scratch_dir.join("broken");
     std::fs::create_dir_all(&broken).unwrap();
+    std::fs::copy(first.join("people.csv"), broken.join("people.csv")).unwrap();
     std::fs::write(broken.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
     let broken = broken.to_str().unwrap();
     refused(
@@ -268,9 +313,14 @@ fn a_run_resumed_after_everybody_left_takes_no_step() {
     let (ok, printed, dir) = sweep("resume-empty", &until_empty, &["--out", "first"]);
     assert!(ok && printed.contains("everybody left"), "{printed}");
     let first_out = dir.join("first");
+    let summary = |out: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    };
+    let t_empty = summary(&first_out)["t_final"].as_f64().unwrap();
+    // Nobody is written after leaving: the last frame with rows is before the room emptied.
     let first = frames(&first_out);
-    let (&t_last, last) = first.last_key_value().unwrap();
-    assert!(last.values().all(|p| !p.2), "somebody is still inside");
+    let (&t_last, _) = first.last_key_value().unwrap();
+    assert!((t_last as f64) * 1e-6 < t_empty, "{t_last} {t_empty}");
     let (ok, printed, again_dir) = sweep(
         "resume-empty-again",
         &until_empty,
@@ -278,24 +328,23 @@ fn a_run_resumed_after_everybody_left_takes_no_step() {
     );
     assert!(ok, "{printed}");
     let again_out = again_dir.join("again");
-    let again = frames(&again_out);
-    // One frame, the first run's last, to the bit.
-    assert_eq!(again.len(), 1, "{:?}", again.keys());
-    assert_eq!(again[&t_last], *last);
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(again_out.join("summary.json")).unwrap())
-            .unwrap();
+    // It starts where the room emptied, writes nobody, and keeps everybody's departure.
+    assert!(frames(&again_out).is_empty());
+    let summary = summary(&again_out);
     assert_eq!(summary["steps"], 0, "{summary}");
     assert_eq!(summary["status"], "everybody left", "{summary}");
-    let t_final = summary["t_final"].as_f64().unwrap();
-    assert!((t_final - t_last as f64 * 1e-6).abs() < 1e-9, "{summary}");
+    assert_eq!(summary["t_final"].as_f64().unwrap(), t_empty, "{summary}");
+    let people = |out: &Path| std::fs::read_to_string(out.join("people.csv")).unwrap();
+    assert_eq!(people(&again_out), people(&first_out));
 }
 
-/// `lines` written as the `trajectory.csv` of a fresh directory `name` under `dir`.
-fn write_trajectory(dir: &Path, name: &str, lines: &[String]) -> String {
+/// `lines` written as the `trajectory.csv` of a fresh directory `name` under `dir`, and
+/// `people` as its `people.csv`.
+fn write_trajectory(dir: &Path, name: &str, lines: &[String], people: &str) -> String {
     let d = dir.join(name);
     std::fs::create_dir_all(&d).unwrap();
     std::fs::write(d.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
+    std::fs::write(d.join("people.csv"), people).unwrap();
     d.to_str().unwrap().to_string()
 }
 
@@ -309,21 +358,22 @@ fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
         sweep("resume-edited", ROOM, &["--t-end", "2", "--out", "first"]);
     assert!(ok, "{printed}");
     let text = std::fs::read_to_string(scratch_dir.join("first/trajectory.csv")).unwrap();
+    let people = std::fs::read_to_string(scratch_dir.join("first/people.csv")).unwrap();
     let lines: Vec<String> = text.lines().map(str::to_string).collect();
-    // The last frame, at t = 2: (index in `lines`, id, x, present) of each row.
-    let last: Vec<(usize, usize, f64, bool)> = lines
+    // The last frame, at t = 2: (index in `lines`, id, x) of each row, the people present.
+    let last: Vec<(usize, usize, f64)> = lines
         .iter()
         .enumerate()
         .filter(|(_, l)| l.starts_with("2,"))
         .map(|(k, l)| {
             let f: Vec<&str> = l.split(',').collect();
-            (k, f[1].parse().unwrap(), f[2].parse().unwrap(), f[4] == "1")
+            (k, f[1].parse().unwrap(), f[2].parse().unwrap())
         })
         .collect();
-    assert_eq!(last.len(), 12);
+    assert!(last.len() < 12 && !last.is_empty(), "{last:?}");
     let inside: Vec<(usize, usize)> = last
         .iter()
-        .filter(|r| r.3 && r.2 < 3.7)
+        .filter(|r| r.2 < 3.7)
         .map(|r| (r.0, r.1))
         .collect();
     assert!(inside.len() >= 2, "{last:?}");
@@ -337,44 +387,68 @@ fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
             );
         }
     };
-    let with_row = |k: usize, row: String| {
-        let mut edited = lines.clone();
-        edited[k] = row;
-        edited
+    // `people.csv` with person `id` marked as having left at t = 1.9 at (x, y).
+    let left_at = |people: &str, id: usize, x: f64, y: f64| -> String {
+        people
+            .lines()
+            .enumerate()
+            .map(|(k, l)| {
+                if k == id + 1 {
+                    let r: Vec<&str> = l.split(',').collect();
+                    format!("{id},{},1.9,{x},{y}", r[1])
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+            + "\n"
     };
 
-    // Two people inside marked gone.
-    let mut edited = lines.clone();
-    for &(k, _) in &inside[..2] {
-        edited[k] = format!("{}0", &lines[k][..lines[k].len() - 1]);
+    // Two people inside marked gone where they stand: their rows of the last frame dropped,
+    // the people table saying they left there.
+    let (mut edited, mut table) = (lines.clone(), people.clone());
+    for &(k, id) in inside[..2].iter().rev() {
+        let f: Vec<&str> = lines[k].split(',').collect();
+        table = left_at(&table, id, f[2].parse().unwrap(), f[3].parse().unwrap());
+        edited.remove(k);
     }
-    let (k, id) = inside[0];
-    let dir = write_trajectory(&scratch_dir, "gone-inside", &edited);
+    let id = inside[0].1;
+    let dir = write_trajectory(&scratch_dir, "gone-inside", &edited, &table);
     let says = [
-        format!("trajectory.csv:{}", k + 1),
+        format!("people.csv:{}", id + 2),
         format!("person {id} is marked gone at t = 2"),
         "not wholly outside the room".to_string(),
     ];
     refused("resume-gone-inside", ROOM, &dir, &says);
 
-    // A person at x = −3 marked present, then marked gone: no exit is on that side.
-    for (present, what) in [
-        ("1", "wholly outside the room"),
-        ("0", "on no exit's outer side"),
-    ] {
-        let dir = write_trajectory(
-            &scratch_dir,
-            &format!("outside-{present}"),
-            &with_row(k, format!("2,{id},-3,2,{present}")),
-        );
-        let says = [
-            format!("trajectory.csv:{}", k + 1),
-            format!("person {id} is marked"),
-            "at (-3, 2)".to_string(),
-            what.to_string(),
-        ];
-        refused(&format!("resume-outside-{present}"), ROOM, &dir, &says);
-    }
+    // A person at x = −3 present, then gone: no exit is on that side.
+    let (k, id) = inside[0];
+    let mut moved = lines.clone();
+    moved[k] = format!("2,{id},-3,2");
+    let dir = write_trajectory(&scratch_dir, "outside-present", &moved, &people);
+    let says = [
+        format!("trajectory.csv:{}", k + 1),
+        format!("person {id} is marked present"),
+        "at (-3, 2)".to_string(),
+        "wholly outside the room".to_string(),
+    ];
+    refused("resume-outside-present", ROOM, &dir, &says);
+    let mut dropped = lines.clone();
+    dropped.remove(k);
+    let dir = write_trajectory(
+        &scratch_dir,
+        "outside-gone",
+        &dropped,
+        &left_at(&people, id, -3.0, 2.0),
+    );
+    let says = [
+        format!("people.csv:{}", id + 2),
+        format!("person {id} is marked gone"),
+        "at (-3, 2)".to_string(),
+        "on no exit's outer side".to_string(),
+    ];
+    refused("resume-outside-gone", ROOM, &dir, &says);
 
     // The scene's start, written at t = −100.
     let mut early = vec![lines[0].clone()];
@@ -383,7 +457,8 @@ fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
             .iter()
             .map(|l| format!("-100{}", &l[l.find(',').unwrap()..])),
     );
-    let dir = write_trajectory(&scratch_dir, "early", &early);
+    let fresh = left_free(&people);
+    let dir = write_trajectory(&scratch_dir, "early", &early, &fresh);
     let says = [
         "trajectory.csv:2".to_string(),
         "before the scene's start t = 0".to_string(),
@@ -391,8 +466,8 @@ fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
     refused("resume-early", ROOM, &dir, &says);
 
     // Cut inside the first frame.
-    let dir = write_trajectory(&scratch_dir, "cut-first", &lines[..6]);
-    let says = ["lists 5 people, the scene has 12".to_string()];
+    let dir = write_trajectory(&scratch_dir, "cut-first", &lines[..6], &fresh);
+    let says = ["lists 5 of 12 people, and person 5, missing, has not left".to_string()];
     refused("resume-cut-first", ROOM, &dir, &says);
 
     // Another crowd of as many people in the same room.
@@ -411,6 +486,24 @@ fn an_edited_or_foreign_state_is_refused_by_row_and_person() {
     refused("resume-foreign", ROOM, dir.to_str().unwrap(), &says);
 }
 
+/// `people.csv` with nobody having left.
+fn left_free(people: &str) -> String {
+    people
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            if k == 0 {
+                l.to_string()
+            } else {
+                let r: Vec<&str> = l.split(',').collect();
+                format!("{},{},,,", r[0], r[1])
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n"
+}
+
 mod fuzz {
     use super::*;
     use proptest::prelude::*;
@@ -420,8 +513,11 @@ mod fuzz {
     /// One change to a trajectory.
     #[derive(Debug, Clone)]
     enum Edit {
-        /// A row of the last frame marked the other way.
-        Present(usize),
+        /// A row of the last frame dropped.
+        Drop(usize),
+        /// A row of the last frame dropped, and the people table saying the person left at
+        /// this point.
+        Leave(usize, f64, f64),
         /// A row of the last frame moved to a point.
         Move(usize, f64, f64),
         /// A row of the last frame moved by a little.
@@ -434,7 +530,8 @@ mod fuzz {
 
     fn edit() -> impl Strategy<Value = Edit> {
         prop_oneof![
-            (0..12usize).prop_map(Edit::Present),
+            (0..12usize).prop_map(Edit::Drop),
+            (0..12usize, -1.0..5.0f64, -1.0..5.0f64).prop_map(|(i, x, y)| Edit::Leave(i, x, y)),
             (0..12usize, -1.0..5.0f64, -1.0..5.0f64).prop_map(|(i, x, y)| Edit::Move(i, x, y)),
             (0..12usize, -0.2..0.2f64, -0.2..0.2f64).prop_map(|(i, x, y)| Edit::Nudge(i, x, y)),
             prop_oneof![-2.0..4.0f64, 0.95..1.25f64].prop_map(Edit::Time),
@@ -442,9 +539,9 @@ mod fuzz {
         ]
     }
 
-    /// The trajectory of ROOM to t = 1, made once.
-    fn base() -> &'static str {
-        static TEXT: OnceLock<String> = OnceLock::new();
+    /// The trajectory and people table of ROOM to t = 1, made once.
+    fn base() -> &'static (String, String) {
+        static TEXT: OnceLock<(String, String)> = OnceLock::new();
         TEXT.get_or_init(|| {
             let (ok, printed, dir) = sweep(
                 "resume-fuzz-base",
@@ -452,22 +549,38 @@ mod fuzz {
                 &["--t-end", "1", "--out", "first"],
             );
             assert!(ok, "{printed}");
-            std::fs::read_to_string(dir.join("first/trajectory.csv")).unwrap()
+            let read = |name: &str| std::fs::read_to_string(dir.join("first").join(name)).unwrap();
+            (read("trajectory.csv"), read("people.csv"))
         })
     }
 
-    fn apply(text: &str, edits: &[Edit]) -> String {
+    /// `text` and `people` with the edits made.
+    fn apply((text, people): &(String, String), edits: &[Edit]) -> (String, String) {
         let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        let mut table: Vec<String> = people.lines().map(str::to_string).collect();
         for e in edits {
             let n = lines.len();
             let last = n.saturating_sub(12).max(1)..n;
             match *e {
-                Edit::Present(i) | Edit::Move(i, _, _) | Edit::Nudge(i, _, _)
-                    if last.start + i < n =>
-                {
+                Edit::Drop(i) if last.start + i < n => {
+                    lines.remove(last.start + i);
+                }
+                Edit::Leave(i, x, y) if last.start + i < n => {
+                    let row = lines.remove(last.start + i);
+                    let id: usize = row
+                        .split(',')
+                        .nth(1)
+                        .and_then(|v| v.parse().ok())
+                        .unwrap_or(0);
+                    if let Some(line) = table.get_mut(id + 1) {
+                        let radius = line.split(',').nth(1).unwrap_or("0.2").to_string();
+                        *line = format!("{id},{radius},0.95,{x},{y}");
+                    }
+                }
+                Edit::Move(i, _, _) | Edit::Nudge(i, _, _) if last.start + i < n => {
                     let k = last.start + i;
                     let mut f: Vec<String> = lines[k].split(',').map(str::to_string).collect();
-                    if f.len() != 5 {
+                    if f.len() != 4 {
                         continue;
                     }
                     let coordinate = |v: &str| v.parse::<f64>().unwrap_or(0.0);
@@ -476,11 +589,14 @@ mod fuzz {
                             f[2] = x.to_string();
                             f[3] = y.to_string();
                         }
-                        Edit::Nudge(_, dx, dy) => {
+                        _ => {
+                            let (dx, dy) = match *e {
+                                Edit::Nudge(_, dx, dy) => (dx, dy),
+                                _ => (0.0, 0.0),
+                            };
                             f[2] = (coordinate(&f[2]) + dx).to_string();
                             f[3] = (coordinate(&f[3]) + dy).to_string();
                         }
-                        _ => f[4] = if f[4] == "1" { "0" } else { "1" }.to_string(),
                     }
                     lines[k] = f.join(",");
                 }
@@ -502,7 +618,7 @@ mod fuzz {
                 _ => {}
             }
         }
-        lines.join("\n") + "\n"
+        (lines.join("\n") + "\n", table.join("\n") + "\n")
     }
 
     fn cases() -> u32 {
@@ -537,15 +653,17 @@ mod fuzz {
             static CASE: AtomicUsize = AtomicUsize::new(0);
             let case = CASE.fetch_add(1, Ordering::Relaxed);
             let scratch_dir = scratch(&format!("resume-fuzz-{case}"));
-            let lines: Vec<String> = apply(base(), &edits).lines().map(str::to_string).collect();
-            let dir = write_trajectory(&scratch_dir, "edited", &lines);
+            let (text, people) = apply(base(), &edits);
+            let lines: Vec<String> = text.lines().map(str::to_string).collect();
+            let dir = write_trajectory(&scratch_dir, "edited", &lines, &people);
             let name = format!("resume-fuzz-run-{case}");
             let (ok, printed, run_dir) =
                 sweep(&name, ROOM, &["--resume", &dir, "--out", "again", "--t-end", "1.3"]);
             prop_assert!(!printed.contains("panicked"), "{edits:?}: {printed}");
             if !ok {
                 prop_assert!(
-                    printed.contains("error: --resume") && printed.contains("trajectory.csv"),
+                    printed.contains("error: --resume")
+                        && (printed.contains("trajectory.csv") || printed.contains("people.csv")),
                     "{edits:?}: an error that does not say what it read:\n{printed}"
                 );
             } else if has_tomllib() {

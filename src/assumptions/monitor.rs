@@ -16,11 +16,13 @@
 //! monitor stops the run with its typed [`SweepError::AssumptionViolated`] through
 //! [`ObserverError::Stop`].
 
-use super::{
-    concave_direction, describe_point, second_order_norms, symmetric_spectral_norm,
-    AssumptionReport, CONVEXITY_MEANING,
+use super::AssumptionReport;
+use crate::constraint::{ConstraintFamily, Curvature};
+use crate::curvature::{
+    concave_direction, convex_direction, describe_point, second_order_norms,
+    symmetric_spectral_norm, AFFINE_CLAIM, CONCAVITY, CONCAVITY_MEANING, CONVEXITY,
+    CONVEXITY_MEANING,
 };
-use crate::constraint::ConstraintFamily;
 use crate::error::SweepError;
 use crate::problem::Problem;
 use crate::stepper::{Observer, ObserverError, StepReport};
@@ -223,6 +225,8 @@ impl BoundViolation {
     fn detail(&self) -> String {
         let mut out = if self.assumption == CONVEXITY {
             format!("{} = {:.6e} < 0", self.quantity, self.value)
+        } else if self.assumption == CONCAVITY {
+            format!("{} = {:.6e} > 0", self.quantity, self.value)
         } else if self.assumption == AFFINE_CLAIM {
             format!("{} = {:.6e} ≠ 0", self.quantity, self.value)
         } else {
@@ -268,11 +272,6 @@ impl std::fmt::Display for BoundViolation {
         )
     }
 }
-
-/// The assumption name of a failed convexity check.
-pub const CONVEXITY: &str = "convexity (g convex in q)";
-/// The assumption name of a false `is_affine` claim.
-pub const AFFINE_CLAIM: &str = "affine claim (D²g = 0)";
 
 /// Checks declared bounds and convexity at every step of a run (module docs).
 ///
@@ -545,8 +544,31 @@ impl<'p> BoundsMonitor<'p> {
                     }
                 }
             }
+            let declared_concave = fam.curvature() == Curvature::Concave;
             if self.settings.convexity
                 && !fam.is_affine()
+                && declared_concave
+                && convex_direction(n.max_eig, n.hess, self.settings.relative_tolerance)
+            {
+                found.push(BoundViolation {
+                    step,
+                    t,
+                    assumption: CONCAVITY.into(),
+                    constraint: fam.describe(idx),
+                    quantity: "the largest eigenvalue of D²g".into(),
+                    bound_name: "0".into(),
+                    bound: 0.0,
+                    value: n.max_eig,
+                    note: format!(
+                        "at {}, g = {:.3e}: {CONCAVITY_MEANING}",
+                        describe_point(&so.columns, q),
+                        so.value,
+                    ),
+                });
+            }
+            if self.settings.convexity
+                && !fam.is_affine()
+                && !declared_concave
                 && concave_direction(n.min_eig, n.hess, self.settings.relative_tolerance)
             {
                 found.push(BoundViolation {

@@ -1,5 +1,5 @@
-//! Geodesic distance to the exits by fast marching on a grid, interpolated so that the field
-//! of directions is continuous.
+//! Geodesic distance to the exits (or to a waypoint, [`Target`]) by fast marching on a grid,
+//! interpolated so that the field of directions is continuous.
 //!
 //! The grid is used for this one computation only: walls and obstacles are rasterized to say
 //! which nodes are free, the eikonal equation `|∇d| = 1` is solved once (first-order upwind
@@ -84,6 +84,53 @@ pub struct MarchingDomain {
     pub segments: Vec<([f64; 2], [f64; 2])>,
     /// Polygon obstacles (closed).
     pub polygons: Vec<Vec<[f64; 2]>>,
+    /// Places inside the room where `d = 0` too (a journey's waypoints); with none, the
+    /// exits are the only targets.
+    pub targets: Vec<Target>,
+}
+
+/// A place inside the room that a field leads to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Target {
+    /// A point: `d` is the distance to it near it (within `max(reach, 1.5·cell)`).
+    Point {
+        /// The point.
+        at: [f64; 2],
+        /// How near counts as there.
+        reach: f64,
+    },
+    /// An axis-aligned rectangle `[x0, y0, x1, y1]`: `d = 0` inside.
+    Region([f64; 4]),
+}
+
+impl Target {
+    /// The distance from `p` to the target (to the point, or to the rectangle).
+    pub fn distance(&self, p: [f64; 2]) -> f64 {
+        match *self {
+            Target::Point { at, .. } => (p[0] - at[0]).hypot(p[1] - at[1]),
+            Target::Region([x0, y0, x1, y1]) => {
+                let dx = (x0 - p[0]).max(p[0] - x1).max(0.0);
+                let dy = (y0 - p[1]).max(p[1] - y1).max(0.0);
+                dx.hypot(dy)
+            }
+        }
+    }
+
+    /// Whether a person whose centre is at `p` has reached it.
+    pub fn is_reached(&self, p: [f64; 2]) -> bool {
+        match *self {
+            Target::Point { reach, .. } => self.distance(p) <= reach,
+            Target::Region(_) => self.distance(p) == 0.0,
+        }
+    }
+
+    /// How far from it the seeds of the march lie.
+    fn band(&self, cell: f64) -> f64 {
+        match *self {
+            Target::Point { reach, .. } => reach.max(1.5 * cell),
+            Target::Region(_) => 1.5 * cell,
+        }
+    }
 }
 
 /// Why the distance field could not be computed.
@@ -101,6 +148,9 @@ pub enum FastMarchingError {
     /// No exit touches a free node.
     #[error("no exit is reachable on the fast-marching grid (cell {0}); is there an exit on a wall, with free space behind it?")]
     NoExit(f64),
+    /// No free node lies at a target.
+    #[error("no free node of the fast-marching grid (cell {0}) lies at the target: is it inside the room and clear of the obstacles?")]
+    NoTarget(f64),
 }
 
 /// The geodesic distance to the nearest exit on a grid, with its interpolated gradient.
@@ -216,6 +266,19 @@ impl DistanceField {
                 let p = grid.node(i, j);
                 let k = grid.index(i, j);
                 if free[k] {
+                    // A target's seeds: its exact distance near it.
+                    if let Some(d) = domain
+                        .targets
+                        .iter()
+                        .filter(|t| t.distance(p) <= t.band(cell))
+                        .map(|t| t.distance(p))
+                        .reduce(f64::min)
+                    {
+                        values[k] = d;
+                        known[k] = true;
+                        seeded = true;
+                        continue;
+                    }
                     let d = domain
                         .exits
                         .iter()
@@ -242,7 +305,11 @@ impl DistanceField {
             }
         }
         if !seeded {
-            return Err(FastMarchingError::NoExit(cell));
+            return Err(if domain.targets.is_empty() {
+                FastMarchingError::NoExit(cell)
+            } else {
+                FastMarchingError::NoTarget(cell)
+            });
         }
         // First march: over free nodes only.
         let allowed: Vec<bool> = free.clone();

@@ -1,7 +1,7 @@
-//! Who is in the crowd, and who has left.
+//! Who is in the crowd: who has arrived (people may arrive during a run) and who has left.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// A closed polygonal room (counter-clockwise or clockwise), used to tell who has left.
 #[derive(Debug, Clone, PartialEq)]
@@ -86,11 +86,12 @@ pub fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt()
 }
 
-/// Who has left, latched: once set, a flag stays set until [`Population::reset_departures`].
+/// One flag per person, latched: once set, it stays set until reset (who has left, who has
+/// arrived).
 #[derive(Debug, Default)]
-struct Departures(Vec<AtomicBool>);
+struct Latches(Vec<AtomicBool>);
 
-impl Departures {
+impl Latches {
     fn new(n: usize) -> Self {
         Self((0..n).map(|_| AtomicBool::new(false)).collect())
     }
@@ -105,13 +106,13 @@ impl Departures {
     }
 }
 
-impl Clone for Departures {
+impl Clone for Latches {
     fn clone(&self) -> Self {
         Self(self.snapshot().into_iter().map(AtomicBool::new).collect())
     }
 }
 
-impl PartialEq for Departures {
+impl PartialEq for Latches {
     fn eq(&self, other: &Self) -> bool {
         self.snapshot() == other.snapshot()
     }
@@ -136,21 +137,37 @@ pub struct Population {
     /// strictly inside is in the room without walking the polygon (presence is asked for every
     /// person several times a step).
     room_box: Option<[f64; 4]>,
-    departed: Departures,
+    departed: Latches,
+    /// When people arrive during the run (a scene's sources); `None`: everybody is there
+    /// from the start, and presence costs no arrival check.
+    arrivals: Option<Arrivals>,
 }
 
 impl Population {
     /// `radii.len()` people; nobody ever leaves unless [`Population::with_room`] is set.
     pub fn new(radii: Vec<f64>) -> Self {
         let max_radius = radii.iter().copied().fold(0.0, f64::max);
-        let departed = Departures::new(radii.len());
+        let departed = Latches::new(radii.len());
         Self {
             radii,
             max_radius,
             room: None,
             room_box: None,
             departed,
+            arrivals: None,
         }
+    }
+
+    /// People arrive during the run: person `i` is due at `due[i]` (`None`: there from the
+    /// start) and is absent, in no constraint and standing still, until
+    /// [`admit`](Self::admit) lets them in.
+    ///
+    /// # Panics
+    /// When `due` has not one entry per person.
+    pub fn with_arrivals(mut self, due: Vec<Option<f64>>) -> Self {
+        assert_eq!(due.len(), self.len(), "one arrival time per person");
+        self.arrivals = Some(Arrivals::new(due));
+        self
     }
 
     /// People whose disk is wholly outside `room` have left.
@@ -205,6 +222,9 @@ impl Population {
     /// documentation), so `q` should be a configuration of the run (not a trial point).
     #[inline]
     pub fn is_present(&self, q: &[f64], i: usize) -> bool {
+        if !self.has_arrived(i) {
+            return false;
+        }
         match &self.room {
             None => true,
             Some(room) => {
@@ -263,6 +283,191 @@ impl Population {
     pub fn present_count(&self, q: &[f64]) -> usize {
         (0..self.len()).filter(|&i| self.is_present(q, i)).count()
     }
+
+    /// Whether person `i` has arrived (always, for a population without arrivals).
+    #[inline]
+    pub fn has_arrived(&self, i: usize) -> bool {
+        self.arrivals.as_ref().is_none_or(|a| a.arrived.get(i))
+    }
+
+    /// Whether people arrive during the run ([`with_arrivals`](Self::with_arrivals)).
+    pub fn has_arrivals(&self) -> bool {
+        self.arrivals.is_some()
+    }
+
+    /// When person `i` is due (`None`: there from the start).
+    pub fn due(&self, i: usize) -> Option<f64> {
+        self.arrivals.as_ref().and_then(|a| a.due[i])
+    }
+
+    /// How many people have not arrived yet.
+    pub fn pending_count(&self) -> usize {
+        self.arrivals.as_ref().map_or(0, |a| {
+            (0..self.len()).filter(|&i| !a.arrived.get(i)).count()
+        })
+    }
+
+    /// Nobody in the room and nobody still to come: a run may stop.
+    pub fn is_done(&self, q: &[f64]) -> bool {
+        self.pending_count() == 0 && self.present_count(q) == 0
+    }
+
+    /// Clears every arrival but those of the people there from the start: the start of a new
+    /// run.
+    pub fn reset_arrivals(&self) {
+        if let Some(a) = &self.arrivals {
+            a.reset();
+        }
+    }
+
+    /// Lets in, at time `t`, everybody due by `t` whose disk at their place in `q` overlaps
+    /// nobody present (people due earlier first, then by index); who is due but finds their
+    /// place taken waits, and the wait is recorded. Returns how many came in. A run calls it
+    /// at its start and after every step ([`crate::scene::BuiltScene::run`] does).
+    pub fn admit(&self, t: f64, q: &[f64]) -> usize {
+        let Some(a) = &self.arrivals else {
+            return 0;
+        };
+        let due: Vec<usize> = a
+            .order
+            .iter()
+            .copied()
+            .filter(|&i| !a.arrived.get(i) && a.due[i].is_some_and(|d| d <= t))
+            .collect();
+        if due.is_empty() {
+            return 0;
+        }
+        // The present people by cell: a place is taken only by someone within 2 r_max.
+        let cell = (2.0 * self.max_radius).max(1e-9);
+        let key = |p: [f64; 2]| ((p[0] / cell).floor() as i64, (p[1] / cell).floor() as i64);
+        let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> = Default::default();
+        for j in (0..self.len()).filter(|&j| self.is_present(q, j)) {
+            grid.entry(key(Self::position(q, j))).or_default().push(j);
+        }
+        let mut log = a.log.lock().unwrap_or_else(|e| e.into_inner());
+        let mut admitted = 0;
+        for i in due {
+            let p = Self::position(q, i);
+            let (kx, ky) = key(p);
+            let taken = (-1..=1)
+                .flat_map(|dx| (-1..=1).map(move |dy| (kx + dx, ky + dy)))
+                .flat_map(|k| grid.get(&k).into_iter().flatten())
+                .any(|&j| {
+                    let pj = Self::position(q, j);
+                    (p[0] - pj[0]).hypot(p[1] - pj[1]) < self.radii[i] + self.radii[j]
+                });
+            if taken {
+                log.blocked_since[i].get_or_insert(t);
+                continue;
+            }
+            a.arrived.set(i);
+            log.arrived_at[i] = Some(t);
+            grid.entry((kx, ky)).or_default().push(i);
+            admitted += 1;
+        }
+        admitted
+    }
+
+    /// Who has arrived and who waited, at time `t` (`None` without arrivals).
+    pub fn arrival_report(&self, t: f64) -> Option<ArrivalReport> {
+        let a = self.arrivals.as_ref()?;
+        let log = a.log.lock().unwrap_or_else(|e| e.into_inner());
+        let mut r = ArrivalReport::default();
+        for i in (0..self.len()).filter(|&i| a.due[i].is_some()) {
+            r.scheduled += 1;
+            let arrived = log.arrived_at[i];
+            if arrived.is_some() {
+                r.arrived += 1;
+            }
+            if let Some(since) = log.blocked_since[i] {
+                let wait = arrived.unwrap_or(t) - since;
+                r.waited += 1;
+                r.total_wait += wait;
+                r.longest_wait = r.longest_wait.max(wait);
+                if arrived.is_none() {
+                    r.still_waiting += 1;
+                }
+            }
+        }
+        Some(r)
+    }
+}
+
+/// People arriving during a run: who is due when, who has arrived, who had to wait.
+#[derive(Debug)]
+struct Arrivals {
+    due: Vec<Option<f64>>,
+    /// The people due during the run, by due time (then index): the order of admission.
+    order: Vec<usize>,
+    arrived: Latches,
+    log: Mutex<ArrivalLog>,
+}
+
+/// When each person arrived, and since when they waited for their place.
+#[derive(Debug, Clone, PartialEq, Default)]
+struct ArrivalLog {
+    arrived_at: Vec<Option<f64>>,
+    blocked_since: Vec<Option<f64>>,
+}
+
+impl Arrivals {
+    fn new(due: Vec<Option<f64>>) -> Self {
+        let mut order: Vec<usize> = (0..due.len()).filter(|&i| due[i].is_some()).collect();
+        order.sort_by(|&i, &j| due[i].unwrap_or(0.0).total_cmp(&due[j].unwrap_or(0.0)));
+        let a = Arrivals {
+            arrived: Latches::new(due.len()),
+            log: Mutex::new(ArrivalLog::default()),
+            due,
+            order,
+        };
+        a.reset();
+        a
+    }
+
+    fn reset(&self) {
+        for (i, d) in self.due.iter().enumerate() {
+            self.arrived.0[i].store(d.is_none(), Ordering::Relaxed);
+        }
+        let n = self.due.len();
+        *self.log.lock().unwrap_or_else(|e| e.into_inner()) = ArrivalLog {
+            arrived_at: vec![None; n],
+            blocked_since: vec![None; n],
+        };
+    }
+}
+
+impl Clone for Arrivals {
+    fn clone(&self) -> Self {
+        Arrivals {
+            due: self.due.clone(),
+            order: self.order.clone(),
+            arrived: self.arrived.clone(),
+            log: Mutex::new(self.log.lock().unwrap_or_else(|e| e.into_inner()).clone()),
+        }
+    }
+}
+
+impl PartialEq for Arrivals {
+    fn eq(&self, other: &Self) -> bool {
+        self.due == other.due && self.arrived == other.arrived
+    }
+}
+
+/// Who arrived during a run, and who had to wait because their place was taken.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct ArrivalReport {
+    /// People due to arrive during the run.
+    pub scheduled: usize,
+    /// People who arrived.
+    pub arrived: usize,
+    /// People who found their place taken when due, and waited.
+    pub waited: usize,
+    /// People still waiting (due, place taken).
+    pub still_waiting: usize,
+    /// The longest wait, in seconds (up to now for who still waits).
+    pub longest_wait: f64,
+    /// The waits summed, in seconds.
+    pub total_wait: f64,
 }
 
 #[cfg(test)]

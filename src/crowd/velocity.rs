@@ -25,6 +25,12 @@ use std::sync::Arc;
 pub trait VelocityField: Send + Sync {
     /// The velocity at `p`.
     fn velocity(&self, p: [f64; 2], speed: f64) -> [f64; 2];
+    /// The velocity of `person` at `p`: [`velocity`](Self::velocity), unless the field
+    /// remembers something of each person (a journey, the waypoint they have reached).
+    fn velocity_of(&self, person: usize, p: [f64; 2], speed: f64) -> [f64; 2] {
+        let _ = person;
+        self.velocity(p, speed)
+    }
     /// A short description for reports ("towards the nearest exit (geodesic)").
     fn describe(&self) -> String;
 }
@@ -97,6 +103,38 @@ impl VelocityField for TowardsExits {
             self.field.grid().ny,
             self.field.grid().cell
         )
+    }
+}
+
+/// Towards a place inside the room (a waypoint) around the obstacles: speed times the descent
+/// direction of the geodesic distance to it.
+#[derive(Debug, Clone)]
+pub struct TowardsTarget {
+    /// The distance field to the target.
+    pub field: Arc<DistanceField>,
+    /// The target, for reports.
+    pub target: super::fast_marching::Target,
+}
+
+impl VelocityField for TowardsTarget {
+    /// Slowing down, near a point, as [`TowardsPoint`] does: a person who stops there does
+    /// not oscillate about it.
+    fn velocity(&self, p: [f64; 2], speed: f64) -> [f64; 2] {
+        use super::fast_marching::Target;
+        let d = self.field.direction(p);
+        let slow = match self.target {
+            Target::Point { .. } => (self.target.distance(p) / TowardsPoint::ARRIVAL).min(1.0),
+            Target::Region(_) => 1.0,
+        };
+        [d[0] * speed * slow, d[1] * speed * slow]
+    }
+    fn describe(&self) -> String {
+        use super::fast_marching::Target;
+        let which = match self.target {
+            Target::Point { at, reach } => format!("({}, {}) within {reach}", at[0], at[1]),
+            Target::Region(r) => format!("the region {r:?}"),
+        };
+        format!("towards {which} (geodesic)")
     }
 }
 
@@ -184,7 +222,9 @@ impl Perturbation for DesiredVelocity {
         out.iter_mut().for_each(|v| *v = 0.0);
         for (field, people) in &self.terms {
             for &i in people {
-                if self.starts.get(i).is_some_and(|&start| t < start) {
+                if self.starts.get(i).is_some_and(|&start| t < start)
+                    || !self.population.has_arrived(i)
+                {
                     continue;
                 }
                 let p = Population::position(q, i);
@@ -195,7 +235,7 @@ impl Perturbation for DesiredVelocity {
                 // distance per exit per person per step, and nobody else uses it.
                 let v = match outside.then(|| self.nearest_exit_normal(p)).flatten() {
                     Some(n) => [n[0] * speed, n[1] * speed],
-                    None => field.velocity(p, speed),
+                    None => field.velocity_of(i, p, speed),
                 };
                 out[2 * i] = v[0];
                 out[2 * i + 1] = v[1];

@@ -1,7 +1,9 @@
 //! A self-contained HTML animation: inline SVG, the frames as JSON, a few lines of
 //! JavaScript (play/pause, time slider, speed). Opens in any browser, offline.
 
-use super::svg::{frame, obstacle_element, static_layer, xml_escape, PALETTE, PALETTE_DARK};
+use super::svg::{
+    frame, obstacle_element, static_layer, xml_escape, PALETTE, PALETTE_DARK, PRESSURE_SCALE,
+};
 use crate::crowd::Population;
 use crate::error::SweepError;
 use crate::scene::SceneGeometry;
@@ -23,7 +25,9 @@ pub struct AnimationWriter {
     times: Vec<f64>,
     frames: Vec<Vec<Option<[i64; 2]>>>,
     offsets: Vec<Vec<[f64; 2]>>,
-    last: Option<(f64, Vec<f64>)>,
+    /// Each frame's pressures in thousandths of m/s, when asked for.
+    pressures: Option<Vec<Vec<i64>>>,
+    last: Option<(f64, Vec<f64>, Option<Vec<f64>>)>,
 }
 
 impl AnimationWriter {
@@ -51,11 +55,41 @@ impl AnimationWriter {
             times: Vec::new(),
             frames: Vec::new(),
             offsets: Vec::new(),
+            pressures: None,
             last: None,
         }
     }
 
-    fn record(&mut self, t: f64, q: &[f64]) {
+    /// Fills people by their pressure, on a scale from 0 to the largest of the run, with a
+    /// legend (the run must keep its contacts,
+    /// [`StepperSettings::record_contacts`](crate::stepper::StepperSettings::record_contacts)).
+    #[must_use]
+    pub fn with_pressure(mut self, on: bool) -> Self {
+        self.pressures = on.then(Vec::new);
+        self
+    }
+
+    /// Each person's pressure at the step of `r`, when asked for.
+    fn pressure_of(&self, r: &StepReport) -> Option<Vec<f64>> {
+        self.pressures.as_ref().map(|_| {
+            let mut p = Vec::new();
+            super::pressures(r, self.population.len(), &mut p);
+            p
+        })
+    }
+
+    fn record(&mut self, t: f64, q: &[f64], pressure: Option<&[f64]>) {
+        if let Some(frames) = self.pressures.as_mut() {
+            let n = self.population.len();
+            frames.push(
+                (0..n)
+                    .map(|i| {
+                        let p = pressure.and_then(|p| p.get(i).copied()).unwrap_or(0.0);
+                        (p * 1000.0).round() as i64
+                    })
+                    .collect(),
+            );
+        }
         let pop = &self.population;
         let frame = (0..pop.len())
             .map(|i| {
@@ -88,7 +122,8 @@ impl AnimationWriter {
         let palette_dark = js_string_array(&PALETTE_DARK);
         let title = xml_escape(&self.title);
         let stroke = 0.4 * unit;
-        page(&title, &svg, &data, &palette, &palette_dark, stroke)
+        let scale = js_string_array(&PRESSURE_SCALE);
+        page(&title, &svg, &data, &palette, &palette_dark, &scale, stroke)
     }
 
     /// The scene's SVG: the static layer (walls, exits), one group `ob{k}` per obstacle
@@ -115,8 +150,9 @@ impl AnimationWriter {
     }
 
     /// The recorded run as JSON: times `t`, radii `r`, colour index `g` of each person's
-    /// group, positions `f` per frame (in thousandths, `null` for who has left) and
-    /// obstacle offsets `o` per frame.
+    /// group, positions `f` per frame (in thousandths, `null` for who has left),
+    /// obstacle offsets `o` per frame and, with the pressure, each frame's pressures `p` and
+    /// the largest `pmax` (in thousandths of m/s).
     fn frames_json(&self) -> String {
         let mut data = String::new();
         data.push_str("{\"t\":[");
@@ -155,7 +191,17 @@ impl AnimationWriter {
                 comma_separated(f, |o| format!("{:.4},{:.4}", o[0], o[1]))
             )
         }));
-        data.push_str("]}");
+        data.push(']');
+        if let Some(frames) = &self.pressures {
+            // Pressures in thousandths of m/s, per frame; `pmax` the run's largest.
+            let max = frames.iter().flatten().copied().max().unwrap_or(0);
+            let _ = write!(data, ",\"pmax\":{max},\"p\":[");
+            data.push_str(&comma_separated(frames, |f| {
+                format!("[{}]", comma_separated(f, |p| p.to_string()))
+            }));
+            data.push(']');
+        }
+        data.push('}');
         data
     }
 }
@@ -188,6 +234,7 @@ fn page(
     data: &str,
     palette: &str,
     palette_dark: &str,
+    scale: &str,
     stroke: f64,
 ) -> String {
     format!(
@@ -205,6 +252,8 @@ fn page(
   button {{ font-size: 1em; padding: .3em .9em; min-width: 6em; }}
   #label {{ font-variant-numeric: tabular-nums; min-width: 15em; }}
   .legend {{ color: #666; font-size: .9em; margin-top: .4em; }}
+  #pressure {{ display: none; align-items: center; gap: .5em; color: #444; font-size: .9em; margin-top: .4em; }}
+  #pressure .bar {{ width: 12em; height: .9em; border: 1px solid #888; }}
 </style>
 </head>
 <body>
@@ -215,10 +264,24 @@ fn page(
   <span id="label"></span>
   <label>speed <select id="speed"><option>0.25</option><option>0.5</option><option selected>1</option><option>2</option><option>5</option><option>10</option></select></label>
 </div>
+<div id="pressure">pressure (sum of contact forces) 0 <span class="bar"></span> <span id="pmax"></span> m/s</div>
 <div class="legend">Walls in black, exits dashed green, obstacles grey; people who have left are not drawn. Space: play/pause; ←/→: step.</div>
 <script>
 const D = {data};
-const PAL = {palette}, PALD = {palette_dark};
+const PAL = {palette}, PALD = {palette_dark}, SCALE = {scale};
+function hex(c) {{ const v = parseInt(c.slice(1), 16); return [v >> 16 & 255, v >> 8 & 255, v & 255]; }}
+function pressureColour(p) {{
+  const s = D.pmax > 0 ? Math.min(Math.max(p / D.pmax, 0), 1) : 0;
+  const x = s * (SCALE.length - 1), k = Math.min(Math.floor(x), SCALE.length - 2), w = x - k;
+  const a = hex(SCALE[k]), b = hex(SCALE[k + 1]);
+  return "rgb(" + a.map((v, i) => Math.round(v + w * (b[i] - v))).join(",") + ")";
+}}
+if (D.p) {{
+  const box = document.getElementById("pressure");
+  box.style.display = "flex";
+  box.querySelector(".bar").style.background = "linear-gradient(to right," + SCALE.join(",") + ")";
+  document.getElementById("pmax").textContent = (D.pmax / 1000).toFixed(3);
+}}
 const NS = "http://www.w3.org/2000/svg";
 const layer = document.getElementById("people");
 const circles = D.r.map((r, i) => {{
@@ -244,6 +307,7 @@ function show(i) {{
     if (x === null) {{ circles[p].setAttribute("display", "none"); continue; }}
     inside++;
     circles[p].setAttribute("display", "inline");
+    if (D.p) circles[p].setAttribute("fill", pressureColour(D.p[i][p]));
     circles[p].setAttribute("cx", x / 1000);
     circles[p].setAttribute("cy", -y / 1000);
   }}
@@ -292,25 +356,26 @@ impl Observer for AnimationWriter {
     }
 
     fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
-        self.record(t, q);
+        self.record(t, q, None);
         self.next = t + self.interval;
         Ok(())
     }
 
     fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
+        let pressure = self.pressure_of(r);
         if r.t >= self.next - 1e-9 * self.next.abs().max(1.0) {
-            self.record(r.t, q);
+            self.record(r.t, q, pressure.as_deref());
             self.last = None;
             self.next = super::next_time_after(self.next, self.interval, r.t);
         } else {
-            self.last = Some((r.t, q.to_vec()));
+            self.last = Some((r.t, q.to_vec(), pressure));
         }
         Ok(())
     }
 
     fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
-        if let Some((t, q)) = self.last.take() {
-            self.record(t, &q);
+        if let Some((t, q, pressure)) = self.last.take() {
+            self.record(t, &q, pressure.as_deref());
         }
         super::write_whole(&self.path, self.html())
             .map_err(|e| format!("{}: {e}", self.path.display()).into())

@@ -3,7 +3,7 @@
 //! [`Observer`], so a run writes them as it goes and a failed run still leaves what it
 //! computed.
 //!
-//! * [`TrajectoryWriter`] — `t,id,x,y,present`, buffered, flushed at the end even on failure;
+//! * [`TrajectoryWriter`] — `t,id,x,y` (and `pressure` with contact forces) for the people present, buffered, flushed at the end even on failure;
 //! * `SqliteTrajectoryWriter` (cargo feature `sqlite`, on by default) — JuPedSim's trajectory
 //!   schema with the [`WalkableArea`] as WKT, streamed in transactions;
 //! * [`SummaryCollector`] — evacuation time, people out over time, steps, time per stage,
@@ -15,14 +15,18 @@
 //!
 //! [`run_scene`] runs a scene with all of them in one output directory, as `sweep run` does.
 
+mod contacts;
 mod html;
+mod people;
 mod run;
 #[cfg(feature = "sqlite")]
 mod sqlite;
 mod svg;
 mod walkable;
 
+pub use contacts::{pressures, ContactForce, ContactKinds, ContactWith};
 pub use html::AnimationWriter;
+pub use people::{Departure, PeopleWriter, PEOPLE_FILE};
 pub use run::{
     run_scene, RunHooks, RunOptions, RunSceneError, SceneRun, DISAGREEMENT_FILE, LARGEST_GAP_FILE,
 };
@@ -114,16 +118,31 @@ pub(crate) fn write_whole(path: &Path, contents: impl AsRef<[u8]>) -> std::io::R
     })
 }
 
-/// Writes `t,id,x,y,present` rows every `every` steps (and the first and last states) to a
-/// CSV file. `present` is 1 while the person is in the room, 0 once they have left.
+/// Writes `t,id,x,y` rows every `every` steps (and the first and last states) to a CSV file,
+/// one for each person **present** (their disk not wholly outside the room): who has left is
+/// written no more, as in JuPedSim's trajectories. With
+/// [`with_contact_forces`](Self::with_contact_forces), each row has the person's `pressure`
+/// too, and each contact of the frame's step goes to a second file, `t,a,b,kind,force`.
 pub struct TrajectoryWriter {
     path: PathBuf,
     out: Option<std::io::BufWriter<std::fs::File>>,
     population: Arc<Population>,
     every: usize,
-    last: Option<(f64, Vec<f64>)>,
+    last: Option<(Vec<f64>, StepReport)>,
     last_written_step: usize,
+    forces: Option<ForceFiles>,
 }
+
+/// The contact forces' part of the CSV trajectory: the contacts file and what each family is.
+struct ForceFiles {
+    path: PathBuf,
+    out: Option<std::io::BufWriter<std::fs::File>>,
+    kinds: ContactKinds,
+    pressure: Vec<f64>,
+}
+
+/// Where [`TrajectoryWriter::with_contact_forces`] writes the contacts, in the output directory.
+pub const CONTACTS_FILE: &str = "contacts.csv";
 
 impl TrajectoryWriter {
     /// A writer to `path` (created or truncated at the start of the run), keeping every
@@ -136,7 +155,28 @@ impl TrajectoryWriter {
             every: every.max(1),
             last: None,
             last_written_step: 0,
+            forces: None,
         }
+    }
+
+    /// Writes the contact forces too: a `pressure` column (empty at the first frame, before
+    /// any step) and the file `contacts` (`t,a,b,kind,force`, each contact of each frame's
+    /// step; `b` empty for a wall or obstacle), `kinds` saying what each family keeps apart.
+    /// The run must keep its contacts
+    /// ([`StepperSettings::record_contacts`](crate::stepper::StepperSettings::record_contacts)).
+    #[must_use]
+    pub fn with_contact_forces(
+        mut self,
+        contacts: impl Into<PathBuf>,
+        kinds: ContactKinds,
+    ) -> Self {
+        self.forces = Some(ForceFiles {
+            path: contacts.into(),
+            out: None,
+            kinds,
+            pressure: Vec::new(),
+        });
+        self
     }
 
     /// Where it writes.
@@ -144,23 +184,55 @@ impl TrajectoryWriter {
         &self.path
     }
 
-    fn write_state(&mut self, t: f64, q: &[f64]) -> Result<(), String> {
+    /// The header: `t,id,x,y`, and `pressure` with the contact forces.
+    fn header(&self) -> &'static str {
+        if self.forces.is_some() {
+            "t,id,x,y,pressure"
+        } else {
+            "t,id,x,y"
+        }
+    }
+
+    fn write_state(
+        &mut self,
+        t: f64,
+        q: &[f64],
+        report: Option<&StepReport>,
+    ) -> Result<(), String> {
         let pop = self.population.clone();
         let Some(out) = self.out.as_mut() else {
             return Ok(());
         };
         // `t` formatted once for all of its rows: formatting floats is most of the time spent
         // writing, and a third of the floats are this one.
-        let t = t.to_string();
-        for i in 0..pop.len() {
-            writeln!(
-                out,
-                "{t},{i},{},{},{}",
-                q[2 * i],
-                q[2 * i + 1],
-                u8::from(pop.is_present(q, i))
-            )
-            .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        let t_text = t.to_string();
+        let io = |path: &Path, e: std::io::Error| format!("{}: {e}", path.display());
+        let forces = self.forces.as_mut();
+        match forces {
+            None => {
+                for i in (0..pop.len()).filter(|&i| pop.is_present(q, i)) {
+                    writeln!(out, "{t_text},{i},{},{}", q[2 * i], q[2 * i + 1])
+                        .map_err(|e| io(&self.path, e))?;
+                }
+            }
+            Some(f) => {
+                match report {
+                    Some(r) => contacts::pressures(r, pop.len(), &mut f.pressure),
+                    None => f.pressure.clear(),
+                }
+                for i in (0..pop.len()).filter(|&i| pop.is_present(q, i)) {
+                    let p = contacts::optional_field(f.pressure.get(i).copied());
+                    writeln!(out, "{t_text},{i},{},{},{p}", q[2 * i], q[2 * i + 1])
+                        .map_err(|e| io(&self.path, e))?;
+                }
+                if let (Some(cout), Some(r)) = (f.out.as_mut(), report) {
+                    for c in f.kinds.forces(r) {
+                        let b = c.b.map(|b| b.to_string()).unwrap_or_default();
+                        writeln!(cout, "{t_text},{},{b},{},{}", c.a, c.with.as_str(), c.force)
+                            .map_err(|e| io(&f.path, e))?;
+                    }
+                }
+            }
         }
         Ok(())
     }
@@ -172,33 +244,50 @@ impl Observer for TrajectoryWriter {
     }
 
     fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
-        let file = std::fs::File::create(&self.path)
-            .map_err(|e| format!("{}: {e}", self.path.display()))?;
-        let mut out = std::io::BufWriter::new(file);
-        writeln!(out, "t,id,x,y,present").map_err(|e| format!("{}: {e}", self.path.display()))?;
-        self.out = Some(out);
-        Ok(self.write_state(t, q)?)
+        let create = |path: &Path, header: &str| -> Result<_, String> {
+            let file =
+                std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let mut out = std::io::BufWriter::new(file);
+            writeln!(out, "{header}").map_err(|e| format!("{}: {e}", path.display()))?;
+            Ok(out)
+        };
+        self.out = Some(create(&self.path, self.header())?);
+        if let Some(f) = self.forces.as_mut() {
+            f.out = Some(create(&f.path, "t,a,b,kind,force")?);
+        }
+        Ok(self.write_state(t, q, None)?)
     }
 
     fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
         let k = report.step + 1;
         if k.is_multiple_of(self.every) {
-            self.write_state(report.t, q)?;
+            self.write_state(report.t, q, Some(report))?;
             self.last_written_step = k;
             self.last = None;
         } else {
-            self.last = Some((report.t, q.to_vec()));
+            // The report is kept for its contacts; without them, its time alone.
+            let mut kept = report.clone();
+            if self.forces.is_none() {
+                kept.contacts = Vec::new();
+            }
+            self.last = Some((q.to_vec(), kept));
         }
         Ok(())
     }
 
     fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
-        if let Some((t, q)) = self.last.take() {
-            self.write_state(t, &q)?;
+        if let Some((q, report)) = self.last.take() {
+            self.write_state(report.t, &q, Some(&report))?;
         }
         if let Some(out) = self.out.as_mut() {
             out.flush()
                 .map_err(|e| format!("{}: {e}", self.path.display()))?;
+        }
+        if let Some(f) = self.forces.as_mut() {
+            if let Some(out) = f.out.as_mut() {
+                out.flush()
+                    .map_err(|e| format!("{}: {e}", f.path.display()))?;
+            }
         }
         Ok(())
     }
@@ -321,6 +410,10 @@ pub struct RunSummary {
     /// start. Everything above counts this run's steps alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resumed_from: Option<ResumedFrom>,
+    /// With people arriving during the run (a scene's `[[sources]]`): how many were due,
+    /// arrived, and waited because their place was taken, and how long. `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arrivals: Option<crate::crowd::ArrivalReport>,
 }
 
 /// Where a resumed run started: the earlier run's output directory and the time of the state
@@ -434,13 +527,15 @@ impl<'a> SummaryCollector<'a> {
 
     fn record(&mut self, t: f64, q: &[f64]) {
         let present = self.population.present_count(q);
-        let out = self.population.len() - present;
+        // Who has not arrived yet is neither in the room nor out.
+        let pending = self.population.pending_count();
+        let out = self.population.len() - present - pending;
         if out != self.last_out || self.summary.people_out.is_empty() {
             self.summary.people_out.push((t, out));
             self.last_out = out;
         }
         self.summary.people_remaining = present;
-        if present == 0 && self.summary.evacuation_time.is_none() {
+        if present == 0 && pending == 0 && self.summary.evacuation_time.is_none() {
             self.summary.evacuation_time = Some(t);
         }
         let [(ov, ow), (pv, pw)] = self.violations(t, q);
@@ -491,6 +586,7 @@ impl Observer for SummaryCollector<'_> {
 
     fn on_finish(&mut self, error: Option<&SweepError>) -> Result<(), ObserverError> {
         let s = &mut self.summary;
+        s.arrivals = self.population.arrival_report(s.t_final);
         s.peak_memory_mib = crate::meter::peak_memory_bytes().map(|b| b as f64 / 1048576.0);
         let per = |v: f64| {
             if s.steps > 0 {

@@ -3,8 +3,9 @@
 //! directory. This is what `sweep run` does once it has read its arguments.
 
 use super::{
-    csv_interval_note, prepare_output_dir, steps_between, AnimationWriter, OutputError,
-    ResumedFrom, RunSummary, SnapshotWriter, SummaryCollector, TrajectoryFormat, TrajectoryWriter,
+    csv_interval_note, prepare_output_dir, steps_between, AnimationWriter, ContactKinds, Departure,
+    OutputError, PeopleWriter, ResumedFrom, RunSummary, SnapshotWriter, SummaryCollector,
+    TrajectoryFormat, TrajectoryWriter, CONTACTS_FILE, PEOPLE_FILE,
 };
 use crate::backends::{make_projector_with, BackendError, ProjectorOptions};
 use crate::scene::BuiltScene;
@@ -30,6 +31,9 @@ pub struct RunOptions {
     /// The earlier run this one goes on from, recorded in the summary (the scene itself is
     /// set to its state by [`BuiltScene::resume_at`]). Default `None`.
     pub resumed_from: Option<ResumedFrom>,
+    /// For a resumed run, when and where each person the earlier run saw leave had left (its
+    /// `people.csv`), so that this run's people table keeps them. Default empty.
+    pub departures_before: Vec<Option<Departure>>,
 }
 
 impl RunOptions {
@@ -120,7 +124,8 @@ type SqliteWriter = super::SqliteTrajectoryWriter;
 type SqliteWriter = ();
 
 /// Runs `scene` with the standard outputs in [`RunOptions::out_dir`]: the trajectory in each
-/// of the formats asked for, `summary.json`, `snapshots/` and `animation.html`, and for a
+/// of the formats asked for, [`PEOPLE_FILE`], [`CONTACTS_FILE`] with the contact forces
+/// (`[output] contact_forces`), `summary.json`, `snapshots/` and `animation.html`, and for a
 /// cross-checking backend [`DISAGREEMENT_FILE`] and [`LARGEST_GAP_FILE`]. A failed run still
 /// writes what it computed (its status is in the summary); files it left empty are removed.
 ///
@@ -146,15 +151,26 @@ pub fn run_scene(
     }
     // The trajectory writers, created before the run so that their errors come first (the
     // SQLite file gets its schema and walkable area now).
+    let forces = scene.output.contact_forces;
     let mut csv = formats.contains(&TrajectoryFormat::Csv).then(|| {
-        TrajectoryWriter::new(
+        let writer = TrajectoryWriter::new(
             out.join(TrajectoryFormat::Csv.file_name()),
             scene.population.clone(),
             steps_between(scene.output.trajectory_every, h),
-        )
+        );
+        if forces {
+            writer.with_contact_forces(out.join(CONTACTS_FILE), ContactKinds::of(&scene.problem))
+        } else {
+            writer
+        }
     });
+    let mut people = PeopleWriter::new(out.join(PEOPLE_FILE), scene.population.clone())
+        .with_departures_before(&options.departures_before);
     let mut sqlite = if formats.contains(&TrajectoryFormat::Sqlite) {
-        Some(sqlite_writer(scene, &out, hooks).map_err(RunSceneError::SqliteTrajectory)?)
+        Some(
+            sqlite_writer(scene, &out, &options.departures_before, hooks)
+                .map_err(RunSceneError::SqliteTrajectory)?,
+        )
     } else {
         None
     };
@@ -187,7 +203,8 @@ pub fn run_scene(
         scene.group_of.clone(),
         &scene.name,
         scene.output.snapshot_every,
-    );
+    )
+    .with_pressure(forces);
     // A resumed run covers [t₀, T]: its frames are spread over that span.
     let mut animation = AnimationWriter::new(
         out.join("animation.html"),
@@ -198,7 +215,8 @@ pub fn run_scene(
         t_end - scene.problem.t0(),
         h,
         scene.output.animation_frames,
-    );
+    )
+    .with_pressure(forces);
     hooks.before_first_step();
     let mut observers: Vec<&mut dyn Observer> = Vec::new();
     if let Some(w) = csv.as_mut() {
@@ -208,7 +226,8 @@ pub fn run_scene(
         observers.push(w);
     }
     observers.extend([
-        &mut summary as &mut dyn Observer,
+        &mut people as &mut dyn Observer,
+        &mut summary,
         &mut snapshots,
         &mut animation,
     ]);
@@ -313,6 +332,8 @@ fn remove_empty_outputs(out: &Path) {
     let mut paths: Vec<PathBuf> = [
         TrajectoryFormat::Csv.file_name(),
         TrajectoryFormat::Sqlite.file_name(),
+        PEOPLE_FILE,
+        CONTACTS_FILE,
         "summary.json",
         "animation.html",
         DISAGREEMENT_FILE,
@@ -337,17 +358,24 @@ fn remove_empty_outputs(out: &Path) {
 fn sqlite_writer(
     scene: &BuiltScene,
     out: &Path,
+    departures_before: &[Option<Departure>],
     hooks: &mut dyn RunHooks,
 ) -> Result<SqliteWriter, OutputError> {
     let walkable = super::WalkableArea::of_scene(&scene.geometry, &scene.population)?;
     for note in &walkable.notes {
         hooks.note(&format!("trajectory.sqlite: {note}"));
     }
-    super::SqliteTrajectoryWriter::for_scene(
+    let writer = super::SqliteTrajectoryWriter::for_scene(
         out.join(TrajectoryFormat::Sqlite.file_name()),
         &walkable,
         scene,
-    )
+    )?
+    .with_departures_before(departures_before)?;
+    if scene.output.contact_forces {
+        writer.with_contact_forces(ContactKinds::of(&scene.problem))
+    } else {
+        Ok(writer)
+    }
 }
 
 /// Without the `sqlite` feature there is no SQLite writer: asking for one is an error before
@@ -356,6 +384,7 @@ fn sqlite_writer(
 fn sqlite_writer(
     _: &BuiltScene,
     _: &Path,
+    _: &[Option<Departure>],
     _: &mut dyn RunHooks,
 ) -> Result<SqliteWriter, OutputError> {
     Err(OutputError::Unavailable("sqlite"))

@@ -36,7 +36,12 @@
 //! * one `frame_data` row per frame (also when nobody is left), pointing at the single
 //!   geometry row: the [`WalkableArea`] as WKT, whose hash is a 64-bit FNV-1a of the text
 //!   (JuPedSim uses Python's `hash`, which is only an identifier);
-//! * a few metadata keys of our own (`generator`, `scene`, `h`), which readers ignore.
+//! * a few metadata keys of our own (`generator`, `scene`, `h`), which readers ignore;
+//! * tables of our own, which readers ignore too: `people(id, radius, t_left, x_left,
+//!   y_left)`, each person's radius and when and where they left (`NULL` while they have
+//!   not), as `people.csv` has them; and, with the contact forces
+//!   ([`SqliteTrajectoryWriter::with_contact_forces`]), `pressure(frame, id, pressure)` and
+//!   `contacts(frame, a, b, kind, force)` for each frame after the first.
 //!
 //! Streaming: the schema and the geometry are committed when the writer is created (so a path
 //! that cannot be written fails before the run), then frames go in transactions of
@@ -45,6 +50,8 @@
 //! `on_finish`; a process that dies mid-transaction leaves the file as of the last commit
 //! (SQLite rolls the open transaction back), still valid.
 
+use super::contacts::{self, ContactKinds};
+use super::people::{Departure, DepartureLog};
 use super::{OutputError, WalkableArea};
 use crate::crowd::Population;
 use crate::error::SweepError;
@@ -84,6 +91,10 @@ pub struct SqliteTrajectoryWriter {
     previous: Vec<f64>,
     frames: usize,
     rows: u64,
+    departures: DepartureLog,
+    /// People seen leaving since the last frame, written with the next one.
+    pending: Vec<usize>,
+    forces: Option<(ContactKinds, Vec<f64>)>,
 }
 
 impl SqliteTrajectoryWriter {
@@ -163,9 +174,19 @@ impl SqliteTrajectoryWriter {
              CREATE TABLE geometry(hash INTEGER NOT NULL, wkt TEXT NOT NULL);
              CREATE UNIQUE INDEX geometry_hash on geometry(hash);
              CREATE TABLE frame_data(frame INTEGER NOT NULL, geometry_hash INTEGER NOT NULL);
-             CREATE INDEX frame_id_idx ON trajectory_data(frame, id);",
+             CREATE INDEX frame_id_idx ON trajectory_data(frame, id);
+             CREATE TABLE people(id INTEGER PRIMARY KEY, radius REAL NOT NULL, t_left REAL, \
+                 x_left REAL, y_left REAL);",
         )
         .map_err(sql)?;
+        {
+            let mut person = conn
+                .prepare("INSERT INTO people(id, radius) VALUES(?1, ?2)")
+                .map_err(sql)?;
+            for (i, r) in population.radii().iter().enumerate() {
+                person.execute(params![i as i64, r]).map_err(sql)?;
+            }
+        }
         {
             let mut meta = conn
                 .prepare("INSERT INTO metadata VALUES(?1, ?2)")
@@ -196,7 +217,6 @@ impl SqliteTrajectoryWriter {
         Ok(Self {
             path,
             conn: Some(conn),
-            population,
             every,
             t0,
             h,
@@ -206,7 +226,112 @@ impl SqliteTrajectoryWriter {
             previous: Vec::new(),
             frames: 0,
             rows: 0,
+            departures: DepartureLog::new(population.len(), &[]),
+            pending: Vec::new(),
+            population,
+            forces: None,
         })
+    }
+
+    /// The departures an earlier run saw, for a run resumed from it: written in `people` now.
+    ///
+    /// # Errors
+    /// [`OutputError::Sqlite`] when the table cannot be written.
+    pub fn with_departures_before(
+        mut self,
+        before: &[Option<Departure>],
+    ) -> Result<Self, OutputError> {
+        self.departures = DepartureLog::new(self.population.len(), before);
+        let pending: Vec<usize> = (0..self.population.len())
+            .filter(|&i| self.departures.get(i).is_some())
+            .collect();
+        if let Some(conn) = self.conn.as_ref() {
+            self.write_departures(conn, &pending)
+                .map_err(|message| OutputError::Sqlite {
+                    path: self.path.clone(),
+                    message,
+                })?;
+        }
+        Ok(self)
+    }
+
+    /// Writes the contact forces too: the tables `pressure(frame, id, pressure)` (each person
+    /// present) and `contacts(frame, a, b, kind, force)` (`b` `NULL` for a wall or obstacle)
+    /// for every frame after the first, `kinds` saying what each family keeps apart. The run
+    /// must keep its contacts
+    /// ([`StepperSettings::record_contacts`](crate::stepper::StepperSettings::record_contacts)).
+    ///
+    /// # Errors
+    /// [`OutputError::Sqlite`] when the tables cannot be created.
+    pub fn with_contact_forces(mut self, kinds: ContactKinds) -> Result<Self, OutputError> {
+        if let Some(conn) = self.conn.as_ref() {
+            conn.execute_batch(
+                "CREATE TABLE pressure(frame INTEGER NOT NULL, id INTEGER NOT NULL, \
+                     pressure REAL NOT NULL);
+                 CREATE TABLE contacts(frame INTEGER NOT NULL, a INTEGER NOT NULL, b INTEGER, \
+                     kind TEXT NOT NULL, force REAL NOT NULL);",
+            )
+            .map_err(|e| OutputError::Sqlite {
+                path: self.path.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        self.forces = Some((kinds, Vec::new()));
+        Ok(self)
+    }
+
+    /// Sets `people`'s departure columns of `who`.
+    fn write_departures(&self, conn: &Connection, who: &[usize]) -> Result<(), String> {
+        let mut update = conn
+            .prepare_cached("UPDATE people SET t_left = ?2, x_left = ?3, y_left = ?4 WHERE id = ?1")
+            .map_err(|e| self.err(e))?;
+        for &i in who {
+            if let Some(d) = self.departures.get(i) {
+                update
+                    .execute(params![i as i64, d.t, d.position[0], d.position[1]])
+                    .map_err(|e| self.err(format!("person {i}: {e}")))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The frame's pressures and contacts, from the step that made it.
+    fn insert_forces(
+        &mut self,
+        conn: &Connection,
+        frame: usize,
+        q: &[f64],
+        report: &StepReport,
+    ) -> Result<(), String> {
+        let Some((kinds, pressure)) = self.forces.as_mut() else {
+            return Ok(());
+        };
+        let pop = &self.population;
+        contacts::pressures(report, pop.len(), pressure);
+        let err = |e: rusqlite::Error| format!("{}: frame {frame}: {e}", self.path.display());
+        let mut insert = conn
+            .prepare_cached("INSERT INTO pressure VALUES(?1, ?2, ?3)")
+            .map_err(err)?;
+        for i in (0..pop.len()).filter(|&i| pop.is_present(q, i)) {
+            insert
+                .execute(params![frame as i64, i as i64, pressure[i]])
+                .map_err(err)?;
+        }
+        let mut insert = conn
+            .prepare_cached("INSERT INTO contacts VALUES(?1, ?2, ?3, ?4, ?5)")
+            .map_err(err)?;
+        for c in kinds.forces(report) {
+            insert
+                .execute(params![
+                    frame as i64,
+                    c.a as i64,
+                    c.b.map(|b| b as i64),
+                    c.with.as_str(),
+                    c.force
+                ])
+                .map_err(err)?;
+        }
+        Ok(())
     }
 
     /// Commits every `n` frames (at least 1; default [`DEFAULT_FRAMES_PER_COMMIT`]).
@@ -240,10 +365,33 @@ impl SqliteTrajectoryWriter {
         format!("{}: {e}", self.path.display())
     }
 
-    fn write_frame(&mut self, frame: usize, q: &[f64]) -> Result<(), String> {
-        let Some(conn) = self.conn.as_ref() else {
+    fn write_frame(
+        &mut self,
+        frame: usize,
+        q: &[f64],
+        report: Option<&StepReport>,
+    ) -> Result<(), String> {
+        let Some(conn) = self.conn.take() else {
             return Ok(());
         };
+        let written = self.write_frame_on(&conn, frame, q, report);
+        self.conn = Some(conn);
+        written?;
+        self.frames += 1;
+        self.frames_in_transaction += 1;
+        if self.frames_in_transaction >= self.frames_per_commit {
+            self.commit()?;
+        }
+        Ok(())
+    }
+
+    fn write_frame_on(
+        &mut self,
+        conn: &Connection,
+        frame: usize,
+        q: &[f64],
+        report: Option<&StepReport>,
+    ) -> Result<(), String> {
         if self.frames_in_transaction == 0 {
             conn.execute_batch("BEGIN;").map_err(|e| self.err(e))?;
         }
@@ -251,11 +399,19 @@ impl SqliteTrajectoryWriter {
         // this savepoint, and the frames before it are still committed in `on_finish`.
         conn.execute_batch("SAVEPOINT frame;")
             .map_err(|e| self.err(e))?;
-        match self.insert_frame(conn, frame, q) {
+        let inserted = self.insert_frame(conn, frame, q).and_then(|rows| {
+            if let Some(report) = report {
+                self.insert_forces(conn, frame, q, report)?;
+            }
+            self.write_departures(conn, &self.pending)?;
+            Ok(rows)
+        });
+        match inserted {
             Ok(rows) => {
                 conn.execute_batch("RELEASE frame;")
                     .map_err(|e| self.err(e))?;
                 self.rows += rows;
+                self.pending.clear();
             }
             Err(e) => {
                 let _ = conn.execute_batch("ROLLBACK TO frame; RELEASE frame;");
@@ -264,11 +420,6 @@ impl SqliteTrajectoryWriter {
         }
         self.previous.clear();
         self.previous.extend_from_slice(q);
-        self.frames += 1;
-        self.frames_in_transaction += 1;
-        if self.frames_in_transaction >= self.frames_per_commit {
-            self.commit()?;
-        }
         Ok(())
     }
 
@@ -325,13 +476,18 @@ impl Observer for SqliteTrajectoryWriter {
         "sqlite trajectory writer"
     }
 
-    fn on_start(&mut self, _t: f64, q: &[f64]) -> Result<(), ObserverError> {
-        self.write_frame(0, q)?;
+    fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
+        let population = self.population.clone();
+        self.pending = self.departures.update(&population, t, q);
+        self.write_frame(0, q, None)?;
         // The first frame on disk at once: a run that dies early still leaves a loadable file.
         Ok(self.commit()?)
     }
 
     fn on_step(&mut self, report: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
+        let population = self.population.clone();
+        let new = self.departures.update(&population, report.t, q);
+        self.pending.extend(new);
         let k = report.step + 1;
         if !k.is_multiple_of(self.every) {
             return Ok(());
@@ -342,10 +498,17 @@ impl Observer for SqliteTrajectoryWriter {
         if (report.t - on_grid).abs() > 1e-9 * on_grid.abs().max(1.0) {
             return Ok(());
         }
-        Ok(self.write_frame(k / self.every, q)?)
+        Ok(self.write_frame(k / self.every, q, Some(report))?)
     }
 
     fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
+        // Departures seen after the last frame.
+        if let Some(conn) = self.conn.take() {
+            let written = self.write_departures(&conn, &self.pending);
+            self.conn = Some(conn);
+            written?;
+            self.pending.clear();
+        }
         self.commit()?;
         if let Some(conn) = self.conn.take() {
             conn.close().map_err(|(_, e)| self.err(e))?;

@@ -17,6 +17,61 @@ pub(crate) const PALETTE_DARK: [&str; 8] = [
     "#1f4e7a", "#9c4f1c", "#2f6a22", "#86211b", "#5b3f82", "#573830", "#9c4a87", "#4d4d4d",
 ];
 
+/// The colour scale of pressure, from none to the largest (a sequential yellow–red scale).
+pub(crate) const PRESSURE_SCALE: [&str; 5] =
+    ["#ffffcc", "#fed976", "#fd8d3c", "#e31a1c", "#800026"];
+
+/// The colour of pressure `p` on a scale from 0 to `max`: [`PRESSURE_SCALE`] interpolated.
+pub(crate) fn pressure_colour(p: f64, max: f64) -> String {
+    let rgb = |c: &str| {
+        let v = u32::from_str_radix(&c[1..], 16).unwrap_or(0);
+        [(v >> 16) & 255, (v >> 8) & 255, v & 255].map(f64::from)
+    };
+    let s = if max > 0.0 {
+        (p / max).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let x = s * (PRESSURE_SCALE.len() - 1) as f64;
+    let k = (x.floor() as usize).min(PRESSURE_SCALE.len() - 2);
+    let (a, b) = (rgb(PRESSURE_SCALE[k]), rgb(PRESSURE_SCALE[k + 1]));
+    let w = x - k as f64;
+    let c: Vec<u32> = (0..3)
+        .map(|i| (a[i] + w * (b[i] - a[i])).round() as u32)
+        .collect();
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+/// A legend of the pressure scale at `(x, y)` (SVG coordinates), `width` long and
+/// `height` high, from 0 to `max` m/s.
+fn pressure_legend(x: f64, y: f64, width: f64, height: f64, max: f64) -> String {
+    let stops: String = PRESSURE_SCALE
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            format!(
+                r#"<stop offset="{}" stop-color="{c}"/>"#,
+                k as f64 / (PRESSURE_SCALE.len() - 1) as f64
+            )
+        })
+        .collect();
+    let font = r#"font-family="Helvetica, Arial, sans-serif""#;
+    format!(
+        r#"<defs><linearGradient id="pressure-scale">{stops}</linearGradient></defs>
+<rect x="{x:.4}" y="{y:.4}" width="{width:.4}" height="{height:.4}" fill="url(#pressure-scale)" stroke="{WALL}" stroke-width="{:.4}"/>
+<text x="{:.4}" y="{:.4}" {font} font-size="{:.4}" fill="{WALL}" text-anchor="end">pressure 0</text>
+<text x="{:.4}" y="{:.4}" {font} font-size="{:.4}" fill="{WALL}">{max:.3} m/s</text>
+"#,
+        0.02 * height,
+        x - 0.3 * height,
+        y + 0.85 * height,
+        height,
+        x + width + 0.3 * height,
+        y + 0.85 * height,
+        height,
+    )
+}
+
 pub(crate) const ROOM_FILL: &str = "#f5f2eb";
 pub(crate) const WALL: &str = "#2b2b2b";
 pub(crate) const EXIT: &str = "#19a35b";
@@ -104,7 +159,8 @@ pub(crate) fn frame(g: &SceneGeometry) -> (f64, f64, f64) {
 
 /// An SVG picture of the crowd at time `t`: the room, its walls (dark) and exits (green,
 /// dashed), the obstacles where they are at `t`, and every person still in the room as a disk
-/// coloured by group.
+/// coloured by group, or, given each person's `pressure` (m/s), filled by it on a scale from 0
+/// to the largest in the picture (a legend says it) and outlined by group.
 pub fn render_svg(
     g: &SceneGeometry,
     population: &Population,
@@ -112,6 +168,7 @@ pub fn render_svg(
     q: &[f64],
     t: f64,
     title: &str,
+    pressure: Option<&[f64]>,
 ) -> String {
     let (unit, w, h) = frame(g);
     let header = 0.07 * w.max(h);
@@ -140,21 +197,39 @@ pub fn render_svg(
         s.push('\n');
     }
     let present = population.present_count(q);
+    let largest = pressure.map(|p| {
+        (0..population.len())
+            .filter(|&i| population.is_present(q, i))
+            .filter_map(|i| p.get(i).copied())
+            .fold(0.0, f64::max)
+    });
     for i in 0..population.len() {
         if !population.is_present(q, i) {
             continue;
         }
         let c = group_of.get(i).copied().unwrap_or(0) % PALETTE.len();
+        let fill = match (pressure, largest) {
+            (Some(p), Some(max)) => pressure_colour(p.get(i).copied().unwrap_or(0.0), max),
+            _ => PALETTE[c].to_string(),
+        };
         let _ = writeln!(
             s,
-            r#"<circle cx="{:.4}" cy="{:.4}" r="{:.4}" fill="{}" stroke="{}" stroke-width="{:.4}"/>"#,
+            r#"<circle cx="{:.4}" cy="{:.4}" r="{:.4}" fill="{fill}" stroke="{}" stroke-width="{:.4}"/>"#,
             q[2 * i],
             -q[2 * i + 1],
             population.radius(i),
-            PALETTE[c],
             PALETTE_DARK[c],
             0.4 * unit
         );
+    }
+    if let Some(max) = largest {
+        s.push_str(&pressure_legend(
+            g.bounds[0] + 0.62 * w,
+            -g.bounds[3] - 0.55 * header,
+            0.2 * w,
+            0.3 * header,
+            max,
+        ));
     }
     let _ = writeln!(
         s,
@@ -188,8 +263,9 @@ pub struct SnapshotWriter {
     title: String,
     every: f64,
     next: f64,
-    last: Option<(f64, Vec<f64>)>,
+    last: Option<(f64, Vec<f64>, Option<Vec<f64>>)>,
     written: Vec<PathBuf>,
+    pressure: bool,
 }
 
 impl SnapshotWriter {
@@ -212,7 +288,26 @@ impl SnapshotWriter {
             next: 0.0,
             last: None,
             written: Vec::new(),
+            pressure: false,
         }
+    }
+
+    /// Fills people by their pressure (the run must keep its contacts,
+    /// [`StepperSettings::record_contacts`](crate::stepper::StepperSettings::record_contacts));
+    /// the first picture, before any step, shows none.
+    #[must_use]
+    pub fn with_pressure(mut self, on: bool) -> Self {
+        self.pressure = on;
+        self
+    }
+
+    /// Each person's pressure at the step of `r`, when asked for.
+    fn pressure_of(&self, r: &StepReport) -> Option<Vec<f64>> {
+        self.pressure.then(|| {
+            let mut p = Vec::new();
+            super::pressures(r, self.population.len(), &mut p);
+            p
+        })
     }
 
     /// The files written so far.
@@ -220,7 +315,16 @@ impl SnapshotWriter {
         &self.written
     }
 
-    fn write(&mut self, name: &str, t: f64, q: &[f64]) -> Result<(), String> {
+    fn write(
+        &mut self,
+        name: &str,
+        t: f64,
+        q: &[f64],
+        pressure: Option<&[f64]>,
+    ) -> Result<(), String> {
+        // Before any step there is no force: nobody is coloured by one.
+        let zeros = vec![0.0; self.population.len()];
+        let pressure = pressure.or(self.pressure.then_some(zeros.as_slice()));
         let svg = render_svg(
             &self.geometry,
             &self.population,
@@ -228,6 +332,7 @@ impl SnapshotWriter {
             q,
             t,
             &self.title,
+            pressure,
         );
         let path = self.dir.join(name);
         super::write_whole(&path, svg).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -243,23 +348,24 @@ impl Observer for SnapshotWriter {
 
     fn on_start(&mut self, t: f64, q: &[f64]) -> Result<(), ObserverError> {
         std::fs::create_dir_all(&self.dir).map_err(|e| format!("{}: {e}", self.dir.display()))?;
-        self.write(&format!("t{t:07.2}.svg"), t, q)?;
+        self.write(&format!("t{t:07.2}.svg"), t, q, None)?;
         self.next = t + self.every;
         Ok(())
     }
 
     fn on_step(&mut self, r: &StepReport, q: &[f64]) -> Result<(), ObserverError> {
+        let pressure = self.pressure_of(r);
         if r.t >= self.next - 1e-9 * self.next.abs().max(1.0) {
-            self.write(&format!("t{:07.2}.svg", r.t), r.t, q)?;
+            self.write(&format!("t{:07.2}.svg", r.t), r.t, q, pressure.as_deref())?;
             self.next = super::next_time_after(self.next, self.every, r.t);
         }
-        self.last = Some((r.t, q.to_vec()));
+        self.last = Some((r.t, q.to_vec(), pressure));
         Ok(())
     }
 
     fn on_finish(&mut self, _error: Option<&SweepError>) -> Result<(), ObserverError> {
-        if let Some((t, q)) = self.last.take() {
-            self.write("final.svg", t, &q)?;
+        if let Some((t, q, pressure)) = self.last.take() {
+            self.write("final.svg", t, &q, pressure.as_deref())?;
         }
         Ok(())
     }

@@ -6,7 +6,8 @@
 
 use super::drawn;
 use super::spec::{
-    CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec, TrajectoryFormat,
+    ArenaSpec, CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec,
+    TrajectoryFormat,
 };
 use super::{
     bbox, check_desired, check_resolution, finite, fmt_pt, meeting_edges, polygon_area, Ctx,
@@ -17,11 +18,11 @@ use crate::backends::BackendChoice;
 use crate::constraint::ConstraintKernel;
 use crate::crowd::fast_marching::{DistanceField, MarchingDomain};
 use crate::crowd::velocity::{
-    ConstantVelocity, DesiredVelocity, ExitSegment, TowardsExits, TowardsPoint, VelocityField,
+    ConstantVelocity, DesiredVelocity, ExitSegment, TowardsExits, VelocityField,
 };
 use crate::crowd::{
-    segment_distance, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population, Room, Shape,
-    ShapeParams,
+    segment_distance, ArenaWall, DiskPairs, Motion, PersonShapeKernel, PersonShapes, Population,
+    Room, Shape, ShapeParams,
 };
 use crate::numbers::display_number;
 use crate::problem::Problem;
@@ -136,7 +137,7 @@ pub(super) struct RoomPlan {
 }
 
 impl RoomPlan {
-    fn edge(&self, k: usize) -> Wall {
+    pub(super) fn edge(&self, k: usize) -> Wall {
         let n = self.vertices.len();
         (self.vertices[k], self.vertices[(k + 1) % n])
     }
@@ -209,7 +210,7 @@ pub(super) fn room(cx: &Ctx<'_>, spec: &SceneSpec) -> Result<RoomPlan, SceneErro
             return Err(cx.err(
                 room_line,
                 "[room]",
-                "give `rectangle = [x0, y0, x1, y1]` or `polygon = [[x, y], …]`",
+                "give `rectangle = [x0, y0, x1, y1]`, `polygon = [[x, y], …]`, `wkt = \"POLYGON ((…))\"` or `wkt_file`",
             ))
         }
     };
@@ -334,6 +335,54 @@ pub(super) fn exits_and_walls(
         }
     }
     Ok((exits, walls))
+}
+
+/// A checked `[arena]`: its centre and radius.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Arena {
+    pub center: [f64; 2],
+    pub radius: f64,
+}
+
+/// `[arena]`, checked: a finite centre, a positive radius, the circle inside the room.
+pub(super) fn arena(
+    cx: &Ctx<'_>,
+    spec: &SceneSpec,
+    room: &RoomPlan,
+) -> Result<Option<Arena>, SceneError> {
+    let Some(a) = &spec.arena else {
+        return Ok(None);
+    };
+    let line = cx.line_of(a);
+    let item = "[arena]";
+    let ArenaSpec { center, radius } = *a.get_ref();
+    if !finite(&center) {
+        return Err(cx.err(line, item, "the centre is not finite"));
+    }
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(cx.err(
+            line,
+            item,
+            format!("the radius {radius} must be positive and finite"),
+        ));
+    }
+    let inside = room.room.contains(center)
+        && room
+            .vertices
+            .iter()
+            .zip(room.vertices.iter().cycle().skip(1))
+            .all(|(a, b)| segment_distance(center, *a, *b) >= radius - TOUCHING);
+    if !inside {
+        return Err(cx.err(
+            line,
+            item,
+            format!(
+                "the circle of radius {radius} about {} reaches outside the room",
+                fmt_pt(center)
+            ),
+        ));
+    }
+    Ok(Some(Arena { center, radius }))
 }
 
 pub(super) fn obstacles(cx: &Ctx<'_>, spec: &SceneSpec) -> Result<Vec<Placed>, SceneError> {
@@ -467,6 +516,8 @@ pub(super) struct Clearance<'a> {
     pub room: &'a RoomPlan,
     pub walls: &'a [Wall],
     pub obstacles: &'a [Placed],
+    /// The round arena, when there is one.
+    pub arena: Option<Arena>,
     /// How many exits a desire `kind = "exit"` can head for.
     pub exit_count: usize,
 }
@@ -513,8 +564,24 @@ impl Clearance<'_> {
         Ok(())
     }
 
-    fn check(&self, p: [f64; 2], r: f64) -> Result<(), String> {
+    fn arena(&self, p: [f64; 2], r: f64) -> Result<(), String> {
+        match self.arena {
+            Some(Arena { center, radius })
+                if (p[0] - center[0]).hypot(p[1] - center[1]) > radius - r + TOUCHING =>
+            {
+                Err(format!(
+                    "the person at {} (radius {r}) crosses the arena wall (circle of radius {radius} about {})",
+                    fmt_pt(p),
+                    fmt_pt(center)
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    pub(super) fn check(&self, p: [f64; 2], r: f64) -> Result<(), String> {
         self.walls(p, r)?;
+        self.arena(p, r)?;
         self.obstacles(p, r)
     }
 }
@@ -533,18 +600,24 @@ pub(super) struct People {
     pub origins: Vec<Origin>,
     pub group_of: Vec<usize>,
     pub groups: Vec<String>,
+    /// When each person arrives (`None`: there from the start).
+    pub due: Vec<Option<f64>>,
+    /// The least gap each person keeps (`gap`; their radius includes half of it).
+    pub gaps: Vec<f64>,
 }
 
 impl People {
-    fn push(
+    pub(super) fn push(
         &mut self,
         p: [f64; 2],
         r: f64,
         (speed, given): (f64, Option<f64>),
-        start: f64,
         d: Option<DesiredSpec>,
         origin: Origin,
+        (start, due, gap): (f64, Option<f64>, f64),
     ) {
+        self.due.push(due);
+        self.gaps.push(gap);
         self.positions.push(p);
         self.radii.push(r);
         self.speeds.push(speed);
@@ -571,6 +644,80 @@ fn check_speed(
         ));
     }
     Ok(speed)
+}
+
+/// `gap`: the least distance a group keeps, ≥ 0 and finite (default 0).
+pub(super) fn check_gap(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    gap: Option<f64>,
+) -> Result<f64, SceneError> {
+    let gap = gap.unwrap_or(0.0);
+    if !(gap.is_finite() && gap >= 0.0) {
+        return Err(cx.err(
+            line,
+            item,
+            format!("gap: must be ≥ 0 and finite, got {gap}"),
+        ));
+    }
+    Ok(gap)
+}
+
+/// A group's radii: a number or a range drawn with the placement (so that the crowds of
+/// earlier scenes keep their places), or a distribution drawn from a stream of its own.
+#[derive(Clone, Copy)]
+pub(super) enum Radii {
+    Placement(f64, f64),
+    Drawn(drawn::Checked),
+}
+
+impl Radii {
+    /// The least and the largest radius.
+    pub fn range(self) -> (f64, f64) {
+        match self {
+            Radii::Placement(a, b) => (a, b),
+            Radii::Drawn(c) => drawn::range(c),
+        }
+    }
+
+    /// As a law to draw from, a range drawn uniformly.
+    pub fn law(self) -> drawn::Checked {
+        match self {
+            Radii::Placement(a, b) if a == b => drawn::Checked::Fixed(a),
+            Radii::Placement(a, b) => drawn::Checked::Uniform(a, b),
+            Radii::Drawn(c) => c,
+        }
+    }
+}
+
+pub(super) fn check_radii(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    radius: RadiusSpec,
+) -> Result<Radii, SceneError> {
+    let (rmin, rmax) = match radius {
+        RadiusSpec::Fixed(r) => (r, r),
+        RadiusSpec::Range([a, b]) => (a, b),
+        RadiusSpec::Distribution(d) => {
+            let law = Drawn::Distribution(d);
+            return drawn::check(cx, line, item, &drawn::RADIUS, Some(&law), 0.0).map(Radii::Drawn);
+        }
+    };
+    if !(rmin.is_finite() && rmax.is_finite() && rmin > 0.0 && rmax >= rmin) {
+        return Err(cx.err(
+            line,
+            item,
+            match radius {
+                RadiusSpec::Range([a, b]) => format!(
+                    "a range of radii needs 0 < min ≤ max, both finite, got radius = [{a:?}, {b:?}]"
+                ),
+                _ => format!("the radius must be positive and finite, got radius = {rmin:?}"),
+            },
+        ));
+    }
+    Ok(Radii::Placement(rmin, rmax))
 }
 
 /// The `[[people]]`, each its own group, then a check that no two of them overlap.
@@ -611,6 +758,7 @@ pub(super) fn explicit_people(
             ));
         }
         let speed = check_speed(cx, line, &item, ps.speed)?;
+        let (radius, gap) = (ps.radius, 0.0);
         let start = match drawn::check(
             cx,
             line,
@@ -623,13 +771,16 @@ pub(super) fn explicit_people(
             _ => unreachable!("a number is checked as a number"),
         };
         if let Some(d) = &ps.desired {
-            check_desired(cx, line, &item, d, exit_count)?;
+            check_desired(cx, line, &item, d, (exit_count, &clear.room.room))?;
         }
         clear
-            .walls(ps.position, ps.radius)
+            .walls(ps.position, radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         clear
-            .obstacles(ps.position, ps.radius)
+            .arena(ps.position, radius)
+            .map_err(|m| cx.err(line, item.clone(), m))?;
+        clear
+            .obstacles(ps.position, radius)
             .map_err(|m| cx.err(line, item.clone(), m))?;
         let origin = Origin {
             item: item.clone(),
@@ -637,11 +788,11 @@ pub(super) fn explicit_people(
         };
         people.push(
             ps.position,
-            ps.radius,
+            radius,
             (speed, ps.speed),
-            start,
             ps.desired.clone(),
             origin,
+            (start, None, gap),
         );
         people.groups.push(item);
     }
@@ -697,24 +848,13 @@ pub(super) fn place_crowd(
             "count = 0 places nobody: give at least 1, or drop the crowd",
         ));
     }
-    let (rmin, rmax) = match cs.radius {
-        RadiusSpec::Fixed(r) => (r, r),
-        RadiusSpec::Range([a, b]) => (a, b),
+    let radii = check_radii(cx, line, &item, cs.radius)?;
+    let gap = check_gap(cx, line, &item, cs.gap)?;
+    // The disks of the constraints: each radius grown by half the gap.
+    let (rmin, rmax) = {
+        let (a, b) = radii.range();
+        (a + gap / 2.0, b + gap / 2.0)
     };
-    if !(rmin.is_finite() && rmax.is_finite() && rmin > 0.0 && rmax >= rmin) {
-        return Err(cx.err(
-            line,
-            item,
-            match cs.radius {
-                RadiusSpec::Fixed(r) => {
-                    format!("the radius must be positive and finite, got radius = {r:?}")
-                }
-                RadiusSpec::Range([a, b]) => format!(
-                    "a range of radii needs 0 < min ≤ max, both finite, got radius = [{a:?}, {b:?}]"
-                ),
-            },
-        ));
-    }
     let speed = drawn::check(cx, line, &item, &drawn::SPEED, cs.speed.as_ref(), 1.0)?;
     let pre_movement = drawn::check(
         cx,
@@ -725,7 +865,7 @@ pub(super) fn place_crowd(
         0.0,
     )?;
     if let Some(d) = &cs.desired {
-        check_desired(cx, line, &item, d, exit_count)?;
+        check_desired(cx, line, &item, d, (exit_count, &clear.room.room))?;
     }
     let (bx0, by0, bx1, by1) = room.bbox;
     let region = cs.region.unwrap_or([bx0, by0, bx1, by1]);
@@ -774,6 +914,18 @@ pub(super) fn place_crowd(
         cs.count,
         &mut drawn::source(seed, 2),
     )?;
+    let drawn_radii = match radii {
+        Radii::Placement(..) => None,
+        Radii::Drawn(law) => Some(drawn::draw(
+            cx,
+            line,
+            &item,
+            &drawn::RADIUS,
+            law,
+            cs.count,
+            &mut drawn::source(seed, drawn::RADIUS_STREAM),
+        )?),
+    };
     let max_attempts = cs.count.saturating_mul(2000).saturating_add(10_000);
     let mut placed = 0usize;
     let mut attempts = 0usize;
@@ -787,10 +939,10 @@ pub(super) fn place_crowd(
         if attempts > max_attempts {
             return Err(cx.err(line, item, format!("could place only {placed} of {} people without overlap in the region {region:?} after {max_attempts} attempts; enlarge the region or lower the count", cs.count)));
         }
-        let r = if rmax > rmin {
-            rng.gen_range(rmin..=rmax)
-        } else {
-            rmin
+        let r = match &drawn_radii {
+            Some(drawn) => drawn[placed] + gap / 2.0,
+            None if rmax > rmin => rng.gen_range(rmin..=rmax),
+            None => rmin,
         };
         let p = [
             rng.gen_range(region[0]..=region[2]),
@@ -818,9 +970,9 @@ pub(super) fn place_crowd(
             p,
             r,
             (speeds[placed], given),
-            starts[placed],
             cs.desired.clone(),
             origin,
+            (starts[placed], None, gap),
         );
         placed += 1;
     }
@@ -890,7 +1042,8 @@ pub(super) fn chosen_exits(d: &DesiredSpec) -> Option<Vec<usize>> {
 
 /// The geodesic distance to the exits by fast marching, one field per set of exits that
 /// somebody heads for, only when somebody does (`[geodesic] cell` is checked either way);
-/// static obstacles are holes in its domain.
+/// and one per waypoint (or point) somebody heads for by the geodesic route. Static
+/// obstacles are holes in their domain.
 pub(super) fn geodesic_fields(
     cx: &Ctx<'_>,
     spec: &SceneSpec,
@@ -898,7 +1051,7 @@ pub(super) fn geodesic_fields(
     room: &RoomPlan,
     exits: &[ExitSegment],
     obstacles: &[Placed],
-) -> Result<ExitFields, SceneError> {
+) -> Result<(ExitFields, super::journey::TargetFields), SceneError> {
     let cell = spec
         .geodesic
         .as_ref()
@@ -914,14 +1067,18 @@ pub(super) fn geodesic_fields(
         ));
     }
     let mut wanted: Vec<Option<Vec<usize>>> = Vec::new();
-    for (d, _) in terms.iter().filter(|(d, _)| d.kind == DesiredKind::Exit) {
+    let heads_for_exits = |d: &DesiredSpec| {
+        d.kind == DesiredKind::Exit || (d.kind == DesiredKind::Journey && d.point.is_none())
+    };
+    for (d, _) in terms.iter().filter(|(d, _)| heads_for_exits(d)) {
         let chosen = chosen_exits(d);
         if !wanted.contains(&chosen) {
             wanted.push(chosen);
         }
     }
-    if wanted.is_empty() {
-        return Ok(Vec::new());
+    let targets = super::journey::geodesic_targets(terms);
+    if wanted.is_empty() && targets.is_empty() {
+        return Ok((Vec::new(), Vec::new()));
     }
     // A grid coarser than the room (or than a door) cannot represent the routes: the field
     // would point people anywhere. Refuse it rather than run with it.
@@ -978,15 +1135,36 @@ pub(super) fn geodesic_fields(
                 _ => None,
             })
             .collect(),
+        targets: Vec::new(),
     };
-    wanted
+    let exit_fields = wanted
         .into_iter()
         .map(|chosen| {
             let field = DistanceField::compute(&domain(&chosen), cell)
                 .map_err(|e| cx.err(geodesic_line, "[geodesic]", e.to_string()))?;
             Ok((chosen, Arc::new(field)))
         })
-        .collect()
+        .collect::<Result<ExitFields, SceneError>>()?;
+    // A waypoint's field: the room without its exits, the target the only place d = 0.
+    let target_fields = targets
+        .into_iter()
+        .map(|target| {
+            let domain = MarchingDomain {
+                exits: Vec::new(),
+                targets: vec![target],
+                ..domain(&None)
+            };
+            let field = DistanceField::compute(&domain, cell).map_err(|e| {
+                cx.err(
+                    geodesic_line,
+                    "[geodesic]",
+                    format!("the field to {}: {e}", super::journey::describe(&target)),
+                )
+            })?;
+            Ok((target, Arc::new(field)))
+        })
+        .collect::<Result<super::journey::TargetFields, SceneError>>()?;
+    Ok((exit_fields, target_fields))
 }
 
 /// The perturbation `f`: each person's desired velocity (at their speed, from their start
@@ -996,8 +1174,9 @@ pub(super) fn desired_velocity(
     people: &People,
     exits: &[ExitSegment],
     (terms, still): (DesireTerms, usize),
-    fields: &ExitFields,
+    (fields, targets): (&ExitFields, &super::journey::TargetFields),
     effects: &mut Vec<Effect>,
+    journeys: &mut Vec<Arc<crate::crowd::journey::JourneyProgress>>,
 ) -> DesiredVelocity {
     let starts = &people.starts;
     let mut velocity =
@@ -1017,10 +1196,18 @@ pub(super) fn desired_velocity(
                     None => continue,
                 }
             }
-            DesiredKind::Point => Box::new(TowardsPoint {
-                point: d.point.unwrap_or_default(),
-            }),
+            DesiredKind::Point => super::journey::towards_point(&d, targets),
             DesiredKind::Constant => Box::new(ConstantVelocity(d.velocity.unwrap_or_default())),
+            DesiredKind::Journey => {
+                let progress = Arc::new(crate::crowd::journey::JourneyProgress::new(
+                    population.len(),
+                ));
+                journeys.push(progress.clone());
+                match super::journey::journey(&d, fields, targets, progress) {
+                    Some(j) => Box::new(j),
+                    None => continue,
+                }
+            }
         };
         effects.push(Effect::DesiredVelocity {
             field: field.describe(),
@@ -1041,8 +1228,13 @@ pub(super) fn push_families(
     population: &Arc<Population>,
     walls: &[Wall],
     obstacles: &[Placed],
+    arena: Option<Arena>,
     effects: &mut Vec<Effect>,
 ) {
+    if let Some(Arena { center, radius }) = arena {
+        problem.push_family(Box::new(ArenaWall::new(population.clone(), center, radius)));
+        effects.push(Effect::Arena { radius });
+    }
     let n = population.len();
     if n >= 2 {
         problem.push_family(Box::new(DiskPairs::new(population.clone())));
@@ -1158,6 +1350,10 @@ pub(super) fn output_settings(
         snapshot_every: snapshot_every.max(h),
         animation_frames,
         formats,
+        contact_forces: out_spec
+            .as_ref()
+            .and_then(|o| o.contact_forces)
+            .unwrap_or(false),
         notes,
     })
 }

@@ -7,8 +7,8 @@
 //! line is missing (there is no file).
 
 use super::spec::{
-    CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec, PersonSpec,
-    RoomSpec, RunSpec, SceneSpec, SegmentSpec,
+    ArenaSpec, CrowdSpec, DesiredSpec, DiskSpec, ExitSpec, GeodesicSpec, ObstacleSpec, OutputSpec,
+    PersonSpec, RadiusSpec, RoomSpec, RunSpec, SceneSpec, SegmentSpec, SourceSpec,
 };
 use super::{BuiltScene, ObstacleShape, Overrides, Scene, SceneError};
 use crate::backends::BackendChoice;
@@ -56,14 +56,13 @@ impl CrowdBuilder {
             spec: SceneSpec {
                 name: Some(name.into()),
                 description: None,
-                room: unplaced(RoomSpec {
-                    rectangle: None,
-                    polygon: None,
-                }),
+                room: unplaced(RoomSpec::default()),
                 exits: Vec::new(),
                 obstacles: Vec::new(),
                 people: Vec::new(),
                 crowds: Vec::new(),
+                arena: None,
+                sources: Vec::new(),
                 desired: None,
                 geodesic: None,
                 run: None,
@@ -76,7 +75,7 @@ impl CrowdBuilder {
     pub fn rectangle(mut self, r: [f64; 4]) -> Self {
         self.spec.room = unplaced(RoomSpec {
             rectangle: Some(r),
-            polygon: None,
+            ..RoomSpec::default()
         });
         self
     }
@@ -84,8 +83,20 @@ impl CrowdBuilder {
     /// A polygonal room (vertices in order).
     pub fn polygon(mut self, vertices: Vec<[f64; 2]>) -> Self {
         self.spec.room = unplaced(RoomSpec {
-            rectangle: None,
             polygon: Some(vertices),
+            ..RoomSpec::default()
+        });
+        self
+    }
+
+    /// The room, its holes (obstacles) and maybe exits and more obstacles, in WKT (see
+    /// [`RoomSpec`]): `walkable` a `POLYGON` or a `MULTIPOLYGON` of one polygon, `exits` a
+    /// `LINESTRING` or `MULTILINESTRING`.
+    pub fn wkt(mut self, walkable: impl Into<String>, exits: Option<String>) -> Self {
+        self.spec.room = unplaced(RoomSpec {
+            wkt: Some(walkable.into()),
+            exits_wkt: exits,
+            ..RoomSpec::default()
         });
         self
     }
@@ -93,6 +104,13 @@ impl CrowdBuilder {
     /// An exit: a segment on one edge of the room.
     pub fn exit(mut self, from: [f64; 2], to: [f64; 2]) -> Self {
         self.spec.exits.push(unplaced(ExitSpec { from, to }));
+        self
+    }
+
+    /// A round arena inside the room: every person's disk kept inside the circle of
+    /// `radius` about `center` (`[arena]` in a scene file).
+    pub fn arena(mut self, center: [f64; 2], radius: f64) -> Self {
+        self.spec.arena = Some(unplaced(ArenaSpec { center, radius }));
         self
     }
 
@@ -139,6 +157,12 @@ impl CrowdBuilder {
     /// `count` people placed at random without overlap (see [`CrowdSpec`]).
     pub fn crowd(mut self, crowd: CrowdSpec) -> Self {
         self.spec.crowds.push(unplaced(crowd));
+        self
+    }
+
+    /// People arriving during the run (see [`SourceSpec`]).
+    pub fn source(mut self, source: SourceSpec) -> Self {
+        self.spec.sources.push(unplaced(source));
         self
     }
 
@@ -216,6 +240,7 @@ impl CrowdBuilder {
             name,
             spec: self.spec,
             text: None,
+            added_newlines: Vec::new(),
         }
     }
 
@@ -236,6 +261,8 @@ impl DesiredSpec {
             point: None,
             velocity: None,
             exits: None,
+            waypoints: None,
+            route: None,
         }
     }
 
@@ -248,6 +275,28 @@ impl DesiredSpec {
         }
     }
 
+    /// Through `waypoints` in order, then towards the nearest exit (or, with
+    /// [`ending_at`](Self::ending_at), a point).
+    pub fn journey(waypoints: Vec<super::spec::WaypointSpec>) -> Self {
+        DesiredSpec {
+            kind: super::spec::DesiredKind::Journey,
+            waypoints: Some(waypoints),
+            ..Self::exit()
+        }
+    }
+
+    /// A journey's end: the point `point` rather than the exits.
+    pub fn ending_at(mut self, point: [f64; 2]) -> Self {
+        self.point = Some(point);
+        self
+    }
+
+    /// How to head for the point (`kind = "point"`, or a journey's end at a point).
+    pub fn route(mut self, route: super::spec::Route) -> Self {
+        self.route = Some(route);
+        self
+    }
+
     /// Straight towards `point`.
     pub fn point(point: [f64; 2]) -> Self {
         DesiredSpec {
@@ -255,6 +304,8 @@ impl DesiredSpec {
             point: Some(point),
             velocity: None,
             exits: None,
+            waypoints: None,
+            route: None,
         }
     }
 
@@ -265,7 +316,38 @@ impl DesiredSpec {
             point: None,
             velocity: Some(velocity),
             exits: None,
+            waypoints: None,
+            route: None,
         }
+    }
+}
+
+impl super::spec::WaypointSpec {
+    /// The point `at`, reached within `reach`, by the geodesic route.
+    pub fn point(at: [f64; 2], reach: f64) -> Self {
+        Self {
+            point: Some(at),
+            reach: Some(reach),
+            region: None,
+            route: None,
+        }
+    }
+
+    /// The rectangle `[x0, y0, x1, y1]`, reached once the centre is inside, by the geodesic
+    /// route.
+    pub fn region(region: [f64; 4]) -> Self {
+        Self {
+            point: None,
+            reach: None,
+            region: Some(region),
+            route: None,
+        }
+    }
+
+    /// In a straight line rather than around the obstacles.
+    pub fn straight(mut self) -> Self {
+        self.route = Some(super::spec::Route::Straight);
+        self
     }
 }
 
@@ -281,6 +363,7 @@ impl CrowdSpec {
             pre_movement: None,
             seed: None,
             desired: None,
+            gap: None,
         }
     }
 
@@ -317,6 +400,88 @@ impl CrowdSpec {
     /// Their own desired velocity.
     pub fn desired(mut self, desired: DesiredSpec) -> Self {
         self.desired = Some(desired);
+        self
+    }
+
+    /// The least distance they keep from everybody (their disks grow by `gap / 2`).
+    pub fn gap(mut self, gap: f64) -> Self {
+        self.gap = Some(gap);
+        self
+    }
+}
+
+impl SourceSpec {
+    /// `count` people of `radius` arriving at `rate` people per second from `t = 0`, at
+    /// places drawn in `region` `[x0, y0, x1, y1]`; speed 1, seed 0, the scene's desired
+    /// velocity.
+    pub fn at_rate(region: [f64; 4], rate: f64, count: usize, radius: RadiusSpec) -> Self {
+        SourceSpec {
+            region: Some(region),
+            door: None,
+            rate: Some(rate),
+            count: Some(count),
+            start: None,
+            times: None,
+            counts: None,
+            radius,
+            speed: None,
+            seed: None,
+            desired: None,
+            gap: None,
+        }
+    }
+
+    /// `counts[k]` people of `radius` arriving at `times[k]`, at places drawn in `region`.
+    pub fn on_schedule(
+        region: [f64; 4],
+        times: Vec<f64>,
+        counts: Vec<usize>,
+        radius: RadiusSpec,
+    ) -> Self {
+        SourceSpec {
+            rate: None,
+            count: None,
+            times: Some(times),
+            counts: Some(counts),
+            ..Self::at_rate(region, 1.0, 1, radius)
+        }
+    }
+
+    /// The people appear in the row of places just inside the door `from`–`to` (a segment
+    /// on a wall) rather than in a region.
+    pub fn through_door(mut self, from: [f64; 2], to: [f64; 2]) -> Self {
+        self.region = None;
+        self.door = Some(SegmentSpec { from, to });
+        self
+    }
+
+    /// The first arrival at `rate` (default 0).
+    pub fn start(mut self, start: f64) -> Self {
+        self.start = Some(start);
+        self
+    }
+
+    /// The seed of the places and draws.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = Some(seed);
+        self
+    }
+
+    /// Desired speeds, the same for all or drawn per person.
+    pub fn speeds(mut self, speeds: super::spec::Drawn) -> Self {
+        self.speed = Some(speeds);
+        self
+    }
+
+    /// Their own desired velocity.
+    pub fn desired(mut self, desired: DesiredSpec) -> Self {
+        self.desired = Some(desired);
+        self
+    }
+
+    /// The least distance they keep.
+    pub fn gap(mut self, gap: f64) -> Self {
+        self.gap = Some(gap);
         self
     }
 }

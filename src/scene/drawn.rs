@@ -1,4 +1,5 @@
-//! Numbers given per crowd as a value or a distribution (`speed`, `pre_movement`): checked,
+//! Numbers given per crowd as a value or a distribution (`speed`, `pre_movement`, `radius`):
+//! checked,
 //! then drawn person by person from a stream of the crowd's seed of their own, so that the
 //! placement of a crowd does not change when a distribution is added to it.
 
@@ -11,23 +12,58 @@ use rand_chacha::ChaCha8Rng;
 /// too far in the tail to draw from.
 const MAX_REJECTIONS: usize = 100_000;
 
-/// What a drawn quantity is, for errors: its key and its least allowed value.
+/// What a drawn quantity is, for errors: its key and its least allowed value (itself
+/// allowed unless `strict`).
 pub(super) struct Quantity {
     pub key: &'static str,
     pub least: f64,
+    pub strict: bool,
+}
+
+impl Quantity {
+    fn allows(&self, v: f64) -> bool {
+        v.is_finite() && (v > self.least || (!self.strict && v == self.least))
+    }
+
+    /// `≥ 0` or `> 0`, for messages.
+    fn bound(&self) -> String {
+        format!("{} {}", if self.strict { ">" } else { "≥" }, self.least)
+    }
+
+    /// `0 ≤ min ≤ max` or `0 < min ≤ max`, for messages.
+    fn window(&self) -> String {
+        format!(
+            "{} {} min ≤ max",
+            self.least,
+            if self.strict { "<" } else { "≤" }
+        )
+    }
 }
 
 /// The desired speed: at least 0.
 pub(super) const SPEED: Quantity = Quantity {
     key: "speed",
     least: 0.0,
+    strict: false,
 };
 
 /// The time before a person starts walking: at least 0.
 pub(super) const PRE_MOVEMENT: Quantity = Quantity {
     key: "pre_movement",
     least: 0.0,
+    strict: false,
 };
+
+/// A person's radius: positive.
+pub(super) const RADIUS: Quantity = Quantity {
+    key: "radius",
+    least: 0.0,
+    strict: true,
+};
+
+/// Draws of a crowd's radii: a stream of its own (1 and 2 are the speeds' and the
+/// pre-movement times').
+pub(super) const RADIUS_STREAM: u64 = 3;
 
 /// The checked form of a [`Drawn`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,11 +89,11 @@ pub(super) fn check(
 ) -> Result<Checked, SceneError> {
     let key = quantity.key;
     let err = |m: String| Err(cx.err(line, item.to_string(), format!("{key}: {m}")));
-    let allowed = |v: f64| v.is_finite() && v >= quantity.least;
+    let allowed = |v: f64| quantity.allows(v);
     match drawn {
         None => Ok(Checked::Fixed(default)),
         Some(Drawn::Fixed(v)) if allowed(*v) => Ok(Checked::Fixed(*v)),
-        Some(Drawn::Fixed(v)) => err(format!("must be ≥ {} and finite, got {v}", quantity.least)),
+        Some(Drawn::Fixed(v)) => err(format!("must be {} and finite, got {v}", quantity.bound())),
         Some(Drawn::Distribution(d)) => match *d {
             Distribution {
                 uniform: Some([a, b]),
@@ -68,8 +104,8 @@ pub(super) fn check(
                     Ok(Checked::Uniform(a, b))
                 } else {
                     err(format!(
-                        "uniform = [min, max] needs {} ≤ min ≤ max, both finite, got [{a}, {b}]",
-                        quantity.least
+                        "uniform = [min, max] needs {}, both finite, got [{a}, {b}]",
+                        quantity.window()
                     ))
                 }
             }
@@ -84,8 +120,8 @@ pub(super) fn check(
                     ))
                 } else if !(allowed(min) && allowed(max) && min <= max) {
                     err(format!(
-                        "within = [min, max] needs {} ≤ min ≤ max, both finite, got [{min}, {max}]",
-                        quantity.least
+                        "within = [min, max] needs {}, both finite, got [{min}, {max}]",
+                        quantity.window()
                     ))
                 } else {
                     Ok(Checked::Normal { mean, sd, min, max })
@@ -97,7 +133,7 @@ pub(super) fn check(
                 within: None,
             } => err(
                 "a normal distribution needs `within = [min, max]`, the values it is cut to \
-                 (a normal reaches any value, and this one must stay finite and ≥ its least)"
+                 (a normal reaches any value, and this one must stay finite and within its bounds)"
                     .to_string(),
             ),
             _ => err(
@@ -114,6 +150,14 @@ pub(super) fn source(seed: u64, stream: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(stream);
     rng
+}
+
+/// The least and the largest value `checked` can draw.
+pub(super) fn range(checked: Checked) -> (f64, f64) {
+    match checked {
+        Checked::Fixed(v) => (v, v),
+        Checked::Uniform(a, b) | Checked::Normal { min: a, max: b, .. } => (a, b),
+    }
 }
 
 /// `count` values of `checked`, or an error when a truncated normal's window lies too far in

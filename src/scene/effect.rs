@@ -38,6 +38,25 @@ pub enum Effect {
         /// Exits.
         count: usize,
     },
+    /// A round arena: everybody kept inside its circle.
+    Arena {
+        /// Its radius.
+        radius: f64,
+    },
+    /// People arriving during the run.
+    Sources {
+        /// `[[sources]]` entries.
+        sources: usize,
+        /// People they bring.
+        people: usize,
+    },
+    /// People keeping a least distance from everybody (`gap`).
+    Gaps {
+        /// People with a gap.
+        people: usize,
+        /// The largest gap.
+        largest: f64,
+    },
 }
 
 impl std::fmt::Display for Effect {
@@ -59,9 +78,23 @@ impl std::fmt::Display for Effect {
             Self::Obstacles { count, moving } => {
                 write!(f, "obstacles: {count} ({moving} moving: Q depends on t)")
             }
+            Self::Arena { radius } => write!(
+                f,
+                "arena: a round wall of radius {radius} (convex set: each step projects onto it exactly)"
+            ),
             Self::Exits { count } => write!(
                 f,
                 "exits: {count} (people whose disk is wholly outside the room have left)"
+            ),
+            Self::Sources { sources, people } => write!(
+                f,
+                "sources: {sources} bringing {people} people during the run (absent from every \
+                 constraint until they arrive; who finds their place taken waits)"
+            ),
+            Self::Gaps { people, largest } => write!(
+                f,
+                "gaps: {people} people keep a least distance (up to {largest}): their disks \
+                 in the constraints and the outputs have radius + gap/2"
             ),
         }
     }

@@ -41,6 +41,18 @@ pub enum SceneError {
         /// What is wrong.
         message: String,
     },
+    /// A `--set key=value` override that does not fit the scene: an unknown key, a wrong
+    /// type, a path through a value or to a list item the scene lacks, a value that is not
+    /// TOML.
+    #[error("{file}: {set}: {message}")]
+    Set {
+        /// The scene file.
+        file: String,
+        /// The override, as `--set key=value`.
+        set: String,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 fn location(file: &str, line: Option<usize>) -> String {
@@ -54,7 +66,7 @@ impl SceneError {
     /// The line the error points at, if any.
     pub fn line(&self) -> Option<usize> {
         match self {
-            SceneError::Io { .. } => None,
+            SceneError::Io { .. } | SceneError::Set { .. } => None,
             SceneError::Parse { line, .. } => Some(*line),
             SceneError::Invalid { line, .. } => *line,
         }
@@ -125,6 +137,9 @@ pub enum ResumeError {
         /// What is wrong.
         what: String,
     },
+    /// A scene with journeys: the waypoint each person had reached is not in a state.
+    #[error("the scene has journeys (kind = \"journey\"), and the waypoint each person had reached is not in the state: a run of it cannot be resumed; run it from its start")]
+    Journeys,
     /// People present overlapping each other, a wall or an obstacle, as a scene's start is
     /// refused for.
     #[error("the state at t = {} is not one a run of the scene reaches: {source}", display_number(*t))]

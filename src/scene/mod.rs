@@ -49,13 +49,18 @@ mod builder;
 mod drawn;
 mod effect;
 mod error;
+mod journey;
 mod notes;
+mod set;
+mod sources;
 pub mod spec;
 pub mod synthetic;
+mod wkt;
 
 pub use builder::CrowdBuilder;
 pub use effect::Effect;
 pub use error::{line_column, ResumeError, SceneError};
+pub use set::SetOverride;
 pub use spec::{SceneSpec, TrajectoryFormat};
 
 use crate::backends::BackendChoice;
@@ -84,6 +89,9 @@ pub struct Scene {
     /// The TOML text the spec was read from; `None` for a scene built in code (its errors
     /// then name no line).
     text: Option<String>,
+    /// Offsets in `text` of the newlines `--set` overrides added: lines the file does not
+    /// have, skipped by the line numbers of errors.
+    added_newlines: Vec<usize>,
 }
 
 /// Command-line overrides of a scene's settings.
@@ -164,6 +172,9 @@ pub struct OutputSettings {
     pub animation_frames: usize,
     /// Trajectory formats to write (at least one, no repeats).
     pub formats: Vec<TrajectoryFormat>,
+    /// Write the contact forces and pressures (`[output] contact_forces`): the run keeps each
+    /// step's contacts ([`StepperSettings::record_contacts`]).
+    pub contact_forces: bool,
     /// What the user is told before a run, one sentence each: what was adjusted (an interval
     /// below one step clamped to one step, naming the file, line and key), and what is allowed
     /// but rarely meant (nobody moving, people cut off from every exit, a run of very many
@@ -206,6 +217,9 @@ pub struct BuiltScene {
     /// The people who had left at the start: nobody, unless the run was resumed from a
     /// state of an earlier one ([`BuiltScene::resume_at`]).
     pub departed_at_start: Vec<bool>,
+    /// The waypoint each person of a journey has reached, one record per journey (empty
+    /// without journeys); a run starts them all at the first waypoint.
+    pub journeys: Vec<Arc<crate::crowd::journey::JourneyProgress>>,
 }
 
 /// A state an earlier run of a scene reached, to resume the scene from
@@ -246,6 +260,16 @@ impl Ctx<'_> {
             None => Vec::new(),
         };
         Ctx { file, line_starts }
+    }
+
+    /// The same, with the lines that overrides added ending at `added_newlines` not counted.
+    fn skipping(mut self, added_newlines: &[usize]) -> Self {
+        self.line_starts.retain(|start| {
+            start
+                .checked_sub(1)
+                .is_none_or(|nl| added_newlines.binary_search(&nl).is_err())
+        });
+        self
     }
 
     fn line_of<T>(&self, s: &Spanned<T>) -> Option<usize> {
@@ -292,13 +316,25 @@ impl Scene {
     /// # Errors
     /// [`SceneError::Io`] or [`SceneError::Parse`] (with line and column).
     pub fn from_file(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        Self::from_file_with(path, &[])
+    }
+
+    /// Reads and parses a scene file with `sets` written into it, each as if the file said
+    /// it (see [`SetOverride`]).
+    ///
+    /// # Errors
+    /// As [`Scene::from_file`]; an error in an override is a [`SceneError::Set`] naming it.
+    pub fn from_file_with(
+        path: impl AsRef<Path>,
+        sets: &[SetOverride],
+    ) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|reason| SceneError::Io {
             file: file.clone(),
             reason,
         })?;
-        let mut scene = Self::from_toml_str(&text, &file)?;
+        let mut scene = Self::from_toml_str_with(&text, &file, sets)?;
         if scene.spec.name.is_none() {
             if let Some(stem) = path.file_stem() {
                 scene.name = stem.to_string_lossy().into_owned();
@@ -313,16 +349,39 @@ impl Scene {
     /// [`SceneError::Parse`] for invalid TOML, a missing field, an unknown key or a wrong
     /// type, with line and column.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
-        let spec: SceneSpec = toml::from_str(text).map_err(|e| {
+        Self::from_toml_str_with(text, origin, &[])
+    }
+
+    /// Parses a scene from text with `sets` written into it (see [`SetOverride`]).
+    ///
+    /// # Errors
+    /// As [`Scene::from_toml_str`], the lines those of `text`; an error that an override
+    /// caused (an unknown key, a wrong type, a path through a value or to a missing list
+    /// item) is a [`SceneError::Set`] naming the override.
+    pub fn from_toml_str_with(
+        text: &str,
+        origin: &str,
+        sets: &[SetOverride],
+    ) -> Result<Scene, SceneError> {
+        let edited = set::apply(text, origin, sets)?;
+        let spec: SceneSpec = toml::from_str(&edited.text).map_err(|e| {
+            let message = e.message().trim().to_string();
+            if let Some(i) = e.span().and_then(|s| edited.override_at(&s)) {
+                return SceneError::Set {
+                    file: origin.to_string(),
+                    set: sets[i].to_string(),
+                    message,
+                };
+            }
             let (line, column) = e
                 .span()
-                .map(|s| line_column(text, s.start))
+                .map(|s| edited.file_line_column(s.start))
                 .unwrap_or((1, 1));
             SceneError::Parse {
                 file: origin.to_string(),
                 line,
                 column,
-                message: e.message().trim().to_string(),
+                message,
             }
         })?;
         let name = spec.name.clone().unwrap_or_else(|| "scene".to_string());
@@ -330,7 +389,8 @@ impl Scene {
             spec,
             name,
             origin: origin.to_string(),
-            text: Some(text.to_string()),
+            text: Some(edited.text),
+            added_newlines: edited.added_newlines,
         })
     }
 
@@ -341,7 +401,7 @@ impl Scene {
     /// [`SceneError::Invalid`] for an empty name, `.`, `..`, or one with `/`, `\`, `:` or a
     /// control character, naming the `name` key's line when the file gives it.
     pub fn check_name(&self) -> Result<(), SceneError> {
-        let cx = Ctx::new(&self.origin, self.text.as_deref());
+        let cx = self.ctx();
         // `name` is a top-level key: before the first table header.
         let line = self
             .spec
@@ -360,8 +420,29 @@ impl Scene {
                         rest.is_some_and(|r| r.trim_start().starts_with('='))
                     })
                     .map(|i| i + 1)
-            });
+            })
+            .and_then(|line| self.file_line(line));
         build::check_name(&cx, &self.name, line)
+    }
+
+    /// The file's number of line `line` (1-based) of the text, `None` for a line an override
+    /// added.
+    fn file_line(&self, line: usize) -> Option<usize> {
+        let text = self.text.as_deref()?;
+        let mut before = 0;
+        for &nl in &self.added_newlines {
+            match line_column(text, nl).0.cmp(&line) {
+                std::cmp::Ordering::Less => before += 1,
+                std::cmp::Ordering::Equal => return None,
+                std::cmp::Ordering::Greater => break,
+            }
+        }
+        Some(line - before)
+    }
+
+    /// The context of the scene's errors: its file, and its lines as the file numbers them.
+    fn ctx(&self) -> Ctx<'_> {
+        Ctx::new(&self.origin, self.text.as_deref()).skipping(&self.added_newlines)
     }
 
     /// Where the scene came from (a file name, or what [`Scene::from_toml_str`] was given).
@@ -377,45 +458,56 @@ impl Scene {
     /// non-positive radius or step, an exit not on a wall, a person outside the room or
     /// inside an obstacle, overlapping people, a crowd that does not fit…
     pub fn build(&self, overrides: &Overrides) -> Result<BuiltScene, SceneError> {
-        let cx = Ctx::new(&self.origin, self.text.as_deref());
-        let spec = &self.spec;
+        let cx = self.ctx();
         self.check_name()?;
+        let base = Path::new(&self.origin).parent();
+        let expanded = wkt::expand(&cx, &self.spec, base)?;
+        let spec = expanded.as_ref().unwrap_or(&self.spec);
         let run = build::run_settings(&cx, spec, overrides)?;
         let room = build::room(&cx, spec)?;
         let (exits, walls) = build::exits_and_walls(&cx, spec, &room)?;
         let obstacles = build::obstacles(&cx, spec)?;
+        let arena = build::arena(&cx, spec, &room)?;
         let has_exits = !exits.is_empty();
         let default_desired = spec
             .desired
             .as_ref()
             .map(|d| (d.get_ref().clone(), cx.line_of(d)));
         if let Some((d, line)) = &default_desired {
-            check_desired(&cx, *line, "[desired]", d, exits.len())?;
+            check_desired(&cx, *line, "[desired]", d, (exits.len(), &room.room))?;
         }
         let clear = build::Clearance {
             room: &room,
             walls: &walls,
             obstacles: &obstacles,
+            arena,
             exit_count: exits.len(),
         };
         let mut people = build::explicit_people(&cx, spec, &clear)?;
         for (g, c) in spec.crowds.iter().enumerate() {
             build::place_crowd(&cx, g, c, overrides.seed, &clear, &mut people)?;
         }
+        for (k, s) in spec.sources.iter().enumerate() {
+            let first = spec.crowds.len();
+            sources::add_source(&cx, k, s, overrides.seed, first, &clear, &mut people)?;
+        }
         if people.positions.is_empty() {
             return Err(cx.err(
                 None,
-                "[[people]] / [[crowds]]",
+                "[[people]] / [[crowds]] / [[sources]]",
                 "the scene has nobody in it",
             ));
         }
 
         let (terms, still) =
             build::desire_terms(&cx, &mut people, default_desired.as_ref().map(|d| &d.0))?;
-        let population = Population::new(people.radii.clone())
-            .with_room(room.room.clone())
-            .shared();
-        let fields = build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
+        let mut population = Population::new(people.radii.clone()).with_room(room.room.clone());
+        if people.due.iter().any(Option::is_some) {
+            population = population.with_arrivals(people.due.clone());
+        }
+        let population = population.shared();
+        let (fields, target_fields) =
+            build::geodesic_fields(&cx, spec, &terms, &room, &exits, &obstacles)?;
         // Who heads for which exits, for the notes: each person with their own field.
         let routes: Vec<(usize, Arc<DistanceField>)> = terms
             .iter()
@@ -432,19 +524,46 @@ impl Scene {
             .find(|(chosen, _)| chosen.is_none())
             .map(|(_, field)| field.clone());
         let mut effects = Vec::new();
+        let mut journeys = Vec::new();
         let velocity = build::desired_velocity(
             &population,
             &people,
             &exits,
             (terms, still),
-            &fields,
+            (&fields, &target_fields),
             &mut effects,
+            &mut journeys,
         );
         let q0: Vec<f64> = people.positions.iter().flatten().copied().collect();
         let mut problem = Problem::new(q0, velocity);
-        build::push_families(&mut problem, &population, &walls, &obstacles, &mut effects);
+        build::push_families(
+            &mut problem,
+            &population,
+            &walls,
+            &obstacles,
+            arena,
+            &mut effects,
+        );
         if has_exits {
             effects.push(Effect::Exits { count: exits.len() });
+        }
+        if !spec.sources.is_empty() {
+            effects.push(Effect::Sources {
+                sources: spec.sources.len(),
+                people: people.due.iter().flatten().count(),
+            });
+        }
+        if let Some(largest) = people
+            .gaps
+            .iter()
+            .copied()
+            .reduce(f64::max)
+            .filter(|&g| g > 0.0)
+        {
+            effects.push(Effect::Gaps {
+                people: people.gaps.iter().filter(|&&g| g > 0.0).count(),
+                largest,
+            });
         }
         problem
             .validate(1e-9)
@@ -488,6 +607,7 @@ impl Scene {
             effects,
             distance_field,
             departed_at_start,
+            journeys,
         })
     }
 }
@@ -563,81 +683,114 @@ impl BuiltScene {
     }
 }
 
+/// Checks a desired velocity: the keys its kind takes, the exits it names, a journey's
+/// waypoints (inside `room`).
 fn check_desired(
+    cx: &Ctx<'_>,
+    line: Option<usize>,
+    item: &str,
+    d: &DesiredSpec,
+    (exit_count, room): (usize, &crate::crowd::Room),
+) -> Result<(), SceneError> {
+    let item = format!("{item} desired");
+    let err = |m: &str| Err(cx.err(line, item.clone(), m.to_string()));
+    if d.exits.is_some() && !matches!(d.kind, DesiredKind::Exit | DesiredKind::Journey) {
+        return err("`exits` goes only with kind = \"exit\" or \"journey\"");
+    }
+    if d.waypoints.is_some() && d.kind != DesiredKind::Journey {
+        return err("`waypoints` goes only with kind = \"journey\"");
+    }
+    let to_point =
+        d.kind == DesiredKind::Point || (d.kind == DesiredKind::Journey && d.point.is_some());
+    if d.route.is_some() && !to_point {
+        return err("`route` goes only with kind = \"point\", or a journey ending at `point`");
+    }
+    match d.kind {
+        DesiredKind::Exit => {
+            check_exits_named(cx, line, &item, d, exit_count)?;
+            if d.point.is_some() || d.velocity.is_some() {
+                return err("kind = \"exit\" takes neither `point` nor `velocity`");
+            }
+        }
+        DesiredKind::Journey => {
+            journey::check_waypoints(cx, line, &item, d, room)?;
+            if d.velocity.is_some() {
+                return err("kind = \"journey\" does not take `velocity`");
+            }
+            match d.point {
+                Some(_) if d.exits.is_some() => {
+                    return err("a journey ends at `point` or at the exits (`exits`), not both")
+                }
+                Some(p) if !finite(&p) => return err("the point is not finite"),
+                Some(_) => {}
+                None => check_exits_named(cx, line, &item, d, exit_count)?,
+            }
+        }
+        DesiredKind::Point => match d.point {
+            None => return err("kind = \"point\" needs `point = [x, y]`"),
+            Some(p) if !finite(&p) => return err("the point is not finite"),
+            Some(_) if d.velocity.is_some() => {
+                return err("kind = \"point\" does not take `velocity`")
+            }
+            _ => {}
+        },
+        DesiredKind::Constant => match d.velocity {
+            None => return err("kind = \"constant\" needs `velocity = [vx, vy]`"),
+            Some(v) if !finite(&v) => return err("the velocity is not finite"),
+            Some(_) if d.point.is_some() => {
+                return err("kind = \"constant\" does not take `point`")
+            }
+            _ => {}
+        },
+    }
+    Ok(())
+}
+
+/// The exits a desire heads for: at least one in the scene, and those it names exist, once
+/// each.
+fn check_exits_named(
     cx: &Ctx<'_>,
     line: Option<usize>,
     item: &str,
     d: &DesiredSpec,
     exit_count: usize,
 ) -> Result<(), SceneError> {
-    let item = format!("{item} desired");
-    if d.exits.is_some() && d.kind != DesiredKind::Exit {
-        return Err(cx.err(line, item, "`exits` goes only with kind = \"exit\""));
+    let kind = if d.kind == DesiredKind::Journey {
+        "a journey ending at the exits"
+    } else {
+        "kind = \"exit\""
+    };
+    if exit_count == 0 {
+        return Err(cx.err(line, item, format!("{kind} needs at least one [[exits]]")));
     }
-    match d.kind {
-        DesiredKind::Exit => {
-            if exit_count == 0 {
-                return Err(cx.err(line, item, "kind = \"exit\" needs at least one [[exits]]"));
-            }
-            if let Some(chosen) = &d.exits {
-                let mut seen = std::collections::BTreeSet::new();
-                if chosen.is_empty() {
-                    return Err(cx.err(
-                        line,
-                        item,
-                        "exits = [] heads nowhere: name at least one exit, or drop `exits`",
-                    ));
-                }
-                for &e in chosen {
-                    if !(1..=exit_count).contains(&e) {
-                        return Err(cx.err(
-                            line,
-                            item,
-                            format!(
-                                "exits = {chosen:?}: exit {e} does not exist; the scene's \
-                                 [[exits]] are numbered 1 to {exit_count} in file order"
-                            ),
-                        ));
-                    }
-                    if !seen.insert(e) {
-                        return Err(cx.err(
-                            line,
-                            item,
-                            format!("exits = {chosen:?} names exit {e} twice"),
-                        ));
-                    }
-                }
-            }
-            if d.point.is_some() || d.velocity.is_some() {
+    if let Some(chosen) = &d.exits {
+        let mut seen = std::collections::BTreeSet::new();
+        if chosen.is_empty() {
+            return Err(cx.err(
+                line,
+                item,
+                "exits = [] heads nowhere: name at least one exit, or drop `exits`",
+            ));
+        }
+        for &e in chosen {
+            if !(1..=exit_count).contains(&e) {
                 return Err(cx.err(
                     line,
                     item,
-                    "kind = \"exit\" takes neither `point` nor `velocity`",
+                    format!(
+                        "exits = {chosen:?}: exit {e} does not exist; the scene's \
+                         [[exits]] are numbered 1 to {exit_count} in file order"
+                    ),
+                ));
+            }
+            if !seen.insert(e) {
+                return Err(cx.err(
+                    line,
+                    item,
+                    format!("exits = {chosen:?} names exit {e} twice"),
                 ));
             }
         }
-        DesiredKind::Point => match d.point {
-            None => return Err(cx.err(line, item, "kind = \"point\" needs `point = [x, y]`")),
-            Some(p) if !finite(&p) => return Err(cx.err(line, item, "the point is not finite")),
-            Some(_) if d.velocity.is_some() => {
-                return Err(cx.err(line, item, "kind = \"point\" does not take `velocity`"))
-            }
-            _ => {}
-        },
-        DesiredKind::Constant => match d.velocity {
-            None => {
-                return Err(cx.err(
-                    line,
-                    item,
-                    "kind = \"constant\" needs `velocity = [vx, vy]`",
-                ))
-            }
-            Some(v) if !finite(&v) => return Err(cx.err(line, item, "the velocity is not finite")),
-            Some(_) if d.point.is_some() => {
-                return Err(cx.err(line, item, "kind = \"constant\" does not take `point`"))
-            }
-            _ => {}
-        },
     }
     Ok(())
 }
@@ -694,11 +847,17 @@ fn check_resolution(
     for c in &spec.crowds {
         let c = c.get_ref();
         c.region.iter().flatten().for_each(|&v| see(v));
-        let r = match c.radius {
-            RadiusSpec::Fixed(r) => r,
-            RadiusSpec::Range([a, _]) => a,
-        };
-        if r > 0.0 {
+        if let Some(r) = least_radius(c.radius) {
+            r_min = r_min.min(r);
+        }
+    }
+    for s in &spec.sources {
+        let s = s.get_ref();
+        s.region.iter().flatten().for_each(|&v| see(v));
+        if let Some(d) = &s.door {
+            d.from.iter().chain(&d.to).for_each(|&v| see(v));
+        }
+        if let Some(r) = least_radius(s.radius) {
             r_min = r_min.min(r);
         }
     }
@@ -721,6 +880,19 @@ fn check_resolution(
         ));
     }
     Ok(())
+}
+
+/// The least radius `radius` allows, when it is positive.
+fn least_radius(radius: RadiusSpec) -> Option<f64> {
+    let r = match radius {
+        RadiusSpec::Fixed(r) => r,
+        RadiusSpec::Range([a, _]) => a,
+        RadiusSpec::Distribution(d) => match (d.uniform, d.within) {
+            (Some([a, _]), _) | (None, Some([a, _])) => a,
+            (None, None) => return None,
+        },
+    };
+    (r > 0.0).then_some(r)
 }
 
 fn polygon_area(p: &[[f64; 2]]) -> f64 {
@@ -832,6 +1004,9 @@ impl BuiltScene {
     /// fault. The scene is left as it was.
     pub fn resume_at(&mut self, state: ResumeState) -> Result<(), ResumeError> {
         let n = self.population.len();
+        if !self.journeys.is_empty() {
+            return Err(ResumeError::Journeys);
+        }
         if state.q.len() != 2 * n || state.departed.len() != n {
             return Err(ResumeError::PeopleCount {
                 found: state.departed.len(),
@@ -855,9 +1030,20 @@ impl BuiltScene {
                 t_end: self.settings.t_end,
             });
         }
+        let mut state = state;
+        let places = self.problem.q0().to_vec();
         for i in 0..n {
             let p = Population::position(&state.q, i);
             let r = self.population.radius(i);
+            // Someone of a source written absent at their place, never having moved, has not
+            // arrived yet: they are not gone, and come in when due and their place is free.
+            if state.departed[i]
+                && self.population.due(i).is_some()
+                && p == Population::position(&places, i)
+            {
+                state.departed[i] = false;
+                continue;
+            }
             if state.departed[i] {
                 if let Some(what) = self.why_not_gone(p, r) {
                     return Err(ResumeError::GoneInside {
@@ -955,8 +1141,10 @@ impl BuiltScene {
         })
     }
 
-    /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]: the
-    /// population as the run starts.
+    /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]; clears
+    /// every arrival, then lets in who is due by the start and finds their place free (who
+    /// was present in a resumed state is where nobody else is): the population as the run
+    /// starts.
     fn latch_departures_at_start(&self) {
         self.population.reset_departures();
         for (i, _) in self
@@ -966,6 +1154,11 @@ impl BuiltScene {
             .filter(|(_, &d)| d)
         {
             self.population.set_departed(i);
+        }
+        self.population.reset_arrivals();
+        self.population.admit(self.problem.t0(), self.problem.q0());
+        for j in &self.journeys {
+            j.reset();
         }
     }
 
@@ -981,9 +1174,12 @@ impl BuiltScene {
         observers: &mut [&mut dyn crate::stepper::Observer],
     ) -> Result<crate::stepper::Run, Box<crate::stepper::RunFailure>> {
         use crate::stepper::{Run, RunFailure, RunStats, Stepper, Trajectory};
-        // A new run from q₀: nobody has left yet, unless it resumes an earlier run.
+        // A new run from q₀: nobody has left yet, unless it resumes an earlier run; who is due
+        // by the start and finds their place free comes in.
         self.latch_departures_at_start();
-        let stepper = match Stepper::new(&self.problem, self.settings.clone()) {
+        let mut settings = self.settings.clone();
+        settings.record_contacts |= self.output.contact_forces;
+        let stepper = match Stepper::new(&self.problem, settings) {
             Ok(s) => s,
             Err(error) => {
                 // The start is a state of the run all the same: written, and counted (a run
@@ -1009,8 +1205,10 @@ impl BuiltScene {
         };
         let stop_when_empty = self.stop_when_empty;
         let population = &self.population;
-        stepper.run_until(projector, observers, |_, q| {
-            stop_when_empty && population.present_count(q) == 0
+        // Arrivals come in between steps, before the observers see the step.
+        stepper.run_until(projector, observers, |t, q| {
+            population.admit(t, q);
+            stop_when_empty && population.is_done(q)
         })
     }
 }

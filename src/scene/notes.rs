@@ -13,7 +13,7 @@ pub(super) const MANY_STEPS: f64 = 1e7;
 /// Trajectories estimated above this many bytes are pointed out.
 pub(super) const LARGE_TRAJECTORY_BYTES: f64 = 5e8;
 
-/// About how many bytes a CSV trajectory row takes (`t,id,x,y,present` with coordinates to
+/// About how many bytes a CSV trajectory row takes (`t,id,x,y` with coordinates to
 /// the last digit).
 const CSV_ROW_BYTES: f64 = 48.0;
 

@@ -60,6 +60,11 @@ pub struct SceneSpec {
     /// Groups of people placed at random.
     #[serde(default)]
     pub crowds: Vec<Spanned<CrowdSpec>>,
+    /// A round arena inside the room: everybody kept inside its circle.
+    pub arena: Option<Spanned<ArenaSpec>>,
+    /// People arriving during the run.
+    #[serde(default)]
+    pub sources: Vec<Spanned<SourceSpec>>,
     /// The desired velocity of everybody without their own.
     pub desired: Option<Spanned<DesiredSpec>>,
     /// Settings of the geodesic field.
@@ -70,8 +75,9 @@ pub struct SceneSpec {
     pub output: Option<Spanned<OutputSpec>>,
 }
 
-/// `[room]`: exactly one of `rectangle` and `polygon`.
-#[derive(Debug, Clone, Deserialize)]
+/// `[room]`: exactly one of `rectangle`, `polygon`, `wkt` and `wkt_file`; maybe exits and
+/// obstacles in WKT too.
+#[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RoomSpec {
     /// `[x0, y0, x1, y1]`.
@@ -80,6 +86,29 @@ pub struct RoomSpec {
     /// Vertices in order, the last joined to the first.
     #[serde(default, deserialize_with = "exact::option_vec_array")]
     pub polygon: Option<Vec<[f64; 2]>>,
+    /// The walkable area in WKT, as shapely and JuPedSim write it: a `POLYGON` (its holes are
+    /// obstacles) or a `MULTIPOLYGON` of one polygon.
+    pub wkt: Option<String>,
+    /// A file holding `wkt` (relative to the scene file's directory).
+    pub wkt_file: Option<String>,
+    /// Exits in WKT: a `LINESTRING` of two points, or a `MULTILINESTRING` of such, numbered
+    /// after the `[[exits]]`.
+    pub exits_wkt: Option<String>,
+    /// Polygon obstacles in WKT: a `POLYGON` or `MULTIPOLYGON`, numbered after the
+    /// `[[obstacles]]` and the holes of `wkt`.
+    pub obstacles_wkt: Option<String>,
+}
+
+/// `[arena]`: a round wall inside the room, `center` and `radius`: every person's disk stays
+/// inside the circle (a concave constraint per person, projected onto exactly each step).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArenaSpec {
+    /// `[x, y]`.
+    #[serde(deserialize_with = "exact::array")]
+    pub center: [f64; 2],
+    /// `> 0`, with the circle inside the room.
+    pub radius: f64,
 }
 
 /// A disk.
@@ -180,14 +209,20 @@ pub struct Distribution {
     pub within: Option<[f64; 2]>,
 }
 
-/// A radius, or a range `[min, max]` drawn uniformly.
+/// A radius, a range `[min, max]` drawn uniformly, or a distribution.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(untagged, expecting = "a radius (a number) or a range [min, max]")]
+#[serde(
+    untagged,
+    expecting = "a radius (a number), a range [min, max], or a distribution: { uniform = [min, max] } or { normal = [mean, sd], within = [min, max] }"
+)]
 pub enum RadiusSpec {
     /// Everybody the same.
     Fixed(f64),
-    /// Uniform in `[min, max]`.
+    /// Uniform in `[min, max]`, drawn with the placement (a crowd's positions depend on it).
     Range([f64; 2]),
+    /// Drawn per person from a stream of the seed of its own: the positions a crowd's seed
+    /// gives do not depend on the radii's law (only on where bigger people do not fit).
+    Distribution(Distribution),
 }
 
 /// `[[crowds]]`: `count` people placed at random without overlap.
@@ -209,6 +244,43 @@ pub struct CrowdSpec {
     pub seed: Option<u64>,
     /// Own desired velocity (default: the scene's `[desired]`).
     pub desired: Option<DesiredSpec>,
+    /// The least distance (≥ 0) its people keep from everybody, walls and obstacles
+    /// included, half of it each: their disk in the constraints has radius `radius + gap/2`.
+    /// Default 0.
+    pub gap: Option<f64>,
+}
+
+/// `[[sources]]`: people arriving during the run, at a region or a door, at a `rate` or on
+/// a schedule (`times`, with `counts`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SourceSpec {
+    /// `[x0, y0, x1, y1]`: the people appear at places drawn in it without overlap.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub region: Option<[f64; 4]>,
+    /// A segment on a wall: the people appear in a row of places just inside it.
+    pub door: Option<SegmentSpec>,
+    /// People per second (> 0), evenly spaced from `start`; with `count`.
+    pub rate: Option<f64>,
+    /// How many people arrive at `rate`.
+    pub count: Option<usize>,
+    /// When the first person arrives at `rate` (≥ 0). Default 0.
+    pub start: Option<f64>,
+    /// When people arrive (≥ 0, non-decreasing): one at each time, or `counts[k]` at
+    /// `times[k]`.
+    pub times: Option<Vec<f64>>,
+    /// How many people arrive at each of `times`. Default one each.
+    pub counts: Option<Vec<usize>>,
+    /// Radius, range of radii or their distribution.
+    pub radius: RadiusSpec,
+    /// Desired speed (≥ 0), or its distribution. Default 1.
+    pub speed: Option<Drawn>,
+    /// Seed of the places and of the draws. Default 0.
+    pub seed: Option<u64>,
+    /// Own desired velocity (default: the scene's `[desired]`).
+    pub desired: Option<DesiredSpec>,
+    /// The least distance its people keep, as a crowd's `gap`. Default 0.
+    pub gap: Option<f64>,
 }
 
 /// Which desired velocity.
@@ -221,10 +293,39 @@ pub enum DesiredKind {
     Point,
     /// The constant vector `velocity` (the speed is its length).
     Constant,
+    /// Through `waypoints` in order, then towards the exits (or `point`).
+    Journey,
 }
 
-/// A desired velocity: `kind = "exit"`, `kind = "point"` with `point`, or
-/// `kind = "constant"` with `velocity`.
+/// How a person heads for a point or a waypoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Route {
+    /// In a straight line (through whatever is in the way).
+    Straight,
+    /// The shortest way around the fixed obstacles (a geodesic field of its own).
+    Geodesic,
+}
+
+/// A waypoint of a journey: exactly one of `point` (with `reach`) and `region`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointSpec {
+    /// A point, reached within `reach` of it.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub point: Option<[f64; 2]>,
+    /// How near the point counts as reached (> 0). Default `0.5`.
+    pub reach: Option<f64>,
+    /// `[x0, y0, x1, y1]`: reached once the centre is inside.
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub region: Option<[f64; 4]>,
+    /// How to head for it. Default `"geodesic"`.
+    pub route: Option<Route>,
+}
+
+/// A desired velocity: `kind = "exit"`, `kind = "point"` with `point`,
+/// `kind = "constant"` with `velocity`, or `kind = "journey"` with `waypoints` (then the exits,
+/// or `point`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DesiredSpec {
@@ -236,9 +337,14 @@ pub struct DesiredSpec {
     /// The vector of `kind = "constant"`.
     #[serde(default, deserialize_with = "exact::option_array")]
     pub velocity: Option<[f64; 2]>,
-    /// With `kind = "exit"`: the exits to head for (the nearest of them), numbered from 1 in
-    /// the order of `[[exits]]`. Default: every exit.
+    /// With `kind = "exit"` (or a journey's end): the exits to head for (the nearest of
+    /// them), numbered from 1 in the order of `[[exits]]`. Default: every exit.
     pub exits: Option<Vec<usize>>,
+    /// With `kind = "journey"`: the waypoints, in order.
+    pub waypoints: Option<Vec<WaypointSpec>>,
+    /// With `kind = "point"`, or a journey ending at `point`: how to head for the point.
+    /// Default `"straight"`.
+    pub route: Option<Route>,
 }
 
 /// `[geodesic]`: the fast-marching grid (used only when someone heads for the exits).
@@ -282,13 +388,17 @@ pub struct OutputSpec {
     /// Trajectory files to write: `"csv"` (`trajectory.csv`), `"sqlite"` (`trajectory.sqlite`,
     /// JuPedSim's trajectory format, for PedPy). Default `["csv"]`.
     pub formats: Option<Vec<TrajectoryFormat>>,
+    /// Write the contact forces (the projection's multipliers over the step): a `pressure`
+    /// column in the trajectory, `contacts.csv`, the SQLite tables `pressure` and `contacts`,
+    /// and people coloured by pressure in the pictures. Default `false`.
+    pub contact_forces: Option<bool>,
 }
 
 /// A trajectory file format (`[output] formats`, `sweep run --format`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TrajectoryFormat {
-    /// `trajectory.csv`: `t,id,x,y,present` (see `output::TrajectoryWriter`).
+    /// `trajectory.csv`: `t,id,x,y`, the people present (see `output::TrajectoryWriter`).
     Csv,
     /// `trajectory.sqlite`: JuPedSim's SQLite trajectory schema, for PedPy and JuPedSim's
     /// viewer.

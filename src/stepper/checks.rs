@@ -2,7 +2,7 @@
 //! culling proof, A1 on the active rows, and the true constraints at the new configuration.
 
 use super::Stepper;
-use crate::constraint::ConstraintId;
+use crate::constraint::{ConstraintId, Curvature};
 use crate::error::SweepError;
 use sweeping_api::{Projection, ProjectionProblem};
 
@@ -142,7 +142,9 @@ impl Stepper<'_> {
     /// For a culling family only the assembled rows can be violated: an omitted member has
     /// `gᵢ(t, q) + ⟨∇gᵢ, x − q⟩ ≥ 0` by the culling proof, and `gᵢ` is convex in `q`, so
     /// `gᵢ(t, x) ≥ gᵢ(t, q) + ⟨∇gᵢ, x − q⟩ ≥ 0`. That makes the check `O(rows)` instead of a
-    /// second broad phase. Families that do not cull are checked member by member.
+    /// second broad phase. Families that do not cull, and concave ones (for which that
+    /// inequality goes the other way), are checked through their candidates within 0 at `x`:
+    /// every violated member.
     pub(super) fn true_violation(&mut self, t: f64, x: &[f64]) -> (f64, Option<ConstraintId>) {
         let families = self.problem.families();
         // (distance, family, member) of the largest distance seen; a NaN wins over everything.
@@ -169,9 +171,12 @@ impl Stepper<'_> {
                 f64::INFINITY
             }
         };
+        let by_rows = |fam: &dyn crate::constraint::ConstraintFamily| {
+            fam.culls() && fam.curvature() == Curvature::Convex
+        };
         // Equality rows (family index past the inequalities) are measured apart.
         for &(fi, idx) in &self.row_origin[self.equality_rows..] {
-            if families[fi].culls() {
+            if by_rows(families[fi].as_ref()) {
                 let v = families[fi].value(idx, t, x, &mut self.lin);
                 // The gradient only where it is needed: the row is violated.
                 let d = if v < 0.0 {
@@ -186,7 +191,7 @@ impl Stepper<'_> {
         let _ = self.problem.for_each_linearized(
             t,
             x,
-            |fam| (!fam.culls()).then_some(0.0),
+            |fam| (!by_rows(fam)).then_some(0.0),
             false,
             &mut self.scratch,
             |_, id, row| {
@@ -250,11 +255,15 @@ impl Stepper<'_> {
     /// eigenvalue, so `gᵢ` is not convex there and the linearization overshoots (`None` when
     /// it is convex there, or not a number).
     fn convexity_failure(&self, id: ConstraintId, t: f64, x: &[f64]) -> Option<String> {
-        use crate::assumptions::{
+        use crate::curvature::{
             concave_direction, describe_point, symmetric_min_eigenvalue, symmetric_spectral_norm,
             CONVEXITY_MEANING, CONVEXITY_TOLERANCE,
         };
         let fam = &self.problem.families()[id.family];
+        if fam.curvature() == Curvature::Concave {
+            // Refined until certified: its violation is not a linearization's overshoot.
+            return None;
+        }
         let so = fam.second_order(id.member, t, x);
         let n = so.columns.len();
         if n == 0 || so.hessian.len() != n * n || so.hessian.iter().any(|v| !v.is_finite()) {

@@ -37,6 +37,7 @@
 
 mod assembly;
 mod checks;
+mod concave;
 mod moving;
 mod observer;
 mod prediction;
@@ -48,11 +49,11 @@ mod settings;
 pub use crate::error::ObserverError;
 pub use observer::Observer;
 pub use prediction::Prediction;
-pub use report::{RunStats, StageTimes, StepReport};
+pub use report::{Contact, RunStats, StageTimes, StepReport};
 pub use run::{Run, RunFailure, Trajectory};
 pub use settings::StepperSettings;
 
-use crate::constraint::LinearizedRow;
+use crate::constraint::{Curvature, LinearizedRow};
 use crate::error::SweepError;
 use crate::problem::{LinearizeScratch, Problem};
 use assembly::FamilyState;
@@ -122,6 +123,8 @@ pub struct Stepper<'p> {
     lin: LinearizedRow,
     scratch: LinearizeScratch,
     families: Vec<FamilyState>,
+    /// The cuts of concave constraints (see `concave.rs`).
+    cuts: concave::Cuts,
 }
 
 impl<'p> Stepper<'p> {
@@ -135,7 +138,11 @@ impl<'p> Stepper<'p> {
         problem.validate(settings.feasibility_tolerance)?;
         let n_steps = step_count(settings.t_end - problem.t0(), settings.h);
         let dim = problem.dim();
-        Ok(Self {
+        let concave = problem
+            .families()
+            .iter()
+            .any(|f| f.curvature() == Curvature::Concave && !f.is_affine());
+        let mut stepper = Self {
             problem,
             n_steps,
             k: 0,
@@ -161,8 +168,11 @@ impl<'p> Stepper<'p> {
                     last_drift: 0.0,
                 })
                 .collect(),
+            cuts: concave::Cuts::new(concave),
             settings,
-        })
+        };
+        stepper.check_concavity_claims()?;
+        Ok(stepper)
     }
 
     /// Number of steps the run will make.
@@ -240,6 +250,11 @@ impl<'p> Stepper<'p> {
         self.check_waypoints(t_k, t_next, &solution.x)?;
         times.check += tc.elapsed().as_secs_f64();
 
+        let contacts = if self.settings.record_contacts {
+            self.contacts(&solution.multipliers)
+        } else {
+            Vec::new()
+        };
         let report = StepReport {
             step: self.k,
             t: t_next,
@@ -247,6 +262,7 @@ impl<'p> Stepper<'p> {
             rows: self.b.len(),
             active: solution.active_count(self.settings.active_threshold),
             solves: solved.solves,
+            cuts: solved.cuts,
             iterations: solved.iterations,
             counters: solved.counters,
             times,
@@ -255,6 +271,7 @@ impl<'p> Stepper<'p> {
             max_equality_residual,
             max_displacement,
             solve: solution.stats,
+            contacts,
         };
         self.q = solution.x;
         self.k += 1;
@@ -276,6 +293,29 @@ fn metric_scale(metric: &sweeping_api::Metric) -> f64 {
             .fold(0.0, f64::max),
     };
     norm.max(1.0)
+}
+
+impl Stepper<'_> {
+    /// The assembled rows whose multiplier exceeds the active threshold, with it and their
+    /// gradient (see [`Contact`]).
+    fn contacts(&self, multipliers: &[f64]) -> Vec<Contact> {
+        let threshold = self.settings.active_threshold;
+        // The leading equality rows are no contacts.
+        multipliers
+            .iter()
+            .enumerate()
+            .skip(self.equality_rows)
+            .filter(|(_, &l)| l > threshold)
+            .map(|(r, &l)| {
+                let (family, member) = self.row_origin[r];
+                Contact {
+                    constraint: crate::constraint::ConstraintId { family, member },
+                    multiplier: l,
+                    gradient: self.rows.row(r).collect(),
+                }
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]

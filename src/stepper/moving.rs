@@ -2,7 +2,7 @@
 //! it, unseen by the linearization at `t_{k+1}`.
 
 use super::Stepper;
-use crate::constraint::LinearizedRow;
+use crate::constraint::{Curvature, LinearizedRow};
 use crate::error::SweepError;
 
 impl Stepper<'_> {
@@ -126,6 +126,8 @@ impl Stepper<'_> {
     /// step is refused when, at such a waypoint, the set overlaps the person by more than the
     /// violation tolerance at both `q_k` and `x = q_{k+1}`: `gᵢ` is convex in the point, so
     /// it then overlaps every point of the straight line between them, whatever the pace.
+    /// A concave family is not checked so: for it that inference does not hold (its set is
+    /// convex, and a segment between two points outside it may cross it).
     pub(super) fn check_waypoints(
         &mut self,
         t_k: f64,
@@ -135,7 +137,7 @@ impl Stepper<'_> {
         let tol = self.settings.violation_tolerance;
         let mut waypoints = Vec::new();
         for fam in self.problem.families() {
-            if !fam.is_time_dependent() {
+            if !fam.is_time_dependent() || fam.curvature() == Curvature::Concave {
                 continue;
             }
             waypoints.clear();

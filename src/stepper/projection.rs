@@ -1,17 +1,21 @@
 //! The projection stage: one QP per solve, in the displacement `u = x − q_k`, solved again
 //! with larger cutoffs until the culling proof holds.
 
+use super::concave::Refinement;
 use super::{StageTimes, Stepper};
 use crate::error::SweepError;
 use std::time::Instant;
-use sweeping_api::{BackendCounters, Projection, ProjectionProblem, Projector, RowKey};
+use sweeping_api::{BackendCounters, Projection, ProjectionProblem, Projector};
 
 /// The projection a step keeps, and what the solves that led to it cost.
 pub(super) struct Solved {
     /// The projection onto every row, as the point `q_{k+1}` (not the displacement).
     pub(super) solution: Projection,
-    /// Solves of the step (1 + re-solves after a failed culling proof).
+    /// Solves of the step (1 + re-solves after a failed culling proof + refinements of
+    /// concave constraints).
     pub(super) solves: usize,
+    /// Cuts of concave constraints added in the step.
+    pub(super) cuts: usize,
     /// Solver iterations, summed over the solves.
     pub(super) iterations: u32,
     /// How the backend reached its answers, summed over the solves.
@@ -19,8 +23,9 @@ pub(super) struct Solved {
 }
 
 impl Stepper<'_> {
-    /// Assembles, projects and checks until the culling proof holds (module docs): the
-    /// result is the projection onto every row.
+    /// Assembles, projects and checks until the culling proof holds (module docs) and the
+    /// concave constraints are certified (`concave.rs`): the result is the projection onto
+    /// every row and onto the convex sets of the concave constraints.
     pub(super) fn project_until_proven(
         &mut self,
         projector: &mut dyn Projector,
@@ -28,10 +33,19 @@ impl Stepper<'_> {
         times: &mut StageTimes,
     ) -> Result<Solved, SweepError> {
         let mut solves = 0usize;
+        let mut culling_solves = 0usize;
+        let mut refinements = 0usize;
+        let mut cuts = 0usize;
         let mut iterations = 0u32;
         let mut counters = BackendCounters::default();
+        let mut assembled = false;
+        self.reset_cuts();
         loop {
-            self.assemble(t_next, times)?;
+            if !assembled {
+                self.assemble(t_next, times)?;
+                self.append_cuts();
+                assembled = true;
+            }
             let tp = Instant::now();
             let (qp, mut sol) = self.project_rows(projector, t_next)?;
             times.projection += tp.elapsed().as_secs_f64();
@@ -48,20 +62,59 @@ impl Stepper<'_> {
             let tc = Instant::now();
             let proven = self.culling_proven(t_next, &sol.x);
             times.check += tc.elapsed().as_secs_f64();
-            if proven {
-                return Ok(Solved {
-                    solution: sol,
-                    solves,
-                    iterations,
-                    counters,
-                });
+            if !proven {
+                culling_solves += 1;
+                if culling_solves > self.settings.max_cull_retries {
+                    return Err(SweepError::CullingFailed {
+                        step: self.k,
+                        t: t_next,
+                        solves,
+                    });
+                }
+                assembled = false;
+                continue;
             }
-            if solves > self.settings.max_cull_retries {
-                return Err(SweepError::CullingFailed {
-                    step: self.k,
-                    t: t_next,
-                    solves,
-                });
+            let tc = Instant::now();
+            let refinement = self.refine_concave(t_next, &sol.x, &sol.multipliers);
+            times.check += tc.elapsed().as_secs_f64();
+            match refinement? {
+                Refinement::Certified => {
+                    return Ok(Solved {
+                        solution: sol,
+                        solves,
+                        cuts,
+                        iterations,
+                        counters,
+                    })
+                }
+                Refinement::Refined {
+                    worst,
+                    violation,
+                    residual,
+                    added,
+                } => {
+                    refinements += 1;
+                    cuts += added;
+                    if refinements > self.settings.max_concave_iterations {
+                        let disp = sol
+                            .x
+                            .iter()
+                            .zip(&self.q)
+                            .zip(&self.dy)
+                            .map(|((x, q), dy)| (x - q - dy).abs())
+                            .fold(0.0, f64::max);
+                        return Err(SweepError::ConcaveNotCertified {
+                            step: self.k,
+                            t: t_next,
+                            constraint: self.problem.families()[worst.0].describe(worst.1),
+                            iterations: refinements - 1,
+                            violation,
+                            residual,
+                            tolerance: self.settings.concave_tolerance,
+                            stationarity_tolerance: self.settings.kkt_tolerance * disp.max(1.0),
+                        });
+                    }
+                }
             }
         }
     }
@@ -74,13 +127,8 @@ impl Stepper<'_> {
     ) -> Result<(ProjectionProblem, Projection), SweepError> {
         // Each row keyed by its constraint (family, candidate index), stable across steps,
         // so that backends can warm-start from the previous step's active rows.
-        let keys = self
-            .row_origin
-            .iter()
-            .map(|&(fi, idx)| RowKey {
-                family: fi as u32,
-                member: idx as u64,
-            })
+        let keys = (0..self.row_origin.len())
+            .map(|r| self.row_key(r))
             .collect();
         // The projection of the displacement: `u = x − q_k` is the projection of `h f`
         // onto `∇gᵢ · u ≥ −gᵢ`, the scheme's step written relative to `q_k`. Its numbers

@@ -49,8 +49,13 @@ pub struct StepReport {
     pub rows: usize,
     /// Rows whose multiplier exceeds the active threshold at the solution.
     pub active: usize,
-    /// Solves of this step (1 + re-solves after a failed culling proof).
+    /// Solves of this step (1 + re-solves after a failed culling proof + refinements of
+    /// concave constraints).
     pub solves: usize,
+    /// Refinements of concave constraints: cuts added at the iterates (0 without concave
+    /// constraints, or when the first projection already lies in their sets).
+    #[serde(default)]
+    pub cuts: usize,
     /// Solver iterations, summed over the solves.
     pub iterations: u32,
     /// How the backend reached its answers, summed over the solves.
@@ -74,6 +79,40 @@ pub struct StepReport {
     pub max_displacement: f64,
     /// Statistics of the final solve.
     pub solve: SolveStats,
+    /// The rows active at the solution (multiplier above the active threshold), with their
+    /// multipliers and gradients, when
+    /// [`StepperSettings::record_contacts`](super::StepperSettings::record_contacts) asks for
+    /// them; empty otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contacts: Vec<Contact>,
+}
+
+/// One active row of a step's projection. The scheme's step is
+/// `q_{k+1} = q_k + h f + Σᵢ λᵢ ∇gᵢ` (the projection's stationarity), so the row moves the
+/// configuration by `λᵢ ∇gᵢ` in the step: an impulse, and `λᵢ/h · ∇gᵢ` is its contribution to
+/// the velocity `(q_{k+1} − q_k)/h`, the force of the constraint in a first-order model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Contact {
+    /// The constraint (named by [`Problem::describe`](crate::problem::Problem::describe)).
+    pub constraint: ConstraintId,
+    /// Its multiplier `λᵢ ≥ 0`, in units of `q` per unit of `∇gᵢ`.
+    pub multiplier: f64,
+    /// `∇gᵢ(t_{k+1}, q_k)`, the row of the step's QP, as `(coordinate, value)`.
+    pub gradient: Vec<(usize, f64)>,
+}
+
+impl Contact {
+    /// `λᵢ/h` times the length of the part of `∇gᵢ` on `coordinates` (a person's two, say):
+    /// the magnitude of the force the constraint puts on them over a step of length `h`.
+    pub fn force_on(&self, coordinates: std::ops::Range<usize>, h: f64) -> f64 {
+        let squared: f64 = self
+            .gradient
+            .iter()
+            .filter(|(c, _)| coordinates.contains(c))
+            .map(|(_, v)| v * v)
+            .sum();
+        self.multiplier / h * squared.sqrt()
+    }
 }
 
 /// Totals and extremes over a run.

@@ -50,6 +50,21 @@ pub struct StepperSettings {
     /// root, `g = (x − 1)²`) otherwise pins the point where `∇g` vanishes, a wrong answer
     /// without an error. `0` disables the check. Default `1e-6`.
     pub gradient_floor: f64,
+    /// A constraint declared concave ([`Curvature::Concave`](crate::constraint::Curvature),
+    /// a convex set) is projected onto exactly: its linearization is refined at each iterate
+    /// until the iterate is within `concave_tolerance` of the set (a distance,
+    /// `max(0, −gᵢ)/|∇gᵢ|`) and satisfies the KKT conditions with `∇gᵢ` at the iterate
+    /// (the part of the stationarity residual its linearizations leave, within the
+    /// backend's own KKT check: `kkt_tolerance · max(1, ‖x − y‖∞)`). The distance cannot be
+    /// met below the backend's accuracy. Default `1e-9`.
+    pub concave_tolerance: f64,
+    /// Most refinements of a step's concave constraints (each one more projection) before the
+    /// run fails with [`SweepError::ConcaveNotCertified`]. Default `50`.
+    pub max_concave_iterations: usize,
+    /// Keep each step's contacts, the rows active at its solution with their multipliers and
+    /// gradients, in [`StepReport::contacts`](super::StepReport::contacts): the contact forces
+    /// of a crowd. Off, a step allocates nothing for them. Default `false`.
+    pub record_contacts: bool,
 }
 
 impl Default for StepperSettings {
@@ -67,6 +82,9 @@ impl Default for StepperSettings {
             violation_tolerance: 1e-6,
             kkt_tolerance: 1e-6,
             gradient_floor: 1e-6,
+            concave_tolerance: 1e-9,
+            max_concave_iterations: 50,
+            record_contacts: false,
         }
     }
 }
@@ -108,6 +126,7 @@ impl StepperSettings {
         for (name, v) in [
             ("violation_tolerance", self.violation_tolerance),
             ("kkt_tolerance", self.kkt_tolerance),
+            ("concave_tolerance", self.concave_tolerance),
         ] {
             if v.is_nan() || v <= 0.0 {
                 return Err(SweepError::InvalidInput(format!(

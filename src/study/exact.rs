@@ -10,6 +10,9 @@
 //!   of radius `R`, sliding around it and leaving it at its top (derived below): a curved,
 //!   non-convex constraint, where the linearization matters.
 //!
+//! * [`PlayOperator`] and [`PointInsideMovingDisk`] — Moreau's class, sweeping by moving
+//!   convex sets (module `convex_sets`): the play operator of hysteresis, and a point kept
+//!   inside a moving disk by a constraint declared concave.
 //! * [`MassesAgainstMovingWall`] — a point with masses `(m₁, m₂)` pushed by a moving wall,
 //!   projected in the metric `W = diag(m)`: the reaction moves it along `W⁻¹n`.
 //! * [`PointOnMovingCircle`] — a point held on a moving circle by an equality constraint,
@@ -28,7 +31,11 @@ use crate::problem::Problem;
 use crate::stepper::{StepperSettings, Trajectory};
 use num_dual::DualNum;
 
+mod convex_sets;
 mod weighted;
+pub use convex_sets::{
+    InsideMovingDiskKernel, PlayOperator, PlayWallKernel, PointInsideMovingDisk,
+};
 pub use weighted::{
     MassesAgainstMovingWall, ObliqueWallKernel, OnMovingCircleKernel, PointOnMovingCircle,
 };
@@ -365,12 +372,16 @@ impl ExactCase for PointAroundDisk {
     }
 }
 
-/// The cases above with their default parameters.
+/// The cases above with their default parameters: the paper's class (two disks, a moving
+/// wall, around a disk), Moreau's (the play operator, inside a moving disk), then the
+/// weighted ones (masses against a wall, on a circle).
 pub fn standard_cases() -> Vec<Box<dyn ExactCase>> {
     vec![
         Box::new(TwoDisksOnALine::default()),
         Box::new(PointBehindMovingWall::default()),
         Box::new(PointAroundDisk::default()),
+        Box::new(PlayOperator::default()),
+        Box::new(PointInsideMovingDisk::default()),
         Box::new(MassesAgainstMovingWall::default()),
         Box::new(PointOnMovingCircle::default()),
     ]

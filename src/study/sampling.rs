@@ -229,6 +229,7 @@ mod tests {
             rows: 0,
             active: 0,
             solves: 1,
+            cuts: 0,
             iterations: 0,
             counters: Default::default(),
             times: Default::default(),
@@ -245,6 +246,7 @@ mod tests {
                 warm_started: false,
                 counters: Default::default(),
             },
+            contacts: Vec::new(),
         };
         s.on_step(&report(0.5), &[1.0, 3.0]).unwrap();
         s.on_step(&report(1.0), &[2.0, 3.0]).unwrap();

@@ -127,7 +127,7 @@ pub fn reference(
 /// problem (`min ‖E u − e‖`, `u ≥ 0`, with `E = [A; (b − A y)ᵀ]ᵀ` stacked as columns and `e` the
 /// last unit vector; the displacement is read from the residual), whose positive `u` name the
 /// projection's support; then the projection onto that support's affine set, certified as
-/// [`reference`] certifies its own. Where the rows tight at an answer are nearly dependent and
+/// [`reference()`] certifies its own. Where the rows tight at an answer are nearly dependent and
 /// not all in the support, forcing them all tight moves the point by their slack over the
 /// support's smallest singular value; this candidate does not depend on an answer's slacks.
 /// Dense, cubic in the rows: for problems of a few hundred rows.

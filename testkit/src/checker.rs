@@ -1,7 +1,9 @@
 //! An independent checker of a run's `trajectory.csv`: it re-reads the file a real run wrote
-//! and recomputes, by its own plain code (no library geometry), the overlaps of present people,
-//! the gaps to the walls (room edges minus exits) and to the obstacles, NaNs, and whether
-//! anyone who left came back.
+//! and recomputes, by its own plain code (no library geometry), the overlaps of the people
+//! written (those present), the gaps to the walls (room edges minus exits), to the obstacles
+//! and to a round arena's wall, NaNs, whether anyone is written though their disk is wholly
+//! outside the room, and whether anyone who left came back. A person not yet written has not
+//! arrived (a scene's sources); written and then missing from a frame, they have left.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -12,6 +14,8 @@ pub enum Obstacle {
     Disk([f64; 2], f64, Box<dyn Fn(f64) -> [f64; 2]>),
     /// A segment `(a, b)`.
     Segment([f64; 2], [f64; 2], Box<dyn Fn(f64) -> [f64; 2]>),
+    /// A round wall `(centre, radius)` that people stay *inside* (an arena).
+    Enclosure([f64; 2], f64),
 }
 
 /// The geometry the run must respect.
@@ -26,8 +30,8 @@ pub struct Geometry {
     pub radii: Vec<f64>,
 }
 
-/// The people at one recorded time: `(id, position, present)`.
-type State = Vec<(usize, [f64; 2], bool)>;
+/// The people written at one recorded time: `(id, position)`.
+type State = Vec<(usize, [f64; 2])>;
 
 /// What the checker found.
 #[derive(Debug, Default)]
@@ -57,6 +61,37 @@ fn dist_point_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     s = s.clamp(0.0, 1.0);
     let (cx, cy) = (a[0] + s * dx, a[1] + s * dy);
     ((p[0] - cx).powi(2) + (p[1] - cy).powi(2)).sqrt()
+}
+
+/// Whether `p` lies inside the polygon `v` (even–odd rule).
+fn point_in_polygon(v: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut inside = false;
+    for k in 0..v.len() {
+        let (a, b) = (v[k], v[(k + 1) % v.len()]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
+        {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+/// Each person's radius, read from a run's `people.csv` (`id,radius,…`, in id order): what a
+/// run with random radii is checked with.
+pub fn radii_from_people(people: &Path) -> Vec<f64> {
+    let text =
+        std::fs::read_to_string(people).unwrap_or_else(|e| panic!("{}: {e}", people.display()));
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("id,radius,t_left,x_left,y_left"));
+    lines
+        .enumerate()
+        .map(|(i, line)| {
+            let c: Vec<&str> = line.split(',').collect();
+            assert_eq!(c[0].parse::<usize>().ok(), Some(i), "{line}");
+            c[1].parse().expect("radius")
+        })
+        .collect()
 }
 
 /// The room's edges with the exits cut out.
@@ -102,22 +137,21 @@ fn wall_pieces(g: &Geometry) -> Vec<([f64; 2], [f64; 2])> {
 pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
     let text = std::fs::read_to_string(csv).unwrap_or_else(|e| panic!("{}: {e}", csv.display()));
     let mut lines = text.lines();
-    assert_eq!(
-        lines.next(),
-        Some("t,id,x,y,present"),
-        "header of {}",
-        csv.display()
-    );
+    let header = lines.next();
+    let fields = match header {
+        Some("t,id,x,y") => 4,
+        Some("t,id,x,y,pressure") => 5,
+        other => panic!("header of {}: {other:?}", csv.display()),
+    };
     let mut by_time: BTreeMap<u64, (f64, State)> = BTreeMap::new();
     let mut f = Findings::default();
     for (ln, line) in lines.enumerate() {
         let c: Vec<&str> = line.split(',').collect();
-        assert_eq!(c.len(), 5, "line {}: {line}", ln + 2);
+        assert_eq!(c.len(), fields, "line {}: {line}", ln + 2);
         let t: f64 = c[0].parse().expect("t");
         let id: usize = c[1].parse().expect("id");
         let x: f64 = c[2].parse().expect("x");
         let y: f64 = c[3].parse().expect("y");
-        let present = c[4] == "1";
         if !(t.is_finite() && x.is_finite() && y.is_finite()) {
             f.problems
                 .push(format!("line {}: non-finite value: {line}", ln + 2));
@@ -127,31 +161,44 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
             .entry(t.to_bits())
             .or_insert_with(|| (t, Vec::new()))
             .1
-            .push((id, [x, y], present));
+            .push((id, [x, y]));
     }
     let mut states: Vec<(f64, State)> = by_time.into_values().collect();
     states.sort_by(|a, b| a.0.total_cmp(&b.0));
     f.times = states.len();
     let walls = wall_pieces(g);
+    // Who has been written, and who has been written and then missing from a frame: left.
+    let mut seen = vec![false; g.radii.len()];
     let mut left = vec![false; g.radii.len()];
     let push = |f: &mut Findings, m: String| {
         if f.problems.len() < 20 {
             f.problems.push(m);
         }
     };
-    for (t, people) in &states {
-        let present: Vec<(usize, [f64; 2])> =
-            people.iter().filter(|p| p.2).map(|p| (p.0, p.1)).collect();
-        for (id, _, pres) in people {
-            if *pres && left[*id] {
+    for (t, present) in &states {
+        let mut written = vec![false; g.radii.len()];
+        for &(id, p) in present {
+            if left[id] {
                 push(
                     &mut f,
-                    format!("t = {t}: person {id} is present again after leaving"),
+                    format!("t = {t}: person {id} is written again after leaving"),
                 );
             }
-            if !*pres {
-                left[*id] = true;
+            written[id] = true;
+            let inside = point_in_polygon(&g.room, p)
+                || (0..g.room.len()).any(|k| {
+                    dist_point_segment(p, g.room[k], g.room[(k + 1) % g.room.len()]) < g.radii[id]
+                });
+            if !inside {
+                push(
+                    &mut f,
+                    format!("t = {t}: person {id} at {p:?} is written wholly outside the room"),
+                );
             }
+        }
+        for id in 0..seen.len() {
+            left[id] |= seen[id] && !written[id];
+            seen[id] |= written[id];
         }
         for (a, &(i, p)) in present.iter().enumerate() {
             let ri = g.radii[i];
@@ -191,6 +238,9 @@ pub fn check_trajectory(csv: &Path, g: &Geometry, tol: f64) -> Findings {
                         let a = [a[0] + o[0], a[1] + o[1]];
                         let b = [b[0] + o[0], b[1] + o[1]];
                         ri - dist_point_segment(p, a, b)
+                    }
+                    Obstacle::Enclosure(c, r) => {
+                        ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt() + ri - r
                     }
                 };
                 f.max_penetration = f.max_penetration.max(pen);
