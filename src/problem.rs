@@ -5,6 +5,7 @@ use crate::constraint::{
     ConstraintFamily, ConstraintId, ConstraintKernel, KernelFamily, LinearizedRow,
 };
 use crate::error::{SweepError, Violation};
+use sweeping_api::{Metric, ProjectionProblem, SparseRows};
 
 /// The perturbation `f(t, q)` of `dq/dt + N(Q(t), q) ∋ f(t, q)` (in crowds: the desired
 /// velocities).
@@ -69,6 +70,10 @@ impl Perturbation for NoPerturbation {
 pub struct Problem {
     q0: Vec<f64>,
     families: Vec<Box<dyn ConstraintFamily>>,
+    /// The families of equality constraints `hⱼ(t, q) = 0`.
+    equalities: Vec<Box<dyn ConstraintFamily>>,
+    /// The metric `W` of every step's projection.
+    metric: Metric,
     perturbation: Box<dyn Perturbation>,
     t0: f64,
 }
@@ -79,8 +84,80 @@ impl Problem {
         Self {
             q0,
             families: Vec::new(),
+            equalities: Vec::new(),
+            metric: Metric::Identity,
             perturbation: Box::new(perturbation),
             t0: 0.0,
+        }
+    }
+
+    /// Adds a family of equality constraints `hⱼ(t, q) = 0`, written as the `gᵢ` are (a
+    /// [`ConstraintKernel`] wrapped in a [`KernelFamily`], or any [`ConstraintFamily`]) and
+    /// linearized the same way, into rows `∇hⱼ · u = −hⱼ`. Every member is assembled at every
+    /// step (an equality is always active; its multiplier has either sign).
+    ///
+    /// What the theory covers: an affine `hⱼ` (in `q`) cuts the sets `Q(t)` with an affine
+    /// subspace, and the scheme stays a projection onto a convex set intersected with the
+    /// paper's class. A nonlinear `hⱼ` (a point on a circle) is linearized like a `gᵢ` but has
+    /// no convexity to keep it exact: after each step `|hⱼ(t_{k+1}, q_{k+1})|` is of the
+    /// order of the step squared, measured and reported
+    /// ([`StepReport::max_equality_residual`](crate::stepper::StepReport::max_equality_residual)),
+    /// never refused.
+    ///
+    /// ```
+    /// use sweeping::prelude::*;
+    /// // A point on the line x₀ = x₁ + t, pushed along (1, 0).
+    /// struct Line;
+    /// impl ConstraintKernel<2> for Line {
+    ///     type Params = ();
+    ///     fn value<D: Scalar>(&self, _: &(), t: D, z: [D; 2]) -> D { z[0] - z[1] - t }
+    ///     fn is_affine(&self) -> bool { true }
+    /// }
+    /// let problem = Problem::new(vec![0.0, 0.0], |_t: f64, _q: &[f64], f: &mut [f64]| {
+    ///     f[0] = 1.0;
+    ///     f[1] = 0.0;
+    /// })
+    /// .with_equality(KernelFamily::single("line", Line, [0, 1]));
+    /// let run = problem.solve(StepperSettings { h: 0.1, t_end: 1.0, ..Default::default() })?;
+    /// let q = &run.q_final;
+    /// assert!((q[0] - q[1] - 1.0).abs() < 1e-9);
+    /// # Ok::<(), Box<RunFailure>>(())
+    /// ```
+    pub fn with_equality(mut self, family: impl ConstraintFamily + 'static) -> Self {
+        self.equalities.push(Box::new(family));
+        self
+    }
+
+    /// Projects every step in the metric `W` (symmetric positive definite: masses on the
+    /// diagonal, or a stiffness), `q_{k+1} = argmin ½ (x − y)ᵀ W (x − y)` over the linearized
+    /// set: the scheme for `dq/dt + W⁻¹ N(Q(t), q) ∋ f(t, q)`, the sweeping process in the
+    /// inner product `⟨u, v⟩_W = uᵀWv`. The default, [`Metric::Identity`], is the paper's
+    /// Euclidean projection and costs nothing. `W` is checked (dimension, symmetry, positive
+    /// definiteness) by [`Problem::validate`].
+    pub fn with_metric(mut self, metric: Metric) -> Self {
+        self.metric = metric;
+        self
+    }
+
+    /// The metric `W` of the projections.
+    pub fn metric(&self) -> &Metric {
+        &self.metric
+    }
+
+    /// The families of equality constraints, in the order added.
+    pub fn equalities(&self) -> &[Box<dyn ConstraintFamily>] {
+        &self.equalities
+    }
+
+    /// The family of a row's origin in the stepper's numbering: the inequality families
+    /// first ([`Self::families`]), then the equality families ([`Self::equalities`]).
+    ///
+    /// # Panics
+    /// When `family` is past both lists.
+    pub fn family_at(&self, family: usize) -> &dyn ConstraintFamily {
+        match self.families.get(family) {
+            Some(f) => f.as_ref(),
+            None => self.equalities[family - self.families.len()].as_ref(),
         }
     }
 
@@ -163,9 +240,10 @@ impl Problem {
     /// "no overlap of people 3 and 17").
     ///
     /// # Panics
-    /// When `id.family` is not a family of this problem.
+    /// When `id.family` is not a family of this problem (inequality families first, then the
+    /// equality families, as [`Self::family_at`] numbers them).
     pub fn describe(&self, id: ConstraintId) -> String {
-        self.families[id.family].describe(id.member)
+        self.family_at(id.family).describe(id.member)
     }
 
     /// The perturbation.
@@ -232,7 +310,7 @@ impl Problem {
     /// [`SweepError::InvalidSupport`] naming the first constraint whose support does, and
     /// [`SweepError::InvalidInput`] naming a family that reads beyond `q` otherwise.
     pub(crate) fn check_family_dimensions(&self) -> Result<(), SweepError> {
-        for fam in &self.families {
+        for fam in self.families.iter().chain(&self.equalities) {
             if let Some((member, support)) = fam.invalid_support(self.dim()) {
                 return Err(SweepError::InvalidSupport {
                     constraint: fam.describe(member),
@@ -252,10 +330,12 @@ impl Problem {
         Ok(())
     }
 
-    /// Checks dimensions, finiteness and `q₀ ∈ Q(t₀)` up to `tolerance` (`gᵢ ≥ −tolerance`).
+    /// Checks dimensions, finiteness, the metric, and `q₀ ∈ Q(t₀)` up to `tolerance`
+    /// (`gᵢ ≥ −tolerance`, `|hⱼ| ≤ tolerance`).
     ///
     /// # Errors
-    /// [`SweepError::InvalidInput`] for a dimension mismatch or a non-finite `q₀`,
+    /// [`SweepError::InvalidInput`] for a dimension mismatch, a non-finite `q₀` or a metric
+    /// that is not symmetric positive definite of the problem's dimension,
     /// [`SweepError::InvalidSupport`] for a constraint reading a coordinate twice or beyond
     /// `q`, and
     /// [`SweepError::InfeasibleStart`] listing the violated constraints (worst first).
@@ -278,6 +358,9 @@ impl Problem {
             )));
         }
         self.check_family_dimensions()?;
+        ProjectionProblem::new(self.q0.clone(), SparseRows::new(self.dim()), Vec::new())
+            .and_then(|p| p.with_metric(self.metric.clone()))
+            .map_err(|e| SweepError::InvalidInput(format!("the problem's {e}")))?;
         let mut f = vec![0.0; self.dim()];
         self.perturbation.eval(self.t0, &self.q0, &mut f);
         if let Some(i) = f.iter().position(|v| !v.is_finite()) {
@@ -303,6 +386,19 @@ impl Problem {
                 Ok::<(), std::convert::Infallible>(())
             },
         );
+        let mut row = LinearizedRow::default();
+        for fam in &self.equalities {
+            for member in 0..fam.count() {
+                let h = fam.value(member, self.t0, &self.q0, &mut row);
+                if h.is_nan() || h.abs() > tolerance {
+                    // Listed by −|h|, with the orders of the inequalities' violations.
+                    violations.push(Violation {
+                        constraint: format!("equality {} (h = {h:.3e})", fam.describe(member)),
+                        value: -h.abs(),
+                    });
+                }
+            }
+        }
         if violations.is_empty() {
             return Ok(());
         }

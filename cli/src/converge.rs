@@ -17,7 +17,8 @@ pub struct ConvergeArgs {
     #[arg(required_unless_present = "exact")]
     pub scene: Option<PathBuf>,
     /// Instead of a scene: the true error on a built-in exact solution (`two-disks`,
-    /// `moving-wall`, `around-disk`, `play`, `inside-disk`, or `all`).
+    /// `moving-wall`, `around-disk`, `play`, `inside-disk`, `masses-wall`, `on-circle`, or
+    /// `all`).
     #[arg(long, conflicts_with = "scene")]
     pub exact: Option<String>,
     /// Step of the reference run.
@@ -93,8 +94,11 @@ fn run_exact(args: &ConvergeArgs, which: &str) -> anyhow::Result<()> {
         "around-disk" => vec![Box::new(exact::PointAroundDisk::default())],
         "play" => vec![Box::new(exact::PlayOperator::default())],
         "inside-disk" => vec![Box::new(exact::PointInsideMovingDisk::default())],
+        "masses-wall" => vec![Box::new(exact::MassesAgainstMovingWall::default())],
+        "on-circle" => vec![Box::new(exact::PointOnMovingCircle::default())],
         other => anyhow::bail!(
-            "unknown exact case `{other}` (expected two-disks, moving-wall, around-disk, play, inside-disk or all)"
+            "unknown exact case `{other}` (expected two-disks, moving-wall, around-disk, \
+             play, inside-disk, masses-wall, on-circle or all)"
         ),
     };
     let hs = args

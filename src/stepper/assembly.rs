@@ -34,8 +34,9 @@ impl Stepper<'_> {
         }
     }
 
-    /// Assembles the rows of `Q̃(t_next, q_k)` for the candidates within each family's cutoff,
-    /// in the displacement `u = x − q_k`: `∇gᵢ · u ≥ −gᵢ`.
+    /// Assembles the rows of `Q̃(t_next, q_k)`, in the displacement `u = x − q_k`: first every
+    /// member of the equality families, `∇hⱼ · u = −hⱼ` (the leading rows of the QP), then
+    /// the candidates within each family's cutoff, `∇gᵢ · u ≥ −gᵢ`.
     pub(super) fn assemble(
         &mut self,
         t_next: f64,
@@ -46,49 +47,69 @@ impl Stepper<'_> {
         self.row_origin.clear();
         self.row_norms.clear();
         let want_dt = self.settings.want_time_derivatives;
-        for (fi, fam) in self.problem.families().iter().enumerate() {
+        let t0 = Instant::now();
+        let problem = self.problem;
+        let first_equality = problem.families().len();
+        for (j, fam) in problem.equalities().iter().enumerate() {
+            for idx in 0..fam.count() {
+                fam.linearize(idx, t_next, &self.q, want_dt, &mut self.lin);
+                self.push_linearized(first_equality + j, idx, t_next)?;
+            }
+        }
+        self.equality_rows = self.b.len();
+        times.assembly += t0.elapsed().as_secs_f64();
+        for (fi, fam) in problem.families().iter().enumerate() {
             let t0 = Instant::now();
             self.cands.clear();
             fam.candidates(t_next, &self.q, self.families[fi].cutoff, &mut self.cands);
             let t1 = Instant::now();
             times.broad_phase += (t1 - t0).as_secs_f64();
-            for &idx in &self.cands {
+            for i in 0..self.cands.len() {
+                let idx = self.cands[i];
                 fam.linearize(idx, t_next, &self.q, want_dt, &mut self.lin);
-                let lin = &self.lin;
-                if !lin.value.is_finite() || lin.gradient.iter().any(|v| !v.is_finite()) {
-                    return Err(SweepError::NonFinite {
-                        step: self.k,
-                        t: t_next,
-                        what: format!(
-                            "constraint {} (value {}, gradient {:?})",
-                            fam.describe(idx),
-                            lin.value,
-                            lin.gradient
-                        ),
-                    });
-                }
-                let norm = lin.gradient_norm();
-                if norm < 1e-12 {
-                    return Err(SweepError::DegenerateConstraint {
-                        step: self.k,
-                        t: t_next,
-                        constraint: fam.describe(idx),
-                        norm,
-                    });
-                }
-                // Row of Q̃ in the displacement u = x − q_k: ∇g · u ≥ −g (see `step`).
-                self.rows.push_row(
-                    lin.columns
-                        .iter()
-                        .copied()
-                        .zip(lin.gradient.iter().copied()),
-                );
-                self.b.push(-lin.value);
-                self.row_origin.push((fi, idx));
-                self.row_norms.push(norm);
+                self.push_linearized(fi, idx, t_next)?;
             }
             times.assembly += t1.elapsed().as_secs_f64();
         }
+        Ok(())
+    }
+
+    /// Appends the row of the constraint just linearized into `self.lin`: member `idx` of the
+    /// family `fi` ([`Problem::family_at`](crate::problem::Problem::family_at)'s numbering).
+    fn push_linearized(&mut self, fi: usize, idx: usize, t_next: f64) -> Result<(), SweepError> {
+        let fam = self.problem.family_at(fi);
+        let lin = &self.lin;
+        if !lin.value.is_finite() || lin.gradient.iter().any(|v| !v.is_finite()) {
+            return Err(SweepError::NonFinite {
+                step: self.k,
+                t: t_next,
+                what: format!(
+                    "constraint {} (value {}, gradient {:?})",
+                    fam.describe(idx),
+                    lin.value,
+                    lin.gradient
+                ),
+            });
+        }
+        let norm = lin.gradient_norm();
+        if norm < 1e-12 {
+            return Err(SweepError::DegenerateConstraint {
+                step: self.k,
+                t: t_next,
+                constraint: fam.describe(idx),
+                norm,
+            });
+        }
+        // Row of Q̃ in the displacement u = x − q_k: ∇g · u ≥ −g (see `step`).
+        self.rows.push_row(
+            lin.columns
+                .iter()
+                .copied()
+                .zip(lin.gradient.iter().copied()),
+        );
+        self.b.push(-lin.value);
+        self.row_origin.push((fi, idx));
+        self.row_norms.push(norm);
         Ok(())
     }
 }

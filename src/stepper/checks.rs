@@ -75,8 +75,9 @@ impl Stepper<'_> {
         let primal_scale = 1f64.max(inf(qp.b()));
         let lambda_scale = 1f64.max(inf(&sol.multipliers));
         let scale = primal_scale.max(disp).max(lambda_scale);
+        // In a metric, W(x − y) is up to ‖W‖∞ times the displacement.
         let ok = r.primal <= tol * primal_scale
-            && r.stationarity <= tol * 1f64.max(disp)
+            && r.stationarity <= tol * 1f64.max(disp) * self.metric_scale
             && r.dual <= tol * lambda_scale
             && r.complementarity <= tol * primal_scale * lambda_scale;
         if ok {
@@ -173,7 +174,8 @@ impl Stepper<'_> {
         let by_rows = |fam: &dyn crate::constraint::ConstraintFamily| {
             fam.culls() && fam.curvature() == Curvature::Convex
         };
-        for &(fi, idx) in &self.row_origin {
+        // Equality rows (family index past the inequalities) are measured apart.
+        for &(fi, idx) in &self.row_origin[self.equality_rows..] {
             if by_rows(families[fi].as_ref()) {
                 let v = families[fi].value(idx, t, x, &mut self.lin);
                 // The gradient only where it is needed: the row is violated.
@@ -209,6 +211,18 @@ impl Stepper<'_> {
         }
     }
 
+    /// `maxⱼ |hⱼ(t, x)|` over every equality constraint; NaN when one is not a number.
+    pub(super) fn equality_residual(&mut self, t: f64, x: &[f64]) -> f64 {
+        let mut worst = 0.0;
+        for fam in self.problem.equalities() {
+            for member in 0..fam.count() {
+                let h = fam.value(member, t, x, &mut self.lin);
+                worst = sweeping_api::max_or_nan(worst, h.abs());
+            }
+        }
+        worst
+    }
+
     /// A1 where it matters: a row active at the solution with `|∇gᵢ|` below
     /// [`StepperSettings::gradient_floor`](super::StepperSettings::gradient_floor) decides the step with a normal it hardly has.
     pub(super) fn check_active_gradients(
@@ -224,11 +238,12 @@ impl Stepper<'_> {
             .zip(&self.row_norms)
             .zip(&self.row_origin)
         {
-            if lambda > threshold && norm < floor {
+            // An equality's multiplier has either sign.
+            if lambda.abs() > threshold && norm < floor {
                 return Err(SweepError::DegenerateConstraint {
                     step: self.k,
                     t: t_next,
-                    constraint: self.problem.families()[fi].describe(idx),
+                    constraint: self.problem.family_at(fi).describe(idx),
                     norm,
                 });
             }

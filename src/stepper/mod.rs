@@ -14,10 +14,13 @@
 //!    the family culls far-apart pairs);
 //! 3. **assembly** — each candidate is linearized at `(t_{k+1}, q_k)` by autodiff into the row
 //!    `∇gᵢ · x ≥ ⟨∇gᵢ, q_k⟩ − gᵢ`, written in the displacement `u = x − q_k` as
-//!    `∇gᵢ · u ≥ −gᵢ`;
+//!    `∇gᵢ · u ≥ −gᵢ`; equality constraints `hⱼ = 0`
+//!    ([`Problem::with_equality`](crate::problem::Problem::with_equality)) give the leading
+//!    rows `∇hⱼ · u = −hⱼ`, every member at every step;
 //! 4. **projection** — one QP, solved by any [`Projector`]: `u` is the projection of
 //!    `y − q_k` (`h f`, computed as such), so the backend sees the step's own numbers wherever
-//!    the scene lies, and `q_{k+1} = q_k + u`;
+//!    the scene lies, and `q_{k+1} = q_k + u`; in the problem's metric `W`
+//!    ([`Problem::with_metric`](crate::problem::Problem::with_metric)) when it has one;
 //! 5. **check** — the proof that culling lost nothing (below), then the largest violation of
 //!    the *true* constraints `gᵢ(t_{k+1}, q_{k+1}) ≥ 0`.
 //!
@@ -110,6 +113,10 @@ pub struct Stepper<'p> {
     rows: SparseRows,
     b: Vec<f64>,
     row_origin: Vec<(usize, usize)>,
+    /// How many leading rows are equalities.
+    equality_rows: usize,
+    /// `max(1, ‖W‖∞)`: the scale of `W(x − y)` in the KKT check.
+    metric_scale: f64,
     /// `|∇gᵢ|` of each assembled row, for the A1 check on the active ones.
     row_norms: Vec<f64>,
     cands: Vec<usize>,
@@ -147,6 +154,8 @@ impl<'p> Stepper<'p> {
             rows: SparseRows::new(dim),
             b: Vec::new(),
             row_origin: Vec::new(),
+            equality_rows: 0,
+            metric_scale: metric_scale(problem.metric()),
             row_norms: Vec::new(),
             cands: Vec::new(),
             lin: LinearizedRow::default(),
@@ -234,6 +243,7 @@ impl<'p> Stepper<'p> {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         let (max_violation, worst_constraint) = self.true_violation(t_next, &solution.x);
+        let max_equality_residual = self.equality_residual(t_next, &solution.x);
         times.check += tc.elapsed().as_secs_f64();
         self.check_violation(max_violation, worst_constraint, t_next, &solution.x)?;
         let tc = Instant::now();
@@ -258,6 +268,7 @@ impl<'p> Stepper<'p> {
             times,
             max_violation,
             worst_constraint,
+            max_equality_residual,
             max_displacement,
             solve: solution.stats,
             contacts,
@@ -269,14 +280,31 @@ impl<'p> Stepper<'p> {
     }
 }
 
+/// `max(1, ‖W‖∞)`, with `‖W‖∞` the largest absolute row sum of the metric: `W(x − y)` is up
+/// to that times the displacement, and a small `W` does not ask more of a backend's absolute
+/// accuracy than the identity does (1 for the identity).
+fn metric_scale(metric: &sweeping_api::Metric) -> f64 {
+    use sweeping_api::Metric;
+    let norm = match metric {
+        Metric::Identity => 1.0,
+        Metric::Diagonal(w) => w.iter().fold(0.0, |m: f64, v| m.max(v.abs())),
+        Metric::Symmetric(w) => (0..w.n_rows())
+            .map(|r| w.row(r).map(|(_, v)| v.abs()).sum::<f64>())
+            .fold(0.0, f64::max),
+    };
+    norm.max(1.0)
+}
+
 impl Stepper<'_> {
     /// The assembled rows whose multiplier exceeds the active threshold, with it and their
     /// gradient (see [`Contact`]).
     fn contacts(&self, multipliers: &[f64]) -> Vec<Contact> {
         let threshold = self.settings.active_threshold;
+        // The leading equality rows are no contacts.
         multipliers
             .iter()
             .enumerate()
+            .skip(self.equality_rows)
             .filter(|(_, &l)| l > threshold)
             .map(|(r, &l)| {
                 let (family, member) = self.row_origin[r];

@@ -137,6 +137,7 @@ impl Stepper<'_> {
         // relative to the data's size let overlaps of 7e-7 through.
         let qp = ProjectionProblem::new(self.dy.clone(), self.rows.clone(), self.b.clone())
             .and_then(|p| p.with_row_keys(keys))
+            .and_then(|p| self.with_metric_and_equalities(p))
             .map_err(|e| SweepError::Projection {
                 step: self.k,
                 t: t_next,
@@ -150,12 +151,27 @@ impl Stepper<'_> {
         Ok((qp, sol))
     }
 
+    /// The problem's metric and the step's leading equality rows on `qp` (nothing to do, and
+    /// nothing done, without them).
+    fn with_metric_and_equalities(
+        &self,
+        mut qp: ProjectionProblem,
+    ) -> Result<ProjectionProblem, sweeping_api::ProjectionError> {
+        if !self.problem.metric().is_identity() {
+            qp = qp.with_metric(self.problem.metric().clone())?;
+        }
+        if self.equality_rows > 0 {
+            qp = qp.with_leading_equalities(self.equality_rows)?;
+        }
+        Ok(qp)
+    }
+
     /// The constraints of the assembled rows `rows`, by name, at most
     /// [`EMPTY_SET_NAMED`](crate::error::EMPTY_SET_NAMED) of them.
     fn names_of_rows(&self, rows: impl Iterator<Item = usize>) -> Vec<String> {
         rows.filter_map(|r| self.row_origin.get(r))
             .take(crate::error::EMPTY_SET_NAMED)
-            .map(|&(fi, idx)| self.problem.families()[fi].describe(idx))
+            .map(|&(fi, idx)| self.problem.family_at(fi).describe(idx))
             .collect()
     }
 
@@ -246,7 +262,13 @@ impl Stepper<'_> {
         // squeezed person makes it empty).
         let b_scale = qp.b().iter().fold(1f64, |m, b| m.max(b.abs()));
         // At u = 0 each row reads 0 ≥ bᵢ = −gᵢ(t_{k+1}, q_k).
-        let violation_at_q = qp.b().iter().copied().fold(0.0, sweeping_api::max_or_nan);
+        // (−|bⱼ| on an equality row.)
+        let violation_at_q = qp
+            .b()
+            .iter()
+            .enumerate()
+            .map(|(i, b)| if i < qp.equalities() { b.abs() } else { *b })
+            .fold(0.0, sweeping_api::max_or_nan);
         let q_in_set = violation_at_q <= 1e-9 * b_scale + self.settings.violation_tolerance;
         if !(far > 1.0 && far.is_finite() && q_in_set)
             || matches!(first, sweeping_api::ProjectionError::InvalidInput { .. })
@@ -264,6 +286,7 @@ impl Stepper<'_> {
                 Some(keys) => p.with_row_keys(keys.to_vec()),
                 None => Ok(p),
             })
+            .and_then(|p| self.with_metric_and_equalities(p))
             .map_err(fail)?;
         match projector.project(&scaled) {
             Ok(mut sol) => {

@@ -70,6 +70,11 @@ pub struct StepReport {
     /// The constraint achieving `max_violation` (`None` when none is violated); named by
     /// [`Problem::describe`](crate::problem::Problem::describe).
     pub worst_constraint: Option<ConstraintId>,
+    /// `maxⱼ |hⱼ(t_{k+1}, q_{k+1})|` over the equality constraints (`0` without any): zero up
+    /// to the solver's accuracy for an affine `hⱼ`, of the order of the step squared for a
+    /// nonlinear one (measured, never refused).
+    #[serde(default)]
+    pub max_equality_residual: f64,
     /// `‖q_{k+1} − q_k‖∞`.
     pub max_displacement: f64,
     /// Statistics of the final solve.
@@ -136,6 +141,10 @@ pub struct RunStats {
     pub worst_constraint: Option<ConstraintId>,
     /// The time of that violation.
     pub worst_time: f64,
+    /// Largest `|hⱼ|` of the equality constraints after any step (NaN when one was not a
+    /// number).
+    #[serde(default)]
+    pub max_equality_residual: f64,
 }
 
 impl RunStats {
@@ -149,6 +158,8 @@ impl RunStats {
         self.rows += r.rows as u64;
         self.max_rows = self.max_rows.max(r.rows);
         self.max_active = self.max_active.max(r.active);
+        self.max_equality_residual =
+            sweeping_api::max_or_nan(self.max_equality_residual, r.max_equality_residual);
         if r.max_violation > self.max_violation {
             self.max_violation = r.max_violation;
             self.worst_constraint = r.worst_constraint;

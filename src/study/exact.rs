@@ -13,6 +13,10 @@
 //! * [`PlayOperator`] and [`PointInsideMovingDisk`] — Moreau's class, sweeping by moving
 //!   convex sets (module `convex_sets`): the play operator of hysteresis, and a point kept
 //!   inside a moving disk by a constraint declared concave.
+//! * [`MassesAgainstMovingWall`] — a point with masses `(m₁, m₂)` pushed by a moving wall,
+//!   projected in the metric `W = diag(m)`: the reaction moves it along `W⁻¹n`.
+//! * [`PointOnMovingCircle`] — a point held on a moving circle by an equality constraint,
+//!   sliding round it (`tan(θ/2) = tan(θ₀/2) e^{−wt/R}`).
 //!
 //! [`true_error_study`] measures `|q(tᵢ) − qⁿ(tᵢ)|` with the paper's protocol and the sup
 //! over `[t₀, T]` of `|q(t) − qⁿ(t)|`, in the same [`ConvergenceReport`] form as
@@ -28,8 +32,12 @@ use crate::stepper::{StepperSettings, Trajectory};
 use num_dual::DualNum;
 
 mod convex_sets;
+mod weighted;
 pub use convex_sets::{
     InsideMovingDiskKernel, PlayOperator, PlayWallKernel, PointInsideMovingDisk,
+};
+pub use weighted::{
+    MassesAgainstMovingWall, ObliqueWallKernel, OnMovingCircleKernel, PointOnMovingCircle,
 };
 
 /// A sweeping process with a known solution.
@@ -365,7 +373,8 @@ impl ExactCase for PointAroundDisk {
 }
 
 /// The cases above with their default parameters: the paper's class (two disks, a moving
-/// wall, around a disk), then Moreau's (the play operator, inside a moving disk).
+/// wall, around a disk), Moreau's (the play operator, inside a moving disk), then the
+/// weighted ones (masses against a wall, on a circle).
 pub fn standard_cases() -> Vec<Box<dyn ExactCase>> {
     vec![
         Box::new(TwoDisksOnALine::default()),
@@ -373,6 +382,8 @@ pub fn standard_cases() -> Vec<Box<dyn ExactCase>> {
         Box::new(PointAroundDisk::default()),
         Box::new(PlayOperator::default()),
         Box::new(PointInsideMovingDisk::default()),
+        Box::new(MassesAgainstMovingWall::default()),
+        Box::new(PointOnMovingCircle::default()),
     ]
 }
 

@@ -235,6 +235,7 @@ mod tests {
             times: Default::default(),
             max_violation: 0.0,
             worst_constraint: None,
+            max_equality_residual: 0.0,
             max_displacement: 0.0,
             solve: sweeping_api::SolveStats {
                 backend: "none".into(),

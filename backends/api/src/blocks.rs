@@ -9,7 +9,8 @@
 //! back together, and [`Blocked`] wraps any [`Projector`] so that it only ever sees blocks.
 
 use crate::{
-    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus, SparseRows,
+    Metric, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus,
+    SparseRows,
 };
 
 /// One independent sub-problem: the rows of a connected component and the unknowns they touch.
@@ -87,10 +88,13 @@ impl Blocks {
     /// ```
     pub fn split_violated(problem: &ProjectionProblem) -> Self {
         let (a, y, b) = (problem.a(), problem.y(), problem.b());
-        // Kept unless `aᵢ·y ≥ bᵢ` holds, so a NaN keeps its block, whose solver reports it.
+        let k = problem.equalities();
+        // Kept unless `aᵢ·y ≥ bᵢ` holds (`=` on an equality row), so a NaN keeps its block,
+        // whose solver reports it.
         Self::split_keeping(problem, |r| {
             let ay: f64 = a.row(r).map(|(c, v)| v * y[c]).sum();
-            ay.partial_cmp(&b[r]).is_none_or(|o| o.is_lt())
+            ay.partial_cmp(&b[r])
+                .is_none_or(|o| o.is_lt() || (r < k && o.is_gt()))
         })
     }
 
@@ -105,6 +109,29 @@ impl Blocks {
         // (measured: `docs/lab/2026-11-25-less-work-and-speculated-rescue.md`). The
         // components, and so the blocks, are the same either way.
         let mut size = vec![1u32; n];
+        let mut unite = |parent: &mut [usize], p: usize, q: usize| {
+            let (ra, rb) = (find(parent, p), find(parent, q));
+            if ra != rb {
+                let (small, large) = if size[ra] < size[rb] {
+                    (ra, rb)
+                } else {
+                    (rb, ra)
+                };
+                parent[small] = large;
+                size[large] += size[small];
+            }
+        };
+        // A metric that couples two unknowns couples their rows' answers: moving one moves the
+        // other, so they belong to one block (and an unknown coupled to a block is in it).
+        if let Metric::Symmetric(w) = problem.metric() {
+            for i in 0..n {
+                for (j, v) in w.row(i) {
+                    if v != 0.0 && j != i {
+                        unite(&mut parent, i, j);
+                    }
+                }
+            }
+        }
         let mut first_col = vec![usize::MAX; m];
         for (r, first) in first_col.iter_mut().enumerate() {
             for (c, v) in a.row(r) {
@@ -114,16 +141,7 @@ impl Blocks {
                 if *first == usize::MAX {
                     *first = c;
                 } else {
-                    let (ra, rb) = (find(&mut parent, *first), find(&mut parent, c));
-                    if ra != rb {
-                        let (small, large) = if size[ra] < size[rb] {
-                            (ra, rb)
-                        } else {
-                            (rb, ra)
-                        };
-                        parent[small] = large;
-                        size[large] += size[small];
-                    }
+                    unite(&mut parent, *first, c);
                 }
             }
         }
@@ -183,7 +201,11 @@ impl Blocks {
                 let y = cols.iter().map(|&c| problem.y()[c]).collect();
                 let b = rows.iter().map(|&r| problem.b()[r]).collect();
                 let sub_keys = keys.map(|k| rows.iter().map(|&r| k[r]).collect());
-                let problem = ProjectionProblem::from_parts_unchecked(y, sub, b, sub_keys);
+                // Rows are in increasing order, so the equalities stay leading.
+                let equalities = rows.partition_point(|&r| r < problem.equalities());
+                let metric = sub_metric(problem.metric(), &cols, &local);
+                let problem = ProjectionProblem::from_parts_unchecked(y, sub, b, sub_keys)
+                    .with_parts_unchecked(metric, equalities);
                 Block {
                     rows,
                     cols,
@@ -205,12 +227,14 @@ impl Blocks {
         &self.empty_rows
     }
 
-    /// The first empty row with `bᵢ > 0`, which makes the whole problem infeasible.
+    /// The first empty row with `bᵢ > 0` (`bᵢ ≠ 0` on an equality row), which makes the
+    /// whole problem infeasible.
     pub fn infeasible_empty_row(&self, problem: &ProjectionProblem) -> Option<usize> {
+        let k = problem.equalities();
         self.empty_rows
             .iter()
             .copied()
-            .find(|&r| problem.b()[r] > 0.0)
+            .find(|&r| problem.b()[r] > 0.0 || (r < k && problem.b()[r] != 0.0))
     }
 
     /// The answer of the whole problem from one answer per block (in the order of
@@ -256,6 +280,22 @@ impl Blocks {
             x,
             multipliers,
             stats,
+        }
+    }
+}
+
+/// The metric of the unknowns `cols` (`local[c]` numbering unknown `c` among them): a
+/// principal sub-matrix, exact for a block because no entry couples it to another.
+fn sub_metric(metric: &Metric, cols: &[usize], local: &[usize]) -> Metric {
+    match metric {
+        Metric::Identity => Metric::Identity,
+        Metric::Diagonal(w) => Metric::Diagonal(cols.iter().map(|&c| w[c]).collect()),
+        Metric::Symmetric(w) => {
+            let mut sub = SparseRows::new(cols.len());
+            for &c in cols {
+                sub.push_row(w.row(c).map(|(j, v)| (local[j], v)));
+            }
+            Metric::Symmetric(sub)
         }
     }
 }

@@ -17,7 +17,8 @@
 //! user-written backend.
 
 use crate::{
-    Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus, SparseRows,
+    Metric, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats, SolveStatus,
+    SparseRows,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -62,6 +63,11 @@ pub fn all_checks() -> Vec<(&'static str, Check)> {
         ("infeasible_set", check_infeasible),
         ("random_kkt_and_idempotence", check_random_kkt),
         ("repeated_pattern_changing_values", check_repeated_pattern),
+        ("weighted_half_space_closed_form", check_weighted_half_space),
+        ("equality_closed_form", check_equality),
+        ("weighted_equality_closed_form", check_weighted_equality),
+        ("infeasible_equalities", check_infeasible_equalities),
+        ("random_weighted_with_equalities", check_random_weighted),
     ]
 }
 
@@ -88,10 +94,14 @@ pub struct Agreement {
     pub kkt: f64,
     /// Largest ∞-norm distance allowed between the two answers.
     pub gap: f64,
+    /// Draw the instances with a metric and equality rows ([`random_weighted_instance`])
+    /// instead of plain ones ([`random_instance`]).
+    pub weighted: bool,
 }
 
 /// Solves a sequence of random instances with `under_test` and with `other`: every answer of
-/// `under_test` must exist, meet `agreement.kkt` and pass `also`; wherever `other` answers
+/// `under_test` must exist, meet `agreement.kkt` (in the instance's metric, with free-sign
+/// multipliers on its equality rows when [`Agreement::weighted`]) and pass `also`; wherever `other` answers
 /// (a slow reference may run out of iterations on a degenerate instance), the two points must
 /// agree within `agreement.gap`. Returns how many instances were compared, or what failed
 /// first (naming the instance, `n` and `m`).
@@ -100,6 +110,7 @@ pub struct Agreement {
 /// use sweeping_api::conformance::{agreement_on_random_instances, Agreement, ReferenceProjector};
 /// let agreement = Agreement {
 ///     first_seed: 7, instances: 5, n_spread: 10, m_spread: 12, kkt: 1e-8, gap: 1e-6,
+///     weighted: true,
 /// };
 /// let compared = agreement_on_random_instances(
 ///     &mut ReferenceProjector::default(),
@@ -124,7 +135,12 @@ pub fn agreement_on_random_instances(
         let n = 2 + (k as usize * 11) % agreement.n_spread;
         let m = (k as usize * 17) % agreement.m_spread;
         let what = format!("instance {k} (n = {n}, m = {m})");
-        let problem = random_instance(agreement.first_seed + k, n, m);
+        let seed = agreement.first_seed + k;
+        let problem = if agreement.weighted {
+            random_weighted_instance(seed, n, m)
+        } else {
+            random_instance(seed, n, m)
+        };
         let sol = under_test
             .project(&problem)
             .map_err(|e| format!("{what}: {e}"))?;
@@ -371,6 +387,190 @@ pub fn random_instance(seed: u64, n: usize, m: usize) -> ProjectionProblem {
     ProjectionProblem::new(y, a, b).unwrap()
 }
 
+/// [`random_instance`] with a metric and equality rows: `W` diagonal (masses in `[0.5, 4]`)
+/// on even seeds, masses plus random springs (`k (eᵢ − eⱼ)(eᵢ − eⱼ)ᵀ`, a lattice-spring
+/// stiffness) on odd ones; the first `1 + seed mod 3` rows (at most half of them) made
+/// equalities through the known feasible point. Shared by the kit and the backends' tests.
+pub fn random_weighted_instance(seed: u64, n: usize, m: usize) -> ProjectionProblem {
+    let base = random_instance(seed, n, m);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_f3e7);
+    let masses: Vec<f64> = (0..n).map(|_| rng.gen_range(0.5..4.0)).collect();
+    let metric = if seed.is_multiple_of(2) {
+        Metric::Diagonal(masses)
+    } else {
+        let mut dense = vec![vec![0.0; n]; n];
+        for (i, w) in masses.iter().enumerate() {
+            dense[i][i] = *w;
+        }
+        for _ in 0..n {
+            let (i, j) = (rng.gen_range(0..n), rng.gen_range(0..n));
+            if i != j {
+                let k = rng.gen_range(0.1..3.0);
+                dense[i][i] += k;
+                dense[j][j] += k;
+                dense[i][j] -= k;
+                dense[j][i] -= k;
+            }
+        }
+        let rows: Vec<Vec<(usize, f64)>> = dense
+            .iter()
+            .map(|r| {
+                r.iter()
+                    .enumerate()
+                    .filter(|(_, v)| **v != 0.0)
+                    .map(|(j, v)| (j, *v))
+                    .collect()
+            })
+            .collect();
+        Metric::Symmetric(SparseRows::from_rows(n, &rows))
+    };
+    // The feasible point of `random_instance` is not returned; its tight rows are: a row with
+    // zero slack there becomes an equality when it is among the first rows, and the other
+    // candidates are kept as inequalities. So the set stays non-empty.
+    let k = ((1 + seed % 3) as usize).min(m / 2);
+    let x0 = feasible_point_of(seed, n);
+    let mut b = base.b().to_vec();
+    let mut ax0 = vec![0.0; m];
+    base.a().mul_vec(&x0, &mut ax0);
+    b[..k].copy_from_slice(&ax0[..k]);
+    ProjectionProblem::new(base.y().to_vec(), base.a().clone(), b)
+        .and_then(|p| p.with_metric(metric))
+        .and_then(|p| p.with_leading_equalities(k))
+        .expect("a valid instance")
+}
+
+/// The feasible point [`random_instance`] draws first for `seed` and `n`.
+fn feasible_point_of(seed: u64, n: usize) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect()
+}
+
+/// One row in the metric `W = [[2, −1, 0], [−1, 2, 0], [0, 0, 4]]` (two unit masses joined by
+/// a spring, and a mass 4): `x = y + λ W⁻¹a` with `λ = (b − a·y)/(aᵀW⁻¹a)`; here `a = (1, 1, 1)`,
+/// `W⁻¹a = (1, 1, ¼)`, `y = 0`, `b = 1`, so `λ = 4/9` and `x = (4/9, 4/9, 1/9)`. Also with the
+/// masses alone, `W = diag(1, 2, 4)`: `W⁻¹a = (1, ½, ¼)`, `λ = 4/7`.
+pub fn check_weighted_half_space(p: &mut dyn Projector, tol: &Tolerances) -> Result<(), String> {
+    let row = SparseRows::from_rows(3, &[vec![(0, 1.0), (1, 1.0), (2, 1.0)]]);
+    let spring = SparseRows::from_rows(
+        3,
+        &[
+            vec![(0, 2.0), (1, -1.0)],
+            vec![(0, -1.0), (1, 2.0)],
+            vec![(2, 4.0)],
+        ],
+    );
+    let cases = [
+        (Metric::Symmetric(spring), 4.0 / 9.0, [1.0, 1.0, 0.25]),
+        (
+            Metric::Diagonal(vec![1.0, 2.0, 4.0]),
+            4.0 / 7.0,
+            [1.0, 0.5, 0.25],
+        ),
+    ];
+    for (metric, lambda, direction) in cases {
+        let what = format!("weighted half-space, W = {metric:?}");
+        let problem = ProjectionProblem::new(vec![0.0; 3], row.clone(), vec![1.0])
+            .and_then(|q| q.with_metric(metric))
+            .map_err(|e| e.to_string())?;
+        let sol = solve(p, &problem)?;
+        let expected: Vec<f64> = direction.iter().map(|u| lambda * u).collect();
+        expect_point(&sol.x, &expected, tol.point, &what)?;
+        expect_point(&sol.multipliers, &[lambda], tol.point * 10.0, &what)?;
+        expect_kkt(&problem, &sol, tol.kkt, &what)?;
+    }
+    Ok(())
+}
+
+/// An equality and an inequality: `x₀ + x₁ = 1`, `x₂ ≥ 1` from `y = (2, 2, 0)`: `x = (½, ½, 1)`,
+/// `λ = (−3/2, 1)` — the equality pulls back, so its multiplier is negative.
+pub fn check_equality(p: &mut dyn Projector, tol: &Tolerances) -> Result<(), String> {
+    let rows = SparseRows::from_rows(3, &[vec![(0, 1.0), (1, 1.0)], vec![(2, 1.0)]]);
+    let problem = ProjectionProblem::new(vec![2.0, 2.0, 0.0], rows, vec![1.0, 1.0])
+        .and_then(|q| q.with_leading_equalities(1))
+        .map_err(|e| e.to_string())?;
+    let sol = solve(p, &problem)?;
+    expect_point(&sol.x, &[0.5, 0.5, 1.0], tol.point, "equality")?;
+    expect_point(
+        &sol.multipliers,
+        &[-1.5, 1.0],
+        tol.point * 10.0,
+        "equality multipliers",
+    )?;
+    expect_kkt(&problem, &sol, tol.kkt, "equality")
+}
+
+/// Masses 1 and 3 on the line `x₀ + x₁ = 1` from `y = (2, 2)`: `W(x − y) = λ(1, 1)` gives
+/// `λ = −9/4`, `x = (−¼, 5/4)` (the heavy mass moves a third as far); and from a `y` already
+/// on the line, `x = y`, `λ = 0`.
+pub fn check_weighted_equality(p: &mut dyn Projector, tol: &Tolerances) -> Result<(), String> {
+    let rows = SparseRows::from_rows(2, &[vec![(0, 1.0), (1, 1.0)]]);
+    for (y, x, lambda) in [
+        ([2.0, 2.0], [-0.25, 1.25], -2.25),
+        ([0.25, 0.75], [0.25, 0.75], 0.0),
+    ] {
+        let problem = ProjectionProblem::new(y.to_vec(), rows.clone(), vec![1.0])
+            .and_then(|q| q.with_metric(Metric::Diagonal(vec![1.0, 3.0])))
+            .and_then(|q| q.with_leading_equalities(1))
+            .map_err(|e| e.to_string())?;
+        let what = format!("weighted equality from y = {y:?}");
+        let sol = solve(p, &problem)?;
+        expect_point(&sol.x, &x, tol.point, &what)?;
+        expect_point(&sol.multipliers, &[lambda], tol.point * 10.0, &what)?;
+        expect_kkt(&problem, &sol, tol.kkt, &what)?;
+    }
+    Ok(())
+}
+
+/// `x₀ = 1` and `x₀ ≥ 2` have no common point: an error, as for [`check_infeasible`].
+pub fn check_infeasible_equalities(p: &mut dyn Projector, tol: &Tolerances) -> Result<(), String> {
+    let rows = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(0, 1.0)]]);
+    let problem = ProjectionProblem::new(vec![0.0, 0.0], rows, vec![1.0, 2.0])
+        .and_then(|q| q.with_leading_equalities(1))
+        .map_err(|e| e.to_string())?;
+    match p.project(&problem) {
+        Ok(sol) => Err(format!(
+            "infeasible equalities: got an answer {:?} instead of an error",
+            sol.x
+        )),
+        Err(ProjectionError::Infeasible { .. }) => Ok(()),
+        Err(_) if !tol.certifies_infeasibility => Ok(()),
+        Err(e) => Err(format!(
+            "infeasible equalities: expected ProjectionError::Infeasible, got {e}"
+        )),
+    }
+}
+
+/// On 30 random instances with a metric and equality rows ([`random_weighted_instance`]):
+/// the KKT conditions `W(x − y) = Aᵀλ`, `λᵢ ≥ 0` on the inequality rows, `Ax ≥ b`,
+/// `|Ax − b| = 0` on the equality rows and complementarity, within `tol.kkt`; and
+/// idempotence within `tol.point`.
+pub fn check_random_weighted(p: &mut dyn Projector, tol: &Tolerances) -> Result<(), String> {
+    for seed in 0..30u64 {
+        let n = 2 + (seed as usize * 7) % 20;
+        let m = (seed as usize * 13) % 30;
+        let problem = random_weighted_instance(seed, n, m);
+        let what = format!(
+            "weighted instance {seed} (n = {n}, m = {m}, {} equalities)",
+            problem.equalities()
+        );
+        let sol = solve(p, &problem)?;
+        expect_kkt(&problem, &sol, tol.kkt, &what)?;
+        let again =
+            ProjectionProblem::new(sol.x.clone(), problem.a().clone(), problem.b().to_vec())
+                .and_then(|q| q.with_metric(problem.metric().clone()))
+                .and_then(|q| q.with_leading_equalities(problem.equalities()))
+                .map_err(|e| e.to_string())?;
+        let sol2 = solve(p, &again)?;
+        expect_point(
+            &sol2.x,
+            &sol.x,
+            tol.point,
+            &format!("idempotence on {what}"),
+        )?;
+    }
+    Ok(())
+}
+
 /// On 40 random instances: KKT within `tol.kkt`, and projecting the answer again returns it
 /// (idempotence) within `tol.point`.
 pub fn check_random_kkt(p: &mut dyn Projector, tol: &Tolerances) -> Result<(), String> {
@@ -446,6 +646,11 @@ macro_rules! conformance_tests {
         $crate::conformance_tests!(@one infeasible_set, check_infeasible, $make, $tol);
         $crate::conformance_tests!(@one random_kkt_and_idempotence, check_random_kkt, $make, $tol);
         $crate::conformance_tests!(@one repeated_pattern_changing_values, check_repeated_pattern, $make, $tol);
+        $crate::conformance_tests!(@one weighted_half_space_closed_form, check_weighted_half_space, $make, $tol);
+        $crate::conformance_tests!(@one equality_closed_form, check_equality, $make, $tol);
+        $crate::conformance_tests!(@one weighted_equality_closed_form, check_weighted_equality, $make, $tol);
+        $crate::conformance_tests!(@one infeasible_equalities, check_infeasible_equalities, $make, $tol);
+        $crate::conformance_tests!(@one random_weighted_with_equalities, check_random_weighted, $make, $tol);
     };
     (@one $name:ident, $check:ident, $make:expr, $tol:expr) => {
         #[test]
@@ -462,7 +667,8 @@ macro_rules! conformance_tests {
 /// Hildreth's dual coordinate ascent: a slow, dependency-free projector for small problems.
 ///
 /// It maximizes the dual `−½‖Aᵀλ‖² + λᵀ(b − Ay)` over `λ ≥ 0` one coordinate at a time,
-/// keeping `x = y + Aᵀλ`. Exact in the limit; stops when the KKT residuals fall below
+/// keeping `x = y + Aᵀλ` (in a metric `W`: `−½ λᵀAW⁻¹Aᵀλ + λᵀ(b − Ay)`, keeping
+/// `x = y + W⁻¹Aᵀλ`; an equality row's multiplier is not clamped at zero). Exact in the limit; stops when the KKT residuals fall below
 /// `tolerance` or after `max_sweeps` sweeps (then [`ProjectionError::NotConverged`]). It
 /// cannot certify infeasibility (the dual is then unbounded and it runs out of sweeps).
 #[derive(Debug, Clone)]
@@ -497,9 +703,17 @@ impl Projector for ReferenceProjector {
         if problem.n_rows() == 0 || problem.max_violation(problem.y()) == 0.0 {
             return Ok(Projection::identity(problem, self.name()));
         }
+        // In the metric W, x = y + W⁻¹Aᵀλ: a row moves x along W⁻¹aᵣ.
+        let directions = metric_directions(problem)?;
         let norms2: Vec<f64> = (0..a.n_rows())
-            .map(|r| a.row(r).map(|(_, v)| v * v).sum())
+            .map(|r| {
+                let u = &directions[r];
+                a.row(r)
+                    .map(|(c, v)| v * u.iter().find(|(j, _)| *j == c).map_or(0.0, |(_, w)| *w))
+                    .sum()
+            })
             .collect();
+        let k = problem.equalities();
         let mut lambda = vec![0.0; a.n_rows()];
         let mut x = problem.y().to_vec();
         for sweep in 0..self.max_sweeps {
@@ -508,10 +722,12 @@ impl Projector for ReferenceProjector {
                     continue;
                 }
                 let ax: f64 = a.row(r).map(|(c, v)| v * x[c]).sum();
-                let new = (lambda[r] + (problem.b()[r] - ax) / norms2[r]).max(0.0);
+                let free = lambda[r] + (problem.b()[r] - ax) / norms2[r];
+                // An equality's multiplier has no sign.
+                let new = if r < k { free } else { free.max(0.0) };
                 let d = new - lambda[r];
                 if d != 0.0 {
-                    for (c, v) in a.row(r) {
+                    for &(c, v) in &directions[r] {
                         x[c] += d * v;
                     }
                     lambda[r] = new;
@@ -533,7 +749,7 @@ impl Projector for ReferenceProjector {
                         },
                     });
                 }
-                if lambda.iter().any(|l| !l.is_finite() || *l > 1e12) {
+                if lambda.iter().any(|l| !l.is_finite() || l.abs() > 1e12) {
                     break;
                 }
             }
@@ -544,6 +760,30 @@ impl Projector for ReferenceProjector {
             status: "max sweeps".into(),
         })
     }
+}
+
+/// Each row's direction `W⁻¹aᵣ`, as its non-zero entries (`aᵣ` itself in the identity).
+fn metric_directions(
+    problem: &ProjectionProblem,
+) -> Result<Vec<Vec<(usize, f64)>>, ProjectionError> {
+    let a = problem.a();
+    let Some(factor) = problem.metric().validate(problem.dim())? else {
+        return Ok((0..a.n_rows()).map(|r| a.row(r).collect()).collect());
+    };
+    let mut v = vec![0.0; problem.dim()];
+    Ok((0..a.n_rows())
+        .map(|r| {
+            v.iter_mut().for_each(|x| *x = 0.0);
+            a.row(r).for_each(|(c, x)| v[c] += x);
+            factor.solve_l(&mut v, 0);
+            factor.solve_lt(&mut v);
+            v.iter()
+                .enumerate()
+                .filter(|(_, x)| **x != 0.0)
+                .map(|(c, x)| (c, *x))
+                .collect()
+        })
+        .collect())
 }
 
 /// The reference projector as the crate's own tests run it through the kit (here and behind

@@ -7,6 +7,11 @@
 //! ```
 //!
 //! with a sparse `A` (one row per linearized constraint, a handful of non-zeros per row).
+//! Two generalizations ride on the same problem: a **metric** `W` (symmetric positive
+//! definite; masses or a stiffness), for `min ½ (x − y)ᵀ W (x − y)`, and **equality rows**
+//! (the first `k` rows read `aᵢ·x = bᵢ`). Both default to the plain case, which costs nothing
+//! extra: see [`ProjectionProblem::with_metric`] and
+//! [`ProjectionProblem::with_leading_equalities`].
 //! This crate holds that problem ([`ProjectionProblem`]), its answer ([`Projection`], with the
 //! multipliers λ ≥ 0 of the rows), the statistics of a solve ([`SolveStats`]), the typed error
 //! ([`ProjectionError`]) and the object-safe [`Projector`] trait that every backend implements.
@@ -17,6 +22,9 @@
 //! ```text
 //!     A x ≥ b,   x − y = Aᵀλ,   λ ≥ 0,   λᵢ (A x − b)ᵢ = 0,
 //! ```
+//!
+//! (in a metric `W`: `W(x − y) = Aᵀλ`; on an equality row `(Ax − b)ᵢ = 0` and `λᵢ` of either
+//! sign)
 //!
 //! and [`ProjectionProblem::kkt_residuals`] measures how far an answer is from them. The
 //! [`conformance`] module runs the checks every backend must pass (closed forms, degenerate and
@@ -33,10 +41,12 @@ mod blocks;
 pub mod conformance;
 mod cross;
 mod matrix;
+mod metric;
 
 pub use blocks::{Block, Blocked, Blocks};
 pub use cross::{CrossCheck, CrossCheckDisagreement, CrossCheckStats};
 pub use matrix::SparseRows;
+pub use metric::{EqualityPairs, Metric, MetricChange};
 
 /// A hash map for what backends look up on every solve (multipliers by [`RowKey`], working
 /// sets, orderings by node): std's map with foldhash's fixed-seed hasher, much cheaper than
@@ -47,7 +57,9 @@ pub type FastMap<K, V> = std::collections::HashMap<K, V, foldhash::fast::FixedSt
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// The QP `min ½‖x − y‖² s.t. A x ≥ b`, validated on construction.
+/// The QP `min ½‖x − y‖² s.t. A x ≥ b`, validated on construction; in general
+/// `min ½ (x − y)ᵀ W (x − y)` ([`Self::with_metric`]) with the first `k` rows equalities
+/// ([`Self::with_leading_equalities`]).
 ///
 /// `A` is stored by rows ([`SparseRows`]) because that is how the constraints are assembled:
 /// one linearized constraint `gᵢ + ⟨∇gᵢ, x − q⟩ ≥ 0` becomes the row `∇gᵢ` with
@@ -60,6 +72,16 @@ pub struct ProjectionProblem {
     /// One stable identity per row, when the caller attached them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     keys: Option<Vec<RowKey>>,
+    /// The metric `W` of the cost.
+    #[serde(default, skip_serializing_if = "Metric::is_identity")]
+    metric: Metric,
+    /// How many leading rows are equalities.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    equalities: usize,
+}
+
+fn is_zero(k: &usize) -> bool {
+    *k == 0
 }
 
 /// Stable identity of a row across steps: which constraint (`family`, `member`) it linearizes.
@@ -114,7 +136,57 @@ impl ProjectionProblem {
             a,
             b,
             keys: None,
+            metric: Metric::Identity,
+            equalities: 0,
         })
+    }
+
+    /// Sets the metric `W` of the cost `½ (x − y)ᵀ W (x − y)` (default
+    /// [`Metric::Identity`]).
+    ///
+    /// # Errors
+    /// [`ProjectionError::InvalidInput`] when `W` does not have the problem's dimension, holds
+    /// a non-finite entry, is not symmetric, or is not positive definite (its Cholesky
+    /// factorization meets a pivot `≤ 1e-14` times its diagonal entry).
+    ///
+    /// ```
+    /// use sweeping_api::{Metric, ProjectionProblem, SparseRows};
+    /// let p = ProjectionProblem::new(vec![0.0, 0.0], SparseRows::new(2), vec![]).unwrap();
+    /// assert!(p.clone().with_metric(Metric::Diagonal(vec![1.0, -2.0])).is_err());
+    /// let p = p.with_metric(Metric::Diagonal(vec![1.0, 2.0])).unwrap();
+    /// assert_eq!(p.metric(), &Metric::Diagonal(vec![1.0, 2.0]));
+    /// ```
+    pub fn with_metric(mut self, metric: Metric) -> Result<Self, ProjectionError> {
+        metric.validate(self.dim())?;
+        self.metric = metric;
+        Ok(self)
+    }
+
+    /// Declares the first `k` rows equalities: `aᵢ·x = bᵢ`, with a multiplier of either sign.
+    ///
+    /// # Errors
+    /// [`ProjectionError::InvalidInput`] when `k` exceeds the number of rows.
+    pub fn with_leading_equalities(mut self, k: usize) -> Result<Self, ProjectionError> {
+        if k > self.n_rows() {
+            return Err(ProjectionError::InvalidInput {
+                reason: format!(
+                    "{k} equality rows but the problem has {} rows",
+                    self.n_rows()
+                ),
+            });
+        }
+        self.equalities = k;
+        Ok(self)
+    }
+
+    /// The metric `W` of the cost.
+    pub fn metric(&self) -> &Metric {
+        &self.metric
+    }
+
+    /// How many leading rows are equalities (`0` by default).
+    pub fn equalities(&self) -> usize {
+        self.equalities
     }
 
     /// A problem whose parts are already known to be consistent (sub-problems cut out of a
@@ -127,7 +199,23 @@ impl ProjectionProblem {
     ) -> Self {
         debug_assert_eq!(a.n_cols(), y.len());
         debug_assert_eq!(a.n_rows(), b.len());
-        Self { y, a, b, keys }
+        Self {
+            y,
+            a,
+            b,
+            keys,
+            metric: Metric::Identity,
+            equalities: 0,
+        }
+    }
+
+    /// The same problem with `metric` and `equalities` set without checks (sub-problems of a
+    /// validated problem).
+    pub(crate) fn with_parts_unchecked(mut self, metric: Metric, equalities: usize) -> Self {
+        debug_assert!(equalities <= self.n_rows());
+        self.metric = metric;
+        self.equalities = equalities;
+        self
     }
 
     /// Attaches one key per row. Without keys, backends cold-start.
@@ -219,9 +307,15 @@ impl ProjectionProblem {
         r
     }
 
-    /// `max(0, max_i (b − A x)_i)`: the largest violation of the rows at `x`.
+    /// The largest violation of the rows at `x`: `max(0, maxᵢ (b − A x)ᵢ)` over the
+    /// inequality rows and `|b − A x|ᵢ` over the equality rows.
     pub fn max_violation(&self, x: &[f64]) -> f64 {
-        self.shortfall(x).into_iter().fold(0.0, max_or_nan)
+        let k = self.equalities;
+        self.shortfall(x)
+            .into_iter()
+            .enumerate()
+            .map(|(i, s)| if i < k { s.abs() } else { s })
+            .fold(0.0, max_or_nan)
     }
 
     /// How far `(x, λ)` is from the KKT conditions of this projection.
@@ -238,21 +332,32 @@ impl ProjectionProblem {
         self.a.mul_vec(x, &mut ax);
         let mut at_lambda = vec![0.0; self.dim()];
         self.a.mul_transpose_vec(multipliers, &mut at_lambda);
+        let k = self.equalities;
         let primal = ax
             .iter()
             .zip(&self.b)
-            .map(|(axi, bi)| bi - axi)
+            .enumerate()
+            .map(|(i, (axi, bi))| if i < k { (bi - axi).abs() } else { bi - axi })
             .fold(0.0, max_or_nan);
-        let stationarity = x
+        let stationarity = if self.metric.is_identity() {
+            x.iter()
+                .zip(&self.y)
+                .zip(&at_lambda)
+                .map(|((xi, yi), ai)| (xi - yi - ai).abs())
+                .fold(0.0, max_or_nan)
+        } else {
+            let d: Vec<f64> = x.iter().zip(&self.y).map(|(xi, yi)| xi - yi).collect();
+            self.metric
+                .apply(&d)
+                .iter()
+                .zip(&at_lambda)
+                .map(|(wd, ai)| (wd - ai).abs())
+                .fold(0.0, max_or_nan)
+        };
+        let dual = multipliers[k..].iter().map(|l| -l).fold(0.0, max_or_nan);
+        let complementarity = multipliers[k..]
             .iter()
-            .zip(&self.y)
-            .zip(&at_lambda)
-            .map(|((xi, yi), ai)| (xi - yi - ai).abs())
-            .fold(0.0, max_or_nan);
-        let dual = multipliers.iter().map(|l| -l).fold(0.0, max_or_nan);
-        let complementarity = multipliers
-            .iter()
-            .zip(ax.iter().zip(&self.b))
+            .zip(ax[k..].iter().zip(&self.b[k..]))
             .map(|(l, (axi, bi))| (l.max(0.0) * (axi - bi)).abs())
             .fold(0.0, max_or_nan);
         KktResiduals {
@@ -294,16 +399,18 @@ fn reduced_clause(first: &str, second: &str, reduced: &[u64; 2]) -> String {
         .collect()
 }
 
-/// Residuals of the KKT conditions `Ax ≥ b`, `x − y = Aᵀλ`, `λ ≥ 0`, `λᵢ(Ax − b)ᵢ = 0`.
+/// Residuals of the KKT conditions `Ax ≥ b`, `W(x − y) = Aᵀλ`, `λ ≥ 0`, `λᵢ(Ax − b)ᵢ = 0`
+/// (`W = I` by default); on the equality rows `(Ax − b)ᵢ = 0` and no sign on `λᵢ`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct KktResiduals {
-    /// `max(0, maxᵢ (b − Ax)ᵢ)`.
+    /// `max(0, maxᵢ (b − Ax)ᵢ)` over the inequality rows, with `|b − Ax|ᵢ` over the equality
+    /// rows.
     pub primal: f64,
-    /// `‖x − y − Aᵀλ‖∞`.
+    /// `‖W(x − y) − Aᵀλ‖∞`.
     pub stationarity: f64,
-    /// `max(0, maxᵢ −λᵢ)`.
+    /// `max(0, maxᵢ −λᵢ)` over the inequality rows.
     pub dual: f64,
-    /// `maxᵢ |λᵢ⁺ (Ax − b)ᵢ|`.
+    /// `maxᵢ |λᵢ⁺ (Ax − b)ᵢ|` over the inequality rows.
     pub complementarity: f64,
 }
 
@@ -321,7 +428,8 @@ impl KktResiduals {
 pub struct Projection {
     /// The projected point `x = P(y)`.
     pub x: Vec<f64>,
-    /// Multipliers `λ ≥ 0`, one per row, with `x − y = Aᵀλ`.
+    /// Multipliers, one per row, with `W(x − y) = Aᵀλ` (`W = I` by default): `λᵢ ≥ 0` on an
+    /// inequality row, of either sign on an equality row.
     pub multipliers: Vec<f64>,
     /// Statistics of the solve.
     pub stats: SolveStats,

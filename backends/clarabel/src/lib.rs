@@ -9,7 +9,9 @@
 //! Clarabel solves `min ½ uᵀPu + qᵀu s.t. G u + s = h, s ∈ K`. The projection is handed to it
 //! in the **displacement** `d = x − y`: `P = I`, `q = 0`, `G = −A`, `h = A y − b`, cone
 //! `ℝᵐ₊`; then `x = y + d`, the cone's dual variable is the vector of multipliers `λ`
-//! (stationarity reads `d = Aᵀλ`) and the slack is `A x − b`. Written in `x`, the cost
+//! (stationarity reads `d = Aᵀλ`) and the slack is `A x − b`. A problem in a metric `W` has
+//! `P = W`; its equality rows (the leading ones) have their slacks in the zero cone, and
+//! their multipliers have either sign. Written in `x`, the cost
 //! `½‖x‖² − yᵀx` is dominated by `‖y‖²` when the configuration lies far from the origin (crowds
 //! sit at coordinates ~10²), and Clarabel's relative duality-gap rule stops while the point is
 //! still visibly off; in `d` the cost is the squared step itself.
@@ -31,7 +33,9 @@
 //! the dual of the projection finishes the job from the interior-point answer, block by block
 //! (connected components of the rows, each under its own cap of iterations; each step one
 //! sparse `LDLᵀ` factorization in QDLDL's arithmetic; linearly dependent active rows are
-//! handled). **KKT acceptance:** the polished answer replaces the interior-point one when its
+//! handled); it works in the identity metric on inequalities, so a problem with a metric or
+//! equality rows is polished in `z = Lᵀx` with each equality as a pair of opposite
+//! inequalities, and said back in `x`. **KKT acceptance:** the polished answer replaces the interior-point one when its
 //! KKT residuals are no larger, or below a hundredth of [`ClarabelSettings::kkt_tolerance`];
 //! a solve that stops short (iteration limit, insufficient progress) is kept only if its KKT
 //! residuals are within tolerance. Measurements, with the commands that reproduce them:
@@ -70,7 +74,7 @@ use clarabel::solver::{
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 use sweeping_api::{
-    BackendCounters, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats,
+    BackendCounters, Metric, Projection, ProjectionError, ProjectionProblem, Projector, SolveStats,
     SolveStatus,
 };
 
@@ -409,6 +413,12 @@ fn negated_csc(problem: &ProjectionProblem) -> (CscMatrix<f64>, Vec<bool>) {
     (CscMatrix::new(m, n, colptr, rowval, nzval), nonzero_row)
 }
 
+/// `P = W`, its upper triangle compressed by columns (Clarabel reads only that triangle).
+fn metric_csc(metric: &Metric, n: usize) -> CscMatrix<f64> {
+    let (col_ptr, row_idx, values) = metric.upper_triangle_csc(n);
+    CscMatrix::new(n, n, col_ptr, row_idx, values)
+}
+
 fn status_name(status: SolverStatus) -> String {
     format!("{status:?}")
 }
@@ -441,12 +451,17 @@ impl Projector for ClarabelProjector {
                 h[i]
             )));
         }
-        let violation = h.iter().fold(0.0, |worst: f64, hi| worst.max(-hi));
+        let k = problem.equalities();
+        let violation = h.iter().enumerate().fold(0.0, |worst: f64, (i, hi)| {
+            worst.max(if i < k { hi.abs() } else { -hi })
+        });
         if m == 0 || violation <= self.settings.tol_feas {
             return Ok(Projection::identity(problem, NAME));
         }
         let (g, nonzero_row) = negated_csc(problem);
-        if let Some(r) = (0..m).find(|&r| !nonzero_row[r] && problem.b()[r] > 0.0) {
+        if let Some(r) = (0..m).find(|&r| {
+            !nonzero_row[r] && (problem.b()[r] > 0.0 || (r < k && problem.b()[r] != 0.0))
+        }) {
             return Err(ProjectionError::Infeasible {
                 backend: NAME.to_string(),
                 detail: format!(
@@ -456,9 +471,16 @@ impl Projector for ClarabelProjector {
                 rows: vec![r],
             });
         }
-        let p = CscMatrix::identity(n);
+        let p = metric_csc(problem.metric(), n);
         let q = vec![0.0; n];
-        let cones = [SupportedConeT::NonnegativeConeT(m)];
+        // Equality rows are the leading ones: their slacks lie in the zero cone.
+        let cones: Vec<SupportedConeT<f64>> = [
+            (k > 0).then_some(SupportedConeT::ZeroConeT(k)),
+            (m > k).then_some(SupportedConeT::NonnegativeConeT(m - k)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
         let mut solver = DefaultSolver::new(&p, &q, &g, &h, &cones, settings)
             .map_err(|e| Self::backend_error(format!("set-up failed: {e}")))?;
         let setup_seconds = setup_start.elapsed().as_secs_f64();
@@ -505,6 +527,14 @@ impl Projector for ClarabelProjector {
         let clamp = self.tolerance();
         let mut multipliers = Vec::with_capacity(m);
         for (i, &z) in solution.z.iter().enumerate() {
+            if i < k {
+                // An equality's multiplier has either sign.
+                if !z.is_finite() {
+                    return Err(malformed(format!("multiplier {i} = {z} is not finite")));
+                }
+                multipliers.push(z);
+                continue;
+            }
             if !z.is_finite() || z < -clamp {
                 return Err(malformed(format!(
                     "multiplier {i} = {z} is not a finite non-negative number"
@@ -514,18 +544,26 @@ impl Projector for ClarabelProjector {
         }
         let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
         let mut unfinished = (0, 0.0);
+        // The polish is an active set in the identity metric on inequalities: a problem with
+        // a metric or equality rows is polished in z = Lᵀx with its equalities as pairs.
+        let plain = problem.metric().is_identity() && k == 0;
         if self.settings.polish {
             let mut polish_used = false;
+            let polished = if plain {
+                polish::polish(problem, &x, &solution.z, &solution.s)
+            } else {
+                polish::polish_general(problem, &x, &solution.z, &solution.s)
+            };
             if let Some(polish::Polished {
                 x: px,
                 lambda: mut pl,
                 unfinished: left,
-            }) = polish::polish(problem, &x, &solution.z, &solution.s)
+            }) = polished
             {
                 // Tiny negative multipliers of weakly active rows are clamped as above; a
-                // larger one disqualifies the polished answer.
-                let valid = pl.iter().all(|l| *l >= -clamp);
-                pl.iter_mut().for_each(|l| *l = l.max(0.0));
+                // larger one disqualifies the polished answer (an equality's has no sign).
+                let valid = pl[k..].iter().all(|l| *l >= -clamp);
+                pl[k..].iter_mut().for_each(|l| *l = l.max(0.0));
                 let polished = problem.kkt_residuals(&px, &pl).max();
                 // Small KKT residuals of the interior-point iterate do not make its point
                 // accurate (weakly active rows leave it off by ~√gap), so the polished answer
@@ -545,8 +583,13 @@ impl Projector for ClarabelProjector {
             // which says so, as one (a problem without rows returned `y` above).
             if !polish_used {
                 // Slacks of the point itself (Clarabel's cone slacks are never negative).
+                // An equality row is off by its |slack|, whatever its multiplier.
                 let slack = problem.shortfall(&x).into_iter().map(|r| -r);
-                let off = polish::iterate_off(multipliers.iter().copied().zip(slack));
+                let rows = multipliers.iter().copied().zip(slack).enumerate();
+                let off =
+                    polish::iterate_off(
+                        rows.map(|(i, (l, s))| if i < k { (0.0, -s.abs()) } else { (l, s) }),
+                    );
                 unfinished = (1, off);
             }
         }

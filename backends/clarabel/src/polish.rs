@@ -18,7 +18,9 @@
 //! every violated row joins at once; such a block is polished again with the most violated
 //! row joining alone, as the native engine finishes its interior points.
 
-use sweeping_api::{Blocks, ProjectionProblem};
+use sweeping_api::{
+    Blocks, EqualityPairs, MetricChange, Projection, ProjectionProblem, SolveStats,
+};
 use sweeping_qp::active_set::{self, Options, Start};
 
 /// Most active-set iterations on a block of `m` rows: `ITERATIONS + m/2`.
@@ -47,6 +49,47 @@ pub(crate) fn iterate_off(rows: impl Iterator<Item = (f64, f64)>) -> f64 {
         } else {
             off
         }
+    })
+}
+
+/// [`polish`] for a problem with a metric or equality rows: polished in `z = Lᵀx`
+/// ([`MetricChange`]) with the equalities as pairs of inequalities ([`EqualityPairs`]), where
+/// the active set works, and said back in `x` with free-sign multipliers.
+pub(crate) fn polish_general(
+    problem: &ProjectionProblem,
+    x: &[f64],
+    z: &[f64],
+    s: &[f64],
+) -> Option<Polished> {
+    let change = MetricChange::new(problem).ok()?;
+    let (euclidean, point) = match &change {
+        Some(c) => (c.problem(), c.point(x)),
+        None => (problem, x.to_vec()),
+    };
+    let pairs = EqualityPairs::new(euclidean).ok()?;
+    let polished = match &pairs {
+        Some(pairs) => {
+            let z = pairs.per_row(z, |l| l.max(0.0), |l| (-l).max(0.0));
+            let s = pairs.per_row(s, |v| v, |v| v);
+            polish(pairs.problem(), &point, &z, &s)?
+        }
+        None => polish(euclidean, &point, z, s)?,
+    };
+    let mut answer = Projection {
+        x: polished.x,
+        multipliers: polished.lambda,
+        stats: SolveStats::trivial(""),
+    };
+    if let Some(pairs) = &pairs {
+        answer = pairs.answer(answer);
+    }
+    if let Some(change) = &change {
+        answer = change.answer(answer);
+    }
+    Some(Polished {
+        x: answer.x,
+        lambda: answer.multipliers,
+        unfinished: polished.unfinished,
     })
 }
 

@@ -34,11 +34,32 @@ fn agrees_with_reference_on_random_instances() {
             m_spread: 80,
             kkt: 1e-7,
             gap: 1e-6,
+            weighted: false,
         },
         |_| Ok(()),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     assert!(compared >= 140, "only {compared} instances compared");
+}
+
+#[test]
+fn agrees_with_reference_on_weighted_instances_with_equalities() {
+    let compared = agreement_on_random_instances(
+        &mut ClarabelProjector::default(),
+        &mut ReferenceProjector::default(),
+        &Agreement {
+            first_seed: 1500,
+            instances: 80,
+            n_spread: 30,
+            m_spread: 40,
+            kkt: 1e-7,
+            gap: 1e-8,
+            weighted: true,
+        },
+        |_| Ok(()),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(compared >= 70, "only {compared} instances compared");
 }
 
 #[test]

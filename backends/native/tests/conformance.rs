@@ -53,6 +53,7 @@ fn agrees_with_clarabel_on_random_instances_without_fallback() {
             m_spread: 80,
             kkt: 1e-10,
             gap: 1e-8,
+            weighted: false,
         },
         |sol| match sol.stats.counters.fallbacks {
             0 => Ok(()),
@@ -62,6 +63,38 @@ fn agrees_with_clarabel_on_random_instances_without_fallback() {
     .unwrap_or_else(|e| panic!("{e}"));
     // Clarabel answers every instance: all are compared.
     assert_eq!(compared, 200);
+}
+
+/// Weighted instances with equality rows (the engine solves them in `z = Lᵀx`, equalities as
+/// pairs of inequalities), by the active set and by the interior point alone: the KKT
+/// conditions in `W` with free-sign multipliers, and agreement with Clarabel (`P = W`, zero
+/// cone).
+#[test]
+fn weighted_instances_with_equalities_agree_with_clarabel() {
+    for active_set_iterations in [48, 0] {
+        let compared = agreement_on_random_instances(
+            &mut NativeProjector::new(NativeSettings {
+                active_set_iterations,
+                ..NativeSettings::default()
+            }),
+            &mut ClarabelProjector::default(),
+            &Agreement {
+                first_seed: 9000,
+                instances: 120,
+                n_spread: 40,
+                m_spread: 60,
+                kkt: 1e-9,
+                gap: 1e-6,
+                weighted: true,
+            },
+            |sol| match sol.stats.counters.fallbacks {
+                0 => Ok(()),
+                k => Err(format!("{k} fallbacks")),
+            },
+        )
+        .unwrap_or_else(|e| panic!("active set iterations {active_set_iterations}: {e}"));
+        assert_eq!(compared, 120);
+    }
 }
 
 /// The kit with the active set's warm attempt off, so that every block goes to the interior
@@ -100,6 +133,7 @@ fn interior_point_answers_agree_with_clarabel_on_random_instances() {
             m_spread: 80,
             kkt: 1e-10,
             gap: 1e-8,
+            weighted: false,
         },
         |sol| {
             interior += sol.stats.counters.escalations;

@@ -15,6 +15,9 @@
 //! (`OSQP_INFTY = 1e30`), a large finite number: an infinite bound is not what the C library
 //! expects.
 //!
+//! A problem in a metric `W` has `P = W` (its upper triangle); an equality row has
+//! `uᵢ = lᵢ`, and its multiplier `λᵢ = −y_osqp,ᵢ` keeps its sign.
+//!
 //! # Multipliers
 //!
 //! OSQP's Lagrangian is `½dᵀPd + qᵀd + y_osqpᵀ(A d − z)`, so its optimality condition is
@@ -80,7 +83,7 @@ use std::borrow::Cow;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::{Duration, Instant};
 use sweeping_api::{
-    FastMap, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
+    FastMap, Metric, Projection, ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats,
     SolveStatus, SparseRows,
 };
 
@@ -288,6 +291,8 @@ struct Cache {
     problem: Problem,
     /// `A` as it was last given to OSQP (pattern and values).
     a: SparseRows,
+    /// The metric `P = W` the workspace was set up with.
+    metric: Metric,
     /// The last converged displacement `d`.
     d: Vec<f64>,
     /// The last converged OSQP dual (`−λ`, unclamped).
@@ -465,12 +470,13 @@ impl OsqpProjector {
             .to_osqp()
             .map_err(|e| Self::backend_error(format!("invalid settings: {e}")))?;
         let n = problem.dim();
-        let identity = CscMatrix {
+        let (p_ptr, p_idx, p_values) = problem.metric().upper_triangle_csc(n);
+        let metric = CscMatrix {
             nrows: n,
             ncols: n,
-            indptr: Cow::Owned((0..=n).collect()),
-            indices: Cow::Owned((0..n).collect()),
-            data: Cow::Owned(vec![1.0; n]),
+            indptr: Cow::Owned(p_ptr),
+            indices: Cow::Owned(p_idx),
+            data: Cow::Owned(p_values),
         };
         let a_csc = CscMatrix {
             nrows: m,
@@ -481,7 +487,7 @@ impl OsqpProjector {
         };
         let q = vec![0.0; n];
         let built = catch_unwind(AssertUnwindSafe(|| {
-            Problem::new(identity, &q, a_csc, l, u, &osqp_settings)
+            Problem::new(metric, &q, a_csc, l, u, &osqp_settings)
         }));
         let problem_osqp = match built {
             Ok(Ok(p)) => p,
@@ -500,6 +506,7 @@ impl OsqpProjector {
         Ok(Cache {
             problem: problem_osqp,
             a: problem.a().clone(),
+            metric: problem.metric().clone(),
             d: vec![0.0; n],
             y_osqp: vec![0.0; m],
             keys: None,
@@ -515,15 +522,18 @@ impl OsqpProjector {
         let settings = &self.settings;
         let a = problem.a();
         let m = problem.n_rows();
-        let u = vec![UPPER_BOUND; m];
+        // An equality row is `lᵢ ≤ (A d)ᵢ ≤ uᵢ` with `uᵢ = lᵢ`.
+        let k = problem.equalities();
+        let u: Vec<f64> = (0..m)
+            .map(|i| if i < k { l[i] } else { UPPER_BOUND })
+            .collect();
 
         let setup_start = Instant::now();
         let (col_ptr, row_idx, values) = a.to_csc();
         let reusable = settings.warm_start
-            && self
-                .cache
-                .as_ref()
-                .is_some_and(|c| c.a.same_pattern(a) && c.d.len() == problem.dim());
+            && self.cache.as_ref().is_some_and(|c| {
+                c.a.same_pattern(a) && c.d.len() == problem.dim() && c.metric == *problem.metric()
+            });
         let keys = problem.row_keys();
         let mut keyed_warm = false;
         let mut cache = if reusable {
@@ -607,7 +617,12 @@ impl OsqpProjector {
                     ));
                 }
                 let x: Vec<f64> = problem.y().iter().zip(&d).map(|(y, d)| y + d).collect();
-                let multipliers: Vec<f64> = y_osqp.iter().map(|y| (-y).max(0.0)).collect();
+                // An equality's multiplier has either sign.
+                let multipliers: Vec<f64> = y_osqp
+                    .iter()
+                    .enumerate()
+                    .map(|(i, y)| if i < k { -y } else { (-y).max(0.0) })
+                    .collect();
                 if !accurate && !accept_inaccurate {
                     // OSQP's own inaccurate flag is about its scaled residuals; what the
                     // caller needs is the KKT conditions of the projection within
@@ -758,7 +773,11 @@ impl Projector for OsqpProjector {
                 }
             })
             .collect();
-        if l.iter().all(|v| *v <= 0.0) {
+        let k = problem.equalities();
+        if l.iter()
+            .enumerate()
+            .all(|(i, v)| *v <= 0.0 && (i >= k || *v == 0.0))
+        {
             return Ok(Projection::identity(problem, NAME));
         }
         if problem.dim() == 0 {
@@ -767,7 +786,7 @@ impl Projector for OsqpProjector {
                 backend: NAME.to_string(),
                 detail: "no coordinates, and a row requires 0 ≥ b with b > 0".into(),
                 rows: (0..problem.n_rows())
-                    .filter(|&i| problem.b()[i] > 0.0)
+                    .filter(|&i| problem.b()[i] > 0.0 || (i < k && problem.b()[i] != 0.0))
                     .collect(),
             });
         }

@@ -71,11 +71,58 @@ fn agrees_with_reference_on_random_instances() {
             m_spread: 60,
             kkt: tolerance,
             gap: 1e-6,
+            weighted: false,
         },
         |_| Ok(()),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     assert!(compared >= 70, "only {compared} instances compared");
+}
+
+#[test]
+fn agrees_with_reference_on_weighted_instances_with_equalities() {
+    let mut osqp = OsqpProjector::default();
+    let tolerance = osqp.tolerance();
+    let compared = agreement_on_random_instances(
+        &mut osqp,
+        &mut ReferenceProjector::default(),
+        &Agreement {
+            first_seed: 11_000,
+            instances: 60,
+            n_spread: 30,
+            m_spread: 40,
+            kkt: tolerance,
+            gap: 1e-6,
+            weighted: true,
+        },
+        |_| Ok(()),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(compared >= 50, "only {compared} instances compared");
+}
+
+/// The workspace kept from a solve in one metric is not reused in another: same rows, same
+/// `y` and `b`, the metric changed between the two solves.
+#[test]
+fn a_kept_workspace_is_not_reused_in_another_metric() {
+    let base = random_instance(77, 6, 8);
+    let mut osqp = OsqpProjector::default();
+    let mut fresh = OsqpProjector::default();
+    let plain = osqp.project(&base).unwrap();
+    let weighted = base
+        .clone()
+        .with_metric(sweeping_api::Metric::Diagonal(vec![
+            1.0, 9.0, 1.0, 4.0, 1.0, 2.0,
+        ]))
+        .unwrap();
+    let kept = osqp.project(&weighted).unwrap();
+    let new = fresh.project(&weighted).unwrap();
+    assert!(weighted.kkt_residuals(&kept.x, &kept.multipliers).max() <= osqp.tolerance());
+    assert!(max_gap(&kept.x, &new.x) < 1e-6);
+    assert!(
+        max_gap(&kept.x, &plain.x) > 1e-3,
+        "the metric changes the answer"
+    );
 }
 
 #[test]

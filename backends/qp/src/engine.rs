@@ -7,8 +7,8 @@ use crate::ipm::{self, Tolerance};
 use crate::normal::{Layout, NormalMatrix};
 use std::time::Instant;
 use sweeping_api::{
-    BackendCounters, Block, Blocks, FastMap, Projection, ProjectionError, ProjectionProblem,
-    Projector, RowKey, SolveStats, SolveStatus, SparseRows,
+    BackendCounters, Block, Blocks, EqualityPairs, FastMap, MetricChange, Projection,
+    ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats, SolveStatus, SparseRows,
 };
 
 /// Settings of an [`Engine`]. Every field has a documented default.
@@ -147,11 +147,38 @@ impl Engine {
     /// `fallback` (counted in [`BackendCounters::fallbacks`]), or fail without one. `name` is the
     /// backend's name in statistics and errors.
     ///
+    /// A metric `W` other than the identity is changed away exactly ([`MetricChange`]: the
+    /// problem is solved in `z = Lᵀx` and its certificate holds there), and equality rows are
+    /// solved as pairs of opposite inequalities ([`EqualityPairs`]): the active set keeps one
+    /// of a pair, the one its multiplier's sign calls for, and the interior point converges to
+    /// the face they share.
+    ///
     /// # Errors
     /// [`ProjectionError::Infeasible`] with a checked Farkas certificate,
     /// [`ProjectionError::NotConverged`] for a block that neither method certified when there
     /// is no fallback, or the fallback's own error.
     pub fn project(
+        &mut self,
+        problem: &ProjectionProblem,
+        name: &str,
+        fallback: Option<&mut (dyn Projector + '_)>,
+    ) -> Result<Projection, ProjectionError> {
+        if let Some(change) = MetricChange::new(problem)? {
+            return self
+                .project(change.problem(), name, fallback)
+                .map(|z| change.answer(z));
+        }
+        if let Some(pairs) = EqualityPairs::new(problem)? {
+            return self
+                .project_inequalities(pairs.problem(), name, fallback)
+                .map(|answer| pairs.answer(answer))
+                .map_err(|e| pairs.error(e));
+        }
+        self.project_inequalities(problem, name, fallback)
+    }
+
+    /// [`Self::project`] for a problem in the identity metric without equality rows.
+    fn project_inequalities(
         &mut self,
         problem: &ProjectionProblem,
         name: &str,
