@@ -1,10 +1,11 @@
 //! The RiMEA verification tests (RiMEA guideline, Annex 1) that a model of people in one plane
 //! can run, on the scenes shipped in `examples/scenes/rimea/`, each with the suite's own pass
 //! criterion checked on the trajectory, and every run's trajectory read again by the
-//! independent checker (`sweeping_testkit::checker`). Tests 1, 5, 6, 7, 10 and 12, and short
-//! runs of tests 4 and 16, run in the default test run; test 9 (2 × 1000 people) and the full
-//! measurements of tests 4 and 16 are ignored here and run by `scripts/rimea`. The guide's page
-//! "The RiMEA tests" says which tests pass, which fail, which cannot be written yet, and why.
+//! independent checker (`sweeping_testkit::checker`). Tests 1, 5, 6, 7, 8 (one storey), 10 and
+//! 12, and short runs of tests 4 and 16, run in the default test run; test 9 (2 × 1000 people)
+//! and the full measurements of tests 4 and 16 are ignored here and run by `scripts/rimea`. The
+//! guide's page "The RiMEA tests" says which tests pass, which fail, which cannot be written
+//! yet, and why.
 
 use std::path::PathBuf;
 use sweeping::backends::make_projector;
