@@ -1,15 +1,26 @@
 //! The RiMEA verification tests (RiMEA guideline, Annex 1) that a model of people in one plane
 //! can run, on the scenes shipped in `examples/scenes/rimea/`, each with the suite's own pass
-//! criterion checked on the trajectory. Tests 1, 5, 6, 7, 10 and 12 run in the default test run; test 9
-//! (2 × 1000 people) is ignored here and run by `scripts/rimea`. The guide's page "The RiMEA
-//! tests" says which tests pass, which cannot be written yet, and why.
+//! criterion checked on the trajectory, and every run's trajectory read again by the
+//! independent checker (`sweeping_testkit::checker`). Tests 1, 5, 6, 7, 8 (one storey), 10 and
+//! 12, and short runs of tests 4 and 16, run in the default test run; test 9 (2 × 1000 people)
+//! and the full measurements of tests 4 and 16 are ignored here and run by `scripts/rimea`. The
+//! guide's page "The RiMEA tests" says which tests pass, which fail, which cannot be written
+//! yet, and why.
 
 use std::path::PathBuf;
 use sweeping::backends::make_projector;
-use sweeping::crowd::Population;
-use sweeping::output::{RunSummary, SummaryCollector};
-use sweeping::scene::{BuiltScene, Overrides, Scene};
+use sweeping::crowd::{Motion, Population};
+use sweeping::output::{RunSummary, SummaryCollector, TrajectoryWriter};
+use sweeping::scene::{BuiltScene, ObstacleShape, Overrides, Scene};
 use sweeping::stepper::{Observer, ObserverError, StepReport};
+use sweeping_testkit::checker::{check_trajectory, scratch, still, Geometry, Obstacle};
+
+/// Overlap and penetration the independent checker lets through (the projection's tolerance).
+const CHECKER_TOL: f64 = 1e-6;
+
+/// Most rows of the trajectory written for the checker: a longer run is written every few
+/// steps, so that the file stays small.
+const CHECKED_ROWS: usize = 2_000_000;
 
 /// Every step's time and positions, and who was still in the room.
 #[derive(Default)]
@@ -59,15 +70,57 @@ impl Observer for Recorder {
 }
 
 fn scene(file: &str) -> BuiltScene {
+    scene_with(file, &Overrides::default())
+}
+
+fn scene_with(file: &str, overrides: &Overrides) -> BuiltScene {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("examples/scenes/rimea")
         .join(file);
     Scene::from_file(&path)
-        .and_then(|s| s.build(&Overrides::default()))
+        .and_then(|s| s.build(overrides))
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// Runs `built` with its own backend; the summary, and every step when `record`.
+/// The scene's geometry as the independent checker sees it: a polygon obstacle is its edges.
+fn checker_geometry(built: &BuiltScene) -> Geometry {
+    let offset = |m: &Motion| -> Box<dyn Fn(f64) -> [f64; 2]> {
+        match m {
+            Motion::Static => still(),
+            m => {
+                let m = m.clone();
+                Box::new(move |t| m.offset(t))
+            }
+        }
+    };
+    let mut obstacles = Vec::new();
+    for o in &built.geometry.obstacles {
+        match &o.shape {
+            ObstacleShape::Disk { center, radius } => {
+                obstacles.push(Obstacle::Disk(*center, *radius, offset(&o.motion)))
+            }
+            ObstacleShape::Segment { a, b } => {
+                obstacles.push(Obstacle::Segment(*a, *b, offset(&o.motion)))
+            }
+            ObstacleShape::Polygon(p) => {
+                for k in 0..p.len() {
+                    let b = p[(k + 1) % p.len()];
+                    obstacles.push(Obstacle::Segment(p[k], b, offset(&o.motion)));
+                }
+            }
+        }
+    }
+    Geometry {
+        room: built.geometry.room.clone(),
+        exits: built.geometry.exits.iter().map(|e| (e.a, e.b)).collect(),
+        obstacles,
+        radii: built.population.radii().to_vec(),
+    }
+}
+
+/// Runs `built` with its own backend; the summary, and every step when `record`. The run also
+/// writes its trajectory, which the independent checker reads again: nobody overlaps, crosses
+/// a wall or comes back after leaving.
 fn run(built: &BuiltScene, record: bool) -> (RunSummary, Recorder) {
     let mut projector = make_projector(built.backend).expect("the scene's backend");
     let mut summary = SummaryCollector::new(
@@ -82,19 +135,33 @@ fn run(built: &BuiltScene, record: bool) -> (RunSummary, Recorder) {
         population: Some(built.population.clone()),
         frames: Vec::new(),
     };
-    if record {
-        built
-            .run(projector.as_mut(), &mut [&mut summary, &mut recorder])
-            .unwrap_or_else(|e| panic!("{}: {e}", built.name));
+    let steps = (built.settings.t_end / built.settings.h).ceil() as usize + 1;
+    let rows = steps * built.population.len();
+    let stride = rows.div_ceil(CHECKED_ROWS).max(1);
+    let csv = scratch(&format!("rimea-{}", built.name)).join("trajectory.csv");
+    let mut writer = TrajectoryWriter::new(&csv, built.population.clone(), stride);
+    let result = if record {
+        built.run(
+            projector.as_mut(),
+            &mut [&mut summary, &mut writer, &mut recorder],
+        )
     } else {
-        built
-            .run(projector.as_mut(), &mut [&mut summary])
-            .unwrap_or_else(|e| panic!("{}: {e}", built.name));
-    }
+        built.run(projector.as_mut(), &mut [&mut summary, &mut writer])
+    };
+    result.unwrap_or_else(|e| panic!("{}: {e}", built.name));
     let summary = summary.summary().clone();
     // No overlap and no wall crossed, whatever the test measures.
     assert!(summary.max_overlap <= 1e-9, "{summary:?}");
     assert!(summary.max_wall_penetration <= 1e-9, "{summary:?}");
+    let findings = check_trajectory(&csv, &checker_geometry(built), CHECKER_TOL);
+    assert!(
+        findings.problems.is_empty(),
+        "{}: the independent checker found {:#?}",
+        built.name,
+        findings.problems
+    );
+    assert!(findings.times >= 2, "{}: {findings:?}", built.name);
+    let _ = std::fs::remove_dir_all(csv.parent().expect("the scratch directory"));
     (summary, recorder)
 }
 
@@ -320,4 +387,332 @@ fn rimea_9_closing_half_the_exits_doubles_the_evacuation_time() {
     );
     let error = (t2 - 2.0 * t4).abs() / (2.0 * t4);
     assert!(error <= 0.5, "four exits {t4} s, two {t2} s");
+}
+
+/// What a measuring area saw between two times: people per square metre (or per metre, for a
+/// one-dimensional window), their mean speed along the corridor, and the mean desired speed
+/// of the people whose speeds were sampled.
+#[derive(Debug, Clone, Copy)]
+struct Measured {
+    density: f64,
+    speed: f64,
+    desired: f64,
+}
+
+impl Measured {
+    fn flow(&self) -> f64 {
+        self.density * self.speed
+    }
+}
+
+/// Measures in the area `x0 ≤ x ≤ x1` across the corridor (its area `area`) from `t0` to `t1`,
+/// as the community's suite does: at each step, who is inside, and each one's speed along `x`
+/// over the step.
+fn measure(
+    recorder: &Recorder,
+    speeds: &[f64],
+    (x0, x1): (f64, f64),
+    area: f64,
+    (t0, t1): (f64, f64),
+) -> Measured {
+    let (mut count, mut steps, mut speed, mut desired) = (0usize, 0usize, 0.0, 0.0);
+    for w in recorder.frames.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        if a.t < t0 - 1e-9 || a.t >= t1 - 1e-9 {
+            continue;
+        }
+        steps += 1;
+        for (i, &v0) in speeds.iter().enumerate() {
+            let x = a.q[2 * i];
+            if a.present[i] && b.present[i] && (x0..=x1).contains(&x) {
+                count += 1;
+                speed += (b.q[2 * i] - x) / (b.t - a.t);
+                desired += v0;
+            }
+        }
+    }
+    assert!(
+        steps > 0 && count > 0,
+        "nobody in [{x0}, {x1}] between {t0} and {t1} s"
+    );
+    Measured {
+        density: count as f64 / steps as f64 / area,
+        speed: speed / count as f64,
+        desired: desired / count as f64,
+    }
+}
+
+/// The model has no relation between density and speed: a group pushed together moves at the
+/// mean of its desired velocities, so every measuring area sees the mean desired speed of the
+/// people crossing it, whatever the density. The guide's page says why this fails tests 4
+/// and 16; this pins that explanation to the runs.
+fn assert_speed_is_the_desired_speed(name: &str, m: &Measured) {
+    assert!(
+        (m.speed - m.desired).abs() <= 0.02,
+        "{name}: measured {} m/s, desired {} m/s",
+        m.speed,
+        m.desired
+    );
+}
+
+/// The corridors of test 4 and their densities (people per square metre).
+const CORRIDORS: [(&str, f64); 5] = [
+    ("test-04-corridor-050.toml", 0.5),
+    ("test-04-corridor-100.toml", 1.0),
+    ("test-04-corridor-200.toml", 2.0),
+    ("test-04-corridor-300.toml", 3.0),
+    ("test-04-corridor-400.toml", 4.0),
+];
+
+/// Test 4's measuring points: the main one, then the two controls (x ranges; each spans the
+/// corridor's width of 2 m, so 4 m²).
+const MEASURING_POINTS: [(f64, f64); 3] = [(105.0, 107.0), (100.0, 102.0), (110.0, 112.0)];
+
+/// One density of test 4: what the main and the two control points measured.
+struct CorridorPoint {
+    nominal: f64,
+    points: [Measured; 3],
+}
+
+/// Runs test 4's corridors to `t_end` and measures from `t0` on.
+fn fundamental_diagram_2d(t_end: f64, t0: f64) -> Vec<CorridorPoint> {
+    let overrides = Overrides {
+        t_end: Some(t_end),
+        ..Overrides::default()
+    };
+    CORRIDORS
+        .iter()
+        .map(|&(file, nominal)| {
+            let built = scene_with(file, &overrides);
+            let (_, recorder) = run(&built, true);
+            let points =
+                MEASURING_POINTS.map(|x| measure(&recorder, &built.speeds, x, 4.0, (t0, t_end)));
+            let [main, c1, c2] = points;
+            eprintln!(
+                "RiMEA 4: {nominal} /m²: main {:.2} /m², {:.3} m/s, flow {:.2} /(m s); \
+                 controls {:.3} and {:.3} m/s",
+                main.density,
+                main.speed,
+                main.flow(),
+                c1.speed,
+                c2.speed
+            );
+            CorridorPoint { nominal, points }
+        })
+        .collect()
+}
+
+/// Test 4, a short measurement (5 to 15 s): the corridors hold the densities the test asks
+/// for at the main measuring point, the control points agree with it, and the speed is the
+/// desired speed at every density.
+#[test]
+fn rimea_4_the_fundamental_diagram_is_measured_in_a_corridor() {
+    let (t0, t1) = (5.0, 15.0);
+    for p in fundamental_diagram_2d(t1, t0) {
+        let [main, c1, c2] = p.points;
+        let name = format!("{} /m²", p.nominal);
+        // People are placed at random: the count over the strip of crowd that passes the point
+        // is Poisson-like, so the measured density may miss by a few of its standard deviations.
+        let passing = 2.0 * (2.0 + main.speed * (t1 - t0));
+        let tolerance = 3.0 * (p.nominal / passing).sqrt();
+        assert!(
+            (main.density - p.nominal).abs() <= tolerance,
+            "{name}: the main point measured {} /m² (tolerance {tolerance})",
+            main.density
+        );
+        for c in [c1, c2] {
+            assert!(
+                (c.speed - main.speed).abs() <= 0.05,
+                "{name}: control {} m/s, main {} m/s",
+                c.speed,
+                main.speed
+            );
+        }
+        for m in &p.points {
+            assert_speed_is_the_desired_speed(&name, m);
+        }
+    }
+}
+
+/// Test 4 as the guideline states it: the mean speed at each measuring point over 60 s after a
+/// transient of 10 s, at densities of 0.5 to 4 people per square metre. The criterion the
+/// test exists for is the shape of the fundamental diagram: the speed falls as the density
+/// grows, to well under half the free speed at 4 /m² (Weidmann's curve gives 0.16 m/s there).
+#[test]
+#[ignore = "5 corridors for 70 s each, and it fails (the speed does not fall with density): run by scripts/rimea"]
+fn rimea_4_the_speed_falls_with_density() {
+    let diagram = fundamental_diagram_2d(70.0, 10.0);
+    for p in &diagram {
+        for m in &p.points {
+            assert_speed_is_the_desired_speed(&format!("{} /m²", p.nominal), m);
+        }
+    }
+    let main: Vec<f64> = diagram.iter().map(|p| p.points[0].speed).collect();
+    for (pair, w) in diagram.windows(2).zip(main.windows(2)) {
+        assert!(
+            w[1] < w[0],
+            "the speed at {} /m² ({} m/s) is not below that at {} /m² ({} m/s)",
+            pair[1].nominal,
+            w[1],
+            pair[0].nominal,
+            w[0]
+        );
+    }
+    let (free, dense) = (main[0], main[main.len() - 1]);
+    assert!(
+        dense < 0.5 * free,
+        "{dense} m/s at 4 /m², {free} m/s at 0.5 /m²"
+    );
+}
+
+/// The single-file corridors of test 16 and the density each was filled at (people per
+/// metre).
+const SINGLE_FILE: [(&str, f64); 4] = [
+    ("test-16-single-file-040.toml", 0.4),
+    ("test-16-single-file-075.toml", 0.75),
+    ("test-16-single-file-125.toml", 1.25),
+    ("test-16-single-file-175.toml", 1.75),
+];
+
+/// Test 16's reference: the 10th and 90th percentiles of the measured speeds per density bin
+/// of 0.5 /m, `(from, to, samples, p10, p90)`, of the single-file experiment of Seyfried et al.
+/// (2005) as the JuPedSim project's SingleFileComparator collects it, computed as its
+/// `percentiles` does (linear interpolation, every bin with at least 5 samples).
+const ENVELOPE: [(f64, f64, usize, f64, f64); 4] = [
+    (0.0, 0.5, 6, 1.108, 1.170),
+    (0.5, 1.0, 64, 0.703, 1.136),
+    (1.0, 1.5, 31, 0.287, 0.388),
+    (1.5, 2.0, 24, 0.140, 0.232),
+];
+
+/// The envelope's bin holding `density`, if any.
+fn envelope_bin(density: f64) -> Option<(f64, f64, usize, f64, f64)> {
+    ENVELOPE
+        .iter()
+        .copied()
+        .find(|&(from, to, ..)| (from..to).contains(&density))
+}
+
+/// Runs test 16's corridors to `t_end` and measures in the window x = 120 to 130 m from `t0`
+/// on; `(nominal density, measured)`.
+fn fundamental_diagram_1d(t_end: f64, t0: f64) -> Vec<(f64, Measured)> {
+    let overrides = Overrides {
+        t_end: Some(t_end),
+        ..Overrides::default()
+    };
+    SINGLE_FILE
+        .iter()
+        .map(|&(file, nominal)| {
+            let built = scene_with(file, &overrides);
+            let (_, recorder) = run(&built, true);
+            let m = measure(&recorder, &built.speeds, (120.0, 130.0), 10.0, (t0, t_end));
+            let reference = envelope_bin(m.density)
+                .map(|(_, _, _, p10, p90)| format!("{p10:.3} to {p90:.3} m/s"))
+                .unwrap_or_else(|| "no reference".into());
+            eprintln!(
+                "RiMEA 16: {nominal} /m: measured {:.3} /m, {:.3} m/s (experiment: {reference})",
+                m.density, m.speed
+            );
+            (nominal, m)
+        })
+        .collect()
+}
+
+/// Test 16, a short measurement (5 to 25 s): each corridor holds a density in the bin of the
+/// reference it was filled for, and the speed is the desired speed at every density.
+#[test]
+fn rimea_16_the_single_file_fundamental_diagram_is_measured() {
+    for (nominal, m) in fundamental_diagram_1d(25.0, 5.0) {
+        let name = format!("{nominal} /m");
+        assert_eq!(
+            envelope_bin(m.density).map(|b| b.0),
+            envelope_bin(nominal).map(|b| b.0),
+            "{name}: measured {} /m",
+            m.density
+        );
+        assert_speed_is_the_desired_speed(&name, &m);
+    }
+}
+
+/// Test 16 as RiMEA 4.x states it: the simulated one-dimensional fundamental diagram lies in
+/// the 10 %–90 % percentile envelope of the experiments' speeds, measured here over 60 s
+/// after a transient of 10 s.
+#[test]
+#[ignore = "4 corridors for 70 s each, and it fails (the speed does not fall with density): run by scripts/rimea"]
+fn rimea_16_the_single_file_speeds_lie_in_the_experiments_envelope() {
+    let outside: Vec<String> = fundamental_diagram_1d(70.0, 10.0)
+        .iter()
+        .filter_map(|(nominal, m)| {
+            let (from, to, _, p10, p90) = envelope_bin(m.density)?;
+            (!(p10..=p90).contains(&m.speed)).then(|| {
+                format!(
+                    "{nominal} /m: {:.3} m/s at {:.3} /m, the experiment's [{from}, {to}) /m \
+                     bin spans {p10} to {p90} m/s",
+                    m.speed, m.density
+                )
+            })
+        })
+        .collect();
+    assert!(outside.is_empty(), "outside the envelope: {outside:#?}");
+}
+
+/// The storey of test 8 with everybody's `speed = 1.0` replaced by `speed`.
+fn storey_with_speed(speed: &str) -> BuiltScene {
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/rimea/test-08-storey.toml");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(
+        text.matches("speed = 1.0\n").count(),
+        32,
+        "one speed per room"
+    );
+    let text = text.replace("speed = 1.0\n", &format!("speed = {speed}\n"));
+    Scene::from_toml_str(&text, "test-08-storey.toml")
+        .and_then(|s| s.build(&Overrides::default()))
+        .unwrap_or_else(|e| panic!("speed = {speed}: {e}"))
+}
+
+/// The evacuation time of the storey of test 8 with the speed `speed` (a number or a
+/// distribution, as the scene format writes it).
+fn storey_evacuation_time(speed: &str) -> f64 {
+    let (summary, _) = run(&storey_with_speed(speed), false);
+    summary.evacuation_time.unwrap_or_else(|| {
+        panic!(
+            "speed = {speed}: {} people still in the storey at t = {} s",
+            summary.people_remaining, summary.t_final
+        )
+    })
+}
+
+/// Test 8 on one storey: the evacuation time against the people's speed, once the same for
+/// everybody (0.5 to 1.5 m/s), once spread evenly around a mean of 0.75 m/s, as the guideline
+/// asks. The guideline sets no pass criterion (the community's suite only documents the
+/// times); what is checked is the trend the study exists to show: everybody leaves, and the
+/// faster everybody walks, the sooner the storey is empty.
+#[test]
+fn rimea_8_the_evacuation_time_falls_as_the_speed_grows() {
+    let speeds = [0.5, 0.75, 1.0, 1.25, 1.5];
+    let times: Vec<f64> = speeds
+        .iter()
+        .map(|v| storey_evacuation_time(&format!("{v:.2}")))
+        .collect();
+    for (v, t) in speeds.iter().zip(&times) {
+        eprintln!("RiMEA 8: everybody at {v} m/s: the storey is empty after {t:.2} s");
+    }
+    for (v, w) in speeds.windows(2).zip(times.windows(2)) {
+        assert!(
+            w[1] < w[0],
+            "{} s at {} m/s, {} s at {} m/s",
+            w[1],
+            v[1],
+            w[0],
+            v[0]
+        );
+    }
+    for (lo, hi) in [(0.5, 1.0), (0.25, 1.25)] {
+        let t = storey_evacuation_time(&format!("{{ uniform = [{lo}, {hi}] }}"));
+        eprintln!(
+            "RiMEA 8: speeds uniform in [{lo}, {hi}] m/s: the storey is empty after {t:.2} s"
+        );
+    }
 }
