@@ -1,7 +1,7 @@
 //! The library's error type: what went wrong, and where (step, time, constraint, agent).
 
 use crate::numbers::display_number;
-use crate::stepper::{Run, RunFailure};
+use crate::report::Run;
 use sweeping_api::ProjectionError;
 
 /// Most constraints [`SweepError::EmptySet`] names; the rest are counted.
@@ -317,46 +317,6 @@ impl SweepError {
         match self {
             Self::RunFailed { partial, .. } => Some(partial),
             _ => None,
-        }
-    }
-}
-
-/// `?` turns a run's failure into a [`SweepError`] that keeps the partial run, so one function
-/// can `?` both [`Stepper::new`](crate::stepper::Stepper::new) and its `run`.
-///
-/// ```
-/// use sweeping::prelude::*;
-/// use sweeping::api::conformance::ReferenceProjector;
-/// struct Floor; // x ≥ 0
-/// impl ConstraintKernel<1> for Floor {
-///     type Params = ();
-///     fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D { z[0] }
-///     fn is_affine(&self) -> bool { true }
-/// }
-/// fn fall(x0: f64) -> Result<Run, SweepError> {
-///     let problem = Problem::new(vec![x0], |_t: f64, q: &[f64], f: &mut [f64]| {
-///         f[0] = if q[0] < 0.5 { f64::NAN } else { -1.0 }
-///     })
-///     .with_constraint("floor", Floor, [0]);
-///     let settings = StepperSettings { h: 0.1, t_end: 1.0, ..Default::default() };
-///     let run = Stepper::new(&problem, settings)?.run(&mut ReferenceProjector::default(), &mut [])?;
-///     Ok(run)
-/// }
-/// assert!(fall(5.0).is_ok());
-/// let err = fall(1.0).unwrap_err(); // f turns NaN below 0.5: a failure mid-run
-/// assert!(err.partial_run().is_some_and(|run| run.stats.steps > 0), "{err}");
-/// ```
-impl From<Box<RunFailure>> for SweepError {
-    fn from(failure: Box<RunFailure>) -> Self {
-        Self::from(*failure)
-    }
-}
-
-impl From<RunFailure> for SweepError {
-    fn from(failure: RunFailure) -> Self {
-        Self::RunFailed {
-            error: Box::new(failure.error),
-            partial: Box::new(failure.partial),
         }
     }
 }

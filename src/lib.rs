@@ -39,6 +39,7 @@ pub mod numbers;
 pub mod observers;
 pub mod output;
 pub mod problem;
+pub mod report;
 pub mod scene;
 mod solve;
 pub mod stepper;

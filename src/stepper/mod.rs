@@ -42,15 +42,14 @@ mod moving;
 mod observer;
 mod prediction;
 mod projection;
-mod report;
 mod run;
 mod settings;
 
 pub use crate::error::ObserverError;
+pub use crate::report::{Contact, Run, RunStats, StageTimes, StepReport, Trajectory};
 pub use observer::Observer;
 pub use prediction::Prediction;
-pub use report::{Contact, RunStats, StageTimes, StepReport};
-pub use run::{Run, RunFailure, Trajectory};
+pub use run::RunFailure;
 pub use settings::StepperSettings;
 
 use crate::constraint::{Curvature, LinearizedRow};

@@ -1,43 +1,10 @@
-//! A run: stepping to the horizon with observers, and what it leaves, [`Run`] or
-//! [`RunFailure`].
+//! A run: stepping to the horizon with observers, and what it leaves, a
+//! [`Run`](crate::report::Run) or a [`RunFailure`].
 
-use super::{display_number, Observer, RunStats, Stepper};
+use super::{display_number, Observer, Stepper};
 use crate::error::SweepError;
-use serde::{Deserialize, Serialize};
+use crate::report::{Run, RunStats, Trajectory};
 use sweeping_api::Projector;
-
-/// Configurations at recorded times.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct Trajectory {
-    /// Recorded times.
-    pub times: Vec<f64>,
-    /// The configuration at each recorded time.
-    pub states: Vec<Vec<f64>>,
-}
-
-impl Trajectory {
-    /// The recorded state at time `t` (within `1e-9 · max(1, |t|)`), if any.
-    pub fn at(&self, t: f64) -> Option<&[f64]> {
-        let tol = 1e-9 * t.abs().max(1.0);
-        self.times
-            .iter()
-            .position(|s| (s - t).abs() <= tol)
-            .map(|i| self.states[i].as_slice())
-    }
-}
-
-/// The result of a run: what was computed, and the statistics.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Run {
-    /// Recorded configurations (always including the start and the last computed one).
-    pub trajectory: Trajectory,
-    /// Totals.
-    pub stats: RunStats,
-    /// The last configuration computed.
-    pub q_final: Vec<f64>,
-    /// The time of `q_final`.
-    pub t_final: f64,
-}
 
 /// A failed run: the error, and everything computed before it.
 #[derive(Debug, Clone)]
@@ -63,6 +30,46 @@ impl std::fmt::Display for RunFailure {
 impl std::error::Error for RunFailure {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         Some(&self.error)
+    }
+}
+
+/// `?` turns a run's failure into a [`SweepError`] that keeps the partial run, so one function
+/// can `?` both [`Stepper::new`](crate::stepper::Stepper::new) and its `run`.
+///
+/// ```
+/// use sweeping::prelude::*;
+/// use sweeping::api::conformance::ReferenceProjector;
+/// struct Floor; // x ≥ 0
+/// impl ConstraintKernel<1> for Floor {
+///     type Params = ();
+///     fn value<D: Scalar>(&self, _: &(), _t: D, z: [D; 1]) -> D { z[0] }
+///     fn is_affine(&self) -> bool { true }
+/// }
+/// fn fall(x0: f64) -> Result<Run, SweepError> {
+///     let problem = Problem::new(vec![x0], |_t: f64, q: &[f64], f: &mut [f64]| {
+///         f[0] = if q[0] < 0.5 { f64::NAN } else { -1.0 }
+///     })
+///     .with_constraint("floor", Floor, [0]);
+///     let settings = StepperSettings { h: 0.1, t_end: 1.0, ..Default::default() };
+///     let run = Stepper::new(&problem, settings)?.run(&mut ReferenceProjector::default(), &mut [])?;
+///     Ok(run)
+/// }
+/// assert!(fall(5.0).is_ok());
+/// let err = fall(1.0).unwrap_err(); // f turns NaN below 0.5: a failure mid-run
+/// assert!(err.partial_run().is_some_and(|run| run.stats.steps > 0), "{err}");
+/// ```
+impl From<Box<RunFailure>> for SweepError {
+    fn from(failure: Box<RunFailure>) -> Self {
+        Self::from(*failure)
+    }
+}
+
+impl From<RunFailure> for SweepError {
+    fn from(failure: RunFailure) -> Self {
+        Self::RunFailed {
+            error: Box::new(failure.error),
+            partial: Box::new(failure.partial),
+        }
     }
 }
 

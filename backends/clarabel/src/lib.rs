@@ -69,7 +69,8 @@ mod polish;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
-    DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    DefaultSettings, DefaultSettingsBuilder, DefaultSolution, DefaultSolver, IPSolver,
+    SolverStatus, SupportedConeT,
 };
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -426,18 +427,23 @@ fn status_name(status: SolverStatus) -> String {
 /// What `verdict` makes of a status: see there.
 type Verdict = Result<Option<Result<SolveStatus, ProjectionError>>, ProjectionError>;
 
-impl Projector for ClarabelProjector {
-    fn name(&self) -> &str {
-        NAME
-    }
+/// An answer to a projection as it is refined: the point, the multipliers, its largest KKT
+/// residual, and what the active-set polish left unfinished (blocks, how far off).
+struct Answer {
+    x: Vec<f64>,
+    multipliers: Vec<f64>,
+    kkt: f64,
+    unfinished: (u32, f64),
+}
 
-    fn tolerance(&self) -> f64 {
-        self.settings.kkt_tolerance()
-    }
-
-    fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
-        let setup_start = Instant::now();
-        let settings = self.settings.to_clarabel().map_err(Self::backend_error)?;
+impl ClarabelProjector {
+    /// Clarabel set up on the projection problem, or `None` when `y` already lies in the set
+    /// (within `tol_feas`): nothing to solve.
+    fn set_up(
+        &self,
+        problem: &ProjectionProblem,
+        settings: DefaultSettings<f64>,
+    ) -> Result<Option<DefaultSolver<f64>>, ProjectionError> {
         let (m, n) = (problem.n_rows(), problem.dim());
         // h = A y − b: how much each row is satisfied (> 0) or violated (< 0) at y.
         let mut h = vec![0.0; m];
@@ -456,7 +462,7 @@ impl Projector for ClarabelProjector {
             worst.max(if i < k { hi.abs() } else { -hi })
         });
         if m == 0 || violation <= self.settings.tol_feas {
-            return Ok(Projection::identity(problem, NAME));
+            return Ok(None);
         }
         let (g, nonzero_row) = negated_csc(problem);
         if let Some(r) = (0..m).find(|&r| {
@@ -481,8 +487,130 @@ impl Projector for ClarabelProjector {
         .into_iter()
         .flatten()
         .collect();
-        let mut solver = DefaultSolver::new(&p, &q, &g, &h, &cones, settings)
-            .map_err(|e| Self::backend_error(format!("set-up failed: {e}")))?;
+        DefaultSolver::new(&p, &q, &g, &h, &cones, settings)
+            .map(Some)
+            .map_err(|e| Self::backend_error(format!("set-up failed: {e}")))
+    }
+}
+
+/// The point `x = y + Δ` and the multipliers of Clarabel's answer, checked: sizes, finite
+/// values, inequality multipliers non-negative up to `clamp` (then clamped to 0).
+fn read_answer(
+    problem: &ProjectionProblem,
+    solution: &DefaultSolution<f64>,
+    clamp: f64,
+    malformed: &dyn Fn(String) -> ProjectionError,
+) -> Result<(Vec<f64>, Vec<f64>), ProjectionError> {
+    let (m, n, k) = (problem.n_rows(), problem.dim(), problem.equalities());
+    if solution.x.len() != n || solution.z.len() != m || solution.s.len() != m {
+        return Err(malformed(format!(
+            "the answer has {} coordinates, {} multipliers and {} slacks, expected {n}, \
+             {m}, {m}",
+            solution.x.len(),
+            solution.z.len(),
+            solution.s.len()
+        )));
+    }
+    let x: Vec<f64> = problem
+        .y()
+        .iter()
+        .zip(&solution.x)
+        .map(|(y, d)| y + d)
+        .collect();
+    if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+        return Err(malformed(format!("x[{i}] = {} is not finite", x[i])));
+    }
+    let mut multipliers = Vec::with_capacity(m);
+    for (i, &z) in solution.z.iter().enumerate() {
+        if i < k {
+            // An equality's multiplier has either sign.
+            if !z.is_finite() {
+                return Err(malformed(format!("multiplier {i} = {z} is not finite")));
+            }
+            multipliers.push(z);
+            continue;
+        }
+        if !z.is_finite() || z < -clamp {
+            return Err(malformed(format!(
+                "multiplier {i} = {z} is not a finite non-negative number"
+            )));
+        }
+        multipliers.push(z.max(0.0));
+    }
+    Ok((x, multipliers))
+}
+
+/// The interior-point answer polished by the active-set method, or, when no block is
+/// polished or the polished answer is not kept, the iterate as it is, saying it is unfinished.
+fn polished(
+    problem: &ProjectionProblem,
+    solution: &DefaultSolution<f64>,
+    answer: Answer,
+    clamp: f64,
+) -> Answer {
+    let k = problem.equalities();
+    // The polish is an active set in the identity metric on inequalities: a problem with
+    // a metric or equality rows is polished in z = Lᵀx with its equalities as pairs.
+    let plain = problem.metric().is_identity() && k == 0;
+    let attempt = if plain {
+        polish::polish(problem, &answer.x, &solution.z, &solution.s)
+    } else {
+        polish::polish_general(problem, &answer.x, &solution.z, &solution.s)
+    };
+    if let Some(polish::Polished {
+        x,
+        lambda: mut multipliers,
+        unfinished,
+    }) = attempt
+    {
+        // Tiny negative multipliers of weakly active rows are clamped as above; a
+        // larger one disqualifies the polished answer (an equality's has no sign).
+        let valid = multipliers[k..].iter().all(|l| *l >= -clamp);
+        multipliers[k..].iter_mut().for_each(|l| *l = l.max(0.0));
+        let kkt = problem.kkt_residuals(&x, &multipliers).max();
+        // Small KKT residuals of the interior-point iterate do not make its point
+        // accurate (weakly active rows leave it off by ~√gap), so the polished answer
+        // is kept whenever it meets a hundredth of the tolerance, not only when it
+        // beats the iterate's residuals (measured:
+        // `docs/lab/2026-11-23-clarabel-contact-loop-and-conformance.md`).
+        if valid && kkt <= answer.kkt.max(0.01 * clamp) {
+            return Answer {
+                x,
+                multipliers,
+                kkt,
+                unfinished,
+            };
+        }
+    }
+    // The interior-point iterate stands, unpolished: an answer the active-set method did not
+    // finish, which says so, as one (a problem without rows returned `y` before).
+    // Slacks of the point itself (Clarabel's cone slacks are never negative). An equality
+    // row is off by its |slack|, whatever its multiplier.
+    let slack = problem.shortfall(&answer.x).into_iter().map(|r| -r);
+    let rows = answer.multipliers.iter().copied().zip(slack).enumerate();
+    let off =
+        polish::iterate_off(rows.map(|(i, (l, s))| if i < k { (0.0, -s.abs()) } else { (l, s) }));
+    Answer {
+        unfinished: (1, off),
+        ..answer
+    }
+}
+
+impl Projector for ClarabelProjector {
+    fn name(&self) -> &str {
+        NAME
+    }
+
+    fn tolerance(&self) -> f64 {
+        self.settings.kkt_tolerance()
+    }
+
+    fn project(&mut self, problem: &ProjectionProblem) -> Result<Projection, ProjectionError> {
+        let setup_start = Instant::now();
+        let settings = self.settings.to_clarabel().map_err(Self::backend_error)?;
+        let Some(mut solver) = self.set_up(problem, settings)? else {
+            return Ok(Projection::identity(problem, NAME));
+        };
         let setup_seconds = setup_start.elapsed().as_secs_f64();
 
         let solve_start = Instant::now();
@@ -505,94 +633,25 @@ impl Projector for ClarabelProjector {
             None => Self::backend_error(format!("status {name} but {message}")),
             Some(_) => not_converged(),
         };
-
-        if solution.x.len() != n || solution.z.len() != m || solution.s.len() != m {
-            return Err(malformed(format!(
-                "the answer has {} coordinates, {} multipliers and {} slacks, expected {n}, \
-                 {m}, {m}",
-                solution.x.len(),
-                solution.z.len(),
-                solution.s.len()
-            )));
-        }
-        let mut x: Vec<f64> = problem
-            .y()
-            .iter()
-            .zip(&solution.x)
-            .map(|(y, d)| y + d)
-            .collect();
-        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-            return Err(malformed(format!("x[{i}] = {} is not finite", x[i])));
-        }
         let clamp = self.tolerance();
-        let mut multipliers = Vec::with_capacity(m);
-        for (i, &z) in solution.z.iter().enumerate() {
-            if i < k {
-                // An equality's multiplier has either sign.
-                if !z.is_finite() {
-                    return Err(malformed(format!("multiplier {i} = {z} is not finite")));
-                }
-                multipliers.push(z);
-                continue;
-            }
-            if !z.is_finite() || z < -clamp {
-                return Err(malformed(format!(
-                    "multiplier {i} = {z} is not a finite non-negative number"
-                )));
-            }
-            multipliers.push(z.max(0.0));
-        }
-        let mut kkt = problem.kkt_residuals(&x, &multipliers).max();
-        let mut unfinished = (0, 0.0);
-        // The polish is an active set in the identity metric on inequalities: a problem with
-        // a metric or equality rows is polished in z = Lᵀx with its equalities as pairs.
-        let plain = problem.metric().is_identity() && k == 0;
-        if self.settings.polish {
-            let mut polish_used = false;
-            let polished = if plain {
-                polish::polish(problem, &x, &solution.z, &solution.s)
-            } else {
-                polish::polish_general(problem, &x, &solution.z, &solution.s)
-            };
-            if let Some(polish::Polished {
-                x: px,
-                lambda: mut pl,
-                unfinished: left,
-            }) = polished
-            {
-                // Tiny negative multipliers of weakly active rows are clamped as above; a
-                // larger one disqualifies the polished answer (an equality's has no sign).
-                let valid = pl[k..].iter().all(|l| *l >= -clamp);
-                pl[k..].iter_mut().for_each(|l| *l = l.max(0.0));
-                let polished = problem.kkt_residuals(&px, &pl).max();
-                // Small KKT residuals of the interior-point iterate do not make its point
-                // accurate (weakly active rows leave it off by ~√gap), so the polished answer
-                // is kept whenever it meets a hundredth of the tolerance, not only when it
-                // beats the iterate's residuals (measured:
-                // `docs/lab/2026-11-23-clarabel-contact-loop-and-conformance.md`).
-                if valid && polished <= kkt.max(0.01 * clamp) {
-                    x = px;
-                    multipliers = pl;
-                    kkt = polished;
-                    unfinished = left;
-                    polish_used = true;
-                }
-            }
-            // The interior-point iterate stands, unpolished (no block polished, or the
-            // polished answer not kept): an answer the active-set method did not finish,
-            // which says so, as one (a problem without rows returned `y` above).
-            if !polish_used {
-                // Slacks of the point itself (Clarabel's cone slacks are never negative).
-                // An equality row is off by its |slack|, whatever its multiplier.
-                let slack = problem.shortfall(&x).into_iter().map(|r| -r);
-                let rows = multipliers.iter().copied().zip(slack).enumerate();
-                let off =
-                    polish::iterate_off(
-                        rows.map(|(i, (l, s))| if i < k { (0.0, -s.abs()) } else { (l, s) }),
-                    );
-                unfinished = (1, off);
-            }
-        }
+        let (x, multipliers) = read_answer(problem, solution, clamp, &malformed)?;
+        let kkt = problem.kkt_residuals(&x, &multipliers).max();
+        let answer = Answer {
+            x,
+            multipliers,
+            kkt,
+            unfinished: (0, 0.0),
+        };
+        let Answer {
+            x,
+            multipliers,
+            kkt,
+            unfinished,
+        } = if self.settings.polish {
+            polished(problem, solution, answer, clamp)
+        } else {
+            answer
+        };
         let status = match verify {
             None => SolveStatus::Solved,
             Some(_) if kkt <= clamp => SolveStatus::Solved,

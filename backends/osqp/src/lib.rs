@@ -513,22 +513,19 @@ impl OsqpProjector {
         })
     }
 
-    /// Solves a problem that needs the solver (`y` violates a row, `A` has columns).
-    fn solve(
+    /// The OSQP workspace for `problem`: the last one updated in place when the pattern of `A`
+    /// and the metric are unchanged (warm-started from the last answer, or from the duals by
+    /// row key when the rows were reordered), a new one otherwise (warm-started by key when
+    /// rows were solved before). Also says whether the solve starts warm.
+    fn workspace(
         &mut self,
         problem: &ProjectionProblem,
-        l: Vec<f64>,
-    ) -> Result<Projection, ProjectionError> {
+        l: &[f64],
+        u: &[f64],
+    ) -> Result<(Cache, bool), ProjectionError> {
         let settings = &self.settings;
         let a = problem.a();
         let m = problem.n_rows();
-        // An equality row is `lᵢ ≤ (A d)ᵢ ≤ uᵢ` with `uᵢ = lᵢ`.
-        let k = problem.equalities();
-        let u: Vec<f64> = (0..m)
-            .map(|i| if i < k { l[i] } else { UPPER_BOUND })
-            .collect();
-
-        let setup_start = Instant::now();
         let (col_ptr, row_idx, values) = a.to_csc();
         let reusable = settings.warm_start
             && self.cache.as_ref().is_some_and(|c| {
@@ -536,7 +533,7 @@ impl OsqpProjector {
             });
         let keys = problem.row_keys();
         let mut keyed_warm = false;
-        let mut cache = if reusable {
+        let cache = if reusable {
             let mut cache = self.cache.take().expect("checked above");
             if let (Some(new), Some(old)) = (keys, cache.keys.as_deref()) {
                 if new != old {
@@ -555,7 +552,7 @@ impl OsqpProjector {
                         data: Cow::Borrowed(&values),
                     });
                 }
-                cache.problem.update_bounds(&l, &u);
+                cache.problem.update_bounds(l, u);
                 cache.problem.warm_start(&cache.d, &cache.y_osqp);
             }));
             if updated.is_err() {
@@ -570,7 +567,7 @@ impl OsqpProjector {
             cache
         } else {
             self.cache = None;
-            let mut cache = self.set_up(problem, (col_ptr, row_idx, values), &l, &u)?;
+            let mut cache = self.set_up(problem, (col_ptr, row_idx, values), l, u)?;
             // The pattern changed (rows appeared, vanished or moved; on a step handed over
             // block by block, another block): with keys, start from the last duals of the
             // rows that were solved before.
@@ -589,11 +586,30 @@ impl OsqpProjector {
             }
             cache
         };
+        Ok((cache, reusable || keyed_warm))
+    }
+
+    /// Solves a problem that needs the solver (`y` violates a row, `A` has columns).
+    fn solve(
+        &mut self,
+        problem: &ProjectionProblem,
+        l: Vec<f64>,
+    ) -> Result<Projection, ProjectionError> {
+        let m = problem.n_rows();
+        // An equality row is `lᵢ ≤ (A d)ᵢ ≤ uᵢ` with `uᵢ = lᵢ`.
+        let k = problem.equalities();
+        let u: Vec<f64> = (0..m)
+            .map(|i| if i < k { l[i] } else { UPPER_BOUND })
+            .collect();
+
+        let setup_start = Instant::now();
+        let keys = problem.row_keys();
+        let (mut cache, warm_started) = self.workspace(problem, &l, &u)?;
         cache.keys = keys.map(<[RowKey]>::to_vec);
         let setup_seconds = setup_start.elapsed().as_secs_f64();
 
         let solve_start = Instant::now();
-        let accept_inaccurate = settings.accept_inaccurate;
+        let accept_inaccurate = self.settings.accept_inaccurate;
         let solved = catch_unwind(AssertUnwindSafe(|| read_status(cache.problem.solve())));
         let solve_seconds = solve_start.elapsed().as_secs_f64();
         let (outcome, iterations) = match solved {
@@ -658,7 +674,7 @@ impl OsqpProjector {
                         iterations,
                         solve_seconds,
                         setup_seconds,
-                        warm_started: reusable || keyed_warm,
+                        warm_started,
                         counters: sweeping_api::BackendCounters::default(),
                     },
                 })

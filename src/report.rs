@@ -1,4 +1,7 @@
-//! What a step reports, stage times included, and the totals of a run.
+//! What a run leaves and reports: its [`Trajectory`], the [`Run`] with its totals, and what each
+//! step reports, stage times included.
+//!
+//! It sits below the error type, which keeps the partial [`Run`] of a failed run.
 
 use crate::constraint::ConstraintId;
 use serde::{Deserialize, Serialize};
@@ -166,4 +169,37 @@ impl RunStats {
             self.worst_time = r.t;
         }
     }
+}
+
+/// Configurations at recorded times.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Trajectory {
+    /// Recorded times.
+    pub times: Vec<f64>,
+    /// The configuration at each recorded time.
+    pub states: Vec<Vec<f64>>,
+}
+
+impl Trajectory {
+    /// The recorded state at time `t` (within `1e-9 · max(1, |t|)`), if any.
+    pub fn at(&self, t: f64) -> Option<&[f64]> {
+        let tol = 1e-9 * t.abs().max(1.0);
+        self.times
+            .iter()
+            .position(|s| (s - t).abs() <= tol)
+            .map(|i| self.states[i].as_slice())
+    }
+}
+
+/// The result of a run: what was computed, and the statistics.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Run {
+    /// Recorded configurations (always including the start and the last computed one).
+    pub trajectory: Trajectory,
+    /// Totals.
+    pub stats: RunStats,
+    /// The last configuration computed.
+    pub q_final: Vec<f64>,
+    /// The time of `q_final`.
+    pub t_final: f64,
 }
