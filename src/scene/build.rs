@@ -4,15 +4,17 @@
 //! outputs, stepper settings. Each step checks its own part of the spec and returns typed
 //! values; the only state passed along is what a later step needs.
 
+use super::checks::{
+    bbox, check_desired, check_resolution, meeting_edges, polygon_area, SpatialHash,
+};
 use super::drawn;
 use super::spec::{
     ArenaSpec, CrowdSpec, DesiredKind, DesiredSpec, Drawn, RadiusSpec, RunSpec, SceneSpec,
     TrajectoryFormat,
 };
 use super::{
-    bbox, check_desired, check_resolution, finite, fmt_pt, meeting_edges, polygon_area, Ctx,
-    Effect, Obstacle, ObstacleShape, Origin, OutputSettings, Overrides, SceneError, SpatialHash,
-    MAX_PEOPLE,
+    finite, fmt_pt, Ctx, Effect, Obstacle, ObstacleShape, Origin, OutputSettings, Overrides,
+    SceneError, MAX_PEOPLE,
 };
 use crate::backends::BackendChoice;
 use crate::constraint::ConstraintKernel;
