@@ -275,35 +275,3 @@ pub(super) fn bbox(p: &[[f64; 2]]) -> (f64, f64, f64, f64) {
         |(a, b, c, d), v| (a.min(v[0]), b.min(v[1]), c.max(v[0]), d.max(v[1])),
     )
 }
-
-/// Buckets of points by cell, for the random placement.
-pub(super) struct SpatialHash {
-    cell: f64,
-    map: std::collections::HashMap<(i64, i64), Vec<usize>>,
-}
-
-impl SpatialHash {
-    pub(super) fn new(cell: f64) -> Self {
-        Self {
-            cell: cell.max(1e-9),
-            map: Default::default(),
-        }
-    }
-    fn key(&self, p: [f64; 2]) -> (i64, i64) {
-        (
-            (p[0] / self.cell).floor() as i64,
-            (p[1] / self.cell).floor() as i64,
-        )
-    }
-    pub(super) fn insert(&mut self, p: [f64; 2], i: usize) {
-        let k = self.key(p);
-        self.map.entry(k).or_default().push(i);
-    }
-    /// Everything in the 3×3 cells around `p` (all points within `cell` of it, and more).
-    pub(super) fn near(&self, p: [f64; 2]) -> impl Iterator<Item = usize> + '_ {
-        let (kx, ky) = self.key(p);
-        (-1..=1)
-            .flat_map(move |dx| (-1..=1).map(move |dy| (kx + dx, ky + dy)))
-            .flat_map(move |k| self.map.get(&k).into_iter().flatten().copied())
-    }
-}
