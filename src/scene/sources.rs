@@ -7,8 +7,9 @@
 //! takes place `k mod P`), so whoever finds their place taken waits.
 
 use super::build::{check_gap, check_radii, Clearance, People};
+use super::checks::check_desired;
 use super::spec::SourceSpec;
-use super::{check_desired, drawn, finite, fmt_pt, Ctx, Origin, SceneError, MAX_PEOPLE};
+use super::{drawn, finite, fmt_pt, Ctx, Origin, SceneError, MAX_PEOPLE};
 use crate::crowd::segment_distance;
 use crate::stepper::display_number;
 use rand::{Rng, SeedableRng};
