@@ -294,6 +294,22 @@ pub fn linearize<C: ConstraintKernel<K> + ?Sized, const K: usize>(
     }
 }
 
+impl<const K: usize> KernelSecondOrder<K> {
+    /// The same derivatives as a family member's, on the coordinates `columns` of `q` the
+    /// kernel's `z` gathers (`columns.len() == K`).
+    pub fn on_columns(&self, columns: Vec<usize>) -> SecondOrderData {
+        debug_assert_eq!(columns.len(), K);
+        SecondOrderData {
+            value: self.value,
+            columns,
+            gradient: self.gradient.to_vec(),
+            dt: self.dt,
+            hessian: self.hessian.iter().flatten().copied().collect(),
+            dt_gradient: self.dt_gradient.to_vec(),
+        }
+    }
+}
+
 /// Everything A1–A4 bound: value, `∇g`, `∂ₜg`, `D²g`, `∂ₜ∇g`. Skips the Hessian of an affine
 /// kernel and the time derivatives of a static one.
 pub fn second_order<C: ConstraintKernel<K> + ?Sized, const K: usize>(
@@ -749,14 +765,7 @@ impl<C: ConstraintKernel<K>, const K: usize> ConstraintFamily for KernelFamily<C
     fn second_order(&self, index: usize, t: f64, q: &[f64]) -> SecondOrderData {
         let inst = &self.instances[index];
         let so = second_order(&self.kernel, &inst.params, t, self.gather(index, q));
-        SecondOrderData {
-            value: so.value,
-            columns: inst.support.to_vec(),
-            gradient: so.gradient.to_vec(),
-            dt: so.dt,
-            hessian: so.hessian.iter().flatten().copied().collect(),
-            dt_gradient: so.dt_gradient.to_vec(),
-        }
+        so.on_columns(inst.support.to_vec())
     }
 
     fn affine_check(&self, index: usize, t: f64, q: &[f64]) -> Option<Vec<f64>> {

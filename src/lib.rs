@@ -44,6 +44,7 @@ pub mod scene;
 mod solve;
 pub mod stepper;
 pub mod study;
+pub mod svg;
 // Many runs of scenes, one results table (`sweep batch`): a client of `scene` and `output`.
 pub mod batch;
 

@@ -6,12 +6,10 @@
 //! viewer, so no font is needed on the machine that draws it.
 
 use super::{BatchError, ResultsTable};
+use crate::svg::{escape, PALETTE};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-const COLORS: [&str; 8] = [
-    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
-];
 const WIDTH: f64 = 900.0;
 const HEIGHT: f64 = 600.0;
 const LEFT: f64 = 90.0;
@@ -62,12 +60,6 @@ fn label(v: f64) -> String {
     } else {
         s.to_string()
     }
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 /// The range `[lo, hi]` of `values` widened by 5 % (a single value, by 1 or 10 % of it).
@@ -275,7 +267,7 @@ fn draw(
         escape(y)
     );
     for (k, (name, points)) in lines.iter().enumerate() {
-        let color = COLORS[k % COLORS.len()];
+        let color = PALETTE[k % PALETTE.len()];
         for (n, dx, dy) in dots {
             if n == name {
                 let _ = writeln!(

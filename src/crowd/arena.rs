@@ -153,14 +153,7 @@ impl ConstraintFamily for ArenaWall {
             t,
             Population::position(q, index),
         );
-        SecondOrderData {
-            value: so.value,
-            columns: vec![2 * index, 2 * index + 1],
-            gradient: so.gradient.to_vec(),
-            dt: so.dt,
-            hessian: so.hessian.iter().flatten().copied().collect(),
-            dt_gradient: so.dt_gradient.to_vec(),
-        }
+        so.on_columns(vec![2 * index, 2 * index + 1])
     }
 
     fn min_dimension(&self) -> usize {

@@ -563,14 +563,7 @@ impl ConstraintFamily for DiskPairs {
         let (i, j) = self.pair(index);
         let r = self.population.radius(i) + self.population.radius(j);
         let so = second_order(&DiskPairKernel, &r, t, Self::gather(q, i, j));
-        SecondOrderData {
-            value: so.value,
-            columns: vec![2 * i, 2 * i + 1, 2 * j, 2 * j + 1],
-            gradient: so.gradient.to_vec(),
-            dt: so.dt,
-            hessian: so.hessian.iter().flatten().copied().collect(),
-            dt_gradient: so.dt_gradient.to_vec(),
-        }
+        so.on_columns(vec![2 * i, 2 * i + 1, 2 * j, 2 * j + 1])
     }
 
     fn min_dimension(&self) -> usize {

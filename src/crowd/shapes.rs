@@ -585,14 +585,7 @@ impl ConstraintFamily for PersonShapes {
             t,
             [q[2 * i], q[2 * i + 1]],
         );
-        SecondOrderData {
-            value: so.value,
-            columns: vec![2 * i, 2 * i + 1],
-            gradient: so.gradient.to_vec(),
-            dt: so.dt,
-            hessian: so.hessian.iter().flatten().copied().collect(),
-            dt_gradient: so.dt_gradient.to_vec(),
-        }
+        so.on_columns(vec![2 * i, 2 * i + 1])
     }
 
     fn min_dimension(&self) -> usize {

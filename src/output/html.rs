@@ -1,9 +1,7 @@
 //! A self-contained HTML animation: inline SVG, the frames as JSON, a few lines of
 //! JavaScript (play/pause, time slider, speed). Opens in any browser, offline.
 
-use super::svg::{
-    frame, obstacle_element, static_layer, xml_escape, PALETTE, PALETTE_DARK, PRESSURE_SCALE,
-};
+use super::svg::{frame, obstacle_element, static_layer, PALETTE, PALETTE_DARK, PRESSURE_SCALE};
 use crate::crowd::Population;
 use crate::error::SweepError;
 use crate::scene::SceneGeometry;
@@ -120,7 +118,7 @@ impl AnimationWriter {
         let data = self.frames_json();
         let palette = js_string_array(&PALETTE);
         let palette_dark = js_string_array(&PALETTE_DARK);
-        let title = xml_escape(&self.title);
+        let title = crate::svg::escape(&self.title);
         let stroke = 0.4 * unit;
         let scale = js_string_array(&PRESSURE_SCALE);
         page(&title, &svg, &data, &palette, &palette_dark, &scale, stroke)

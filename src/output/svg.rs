@@ -237,20 +237,13 @@ pub fn render_svg(
         g.bounds[0] + 0.02 * w,
         -g.bounds[3] - 0.3 * header,
         0.45 * header,
-        xml_escape(title),
+        crate::svg::escape(title),
         t,
         present,
         population.len()
     );
     s.push_str("</svg>\n");
     s
-}
-
-pub(crate) fn xml_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }
 
 /// Writes an SVG snapshot at `t₀`, every `every` seconds, and at the end of the run, into a

@@ -76,6 +76,25 @@ pub(super) enum Refinement {
 }
 
 impl Cuts {
+    /// A new cut of member `(family, member)`, keyed by the next serial of the run.
+    fn cut(
+        &mut self,
+        (family, member): (usize, usize),
+        entries: Vec<(usize, f64)>,
+        rhs: f64,
+        norm: f64,
+    ) -> Cut {
+        self.next_serial += 1;
+        Cut {
+            family,
+            member,
+            entries,
+            rhs,
+            norm,
+            serial: self.next_serial - 1,
+        }
+    }
+
     pub(super) fn new(enabled: bool) -> Self {
         Self {
             enabled,
@@ -214,15 +233,7 @@ impl Stepper<'_> {
                 .map(|&(c, v)| v * (x[c] - self.q[c]))
                 .sum::<f64>()
                 - self.lin.value;
-            new_cuts.push(Cut {
-                family: fi,
-                member: idx,
-                entries,
-                rhs,
-                norm,
-                serial: self.cuts.next_serial,
-            });
-            self.cuts.next_serial += 1;
+            new_cuts.push(self.cuts.cut((fi, idx), entries, rhs, norm));
         }
         self.cuts.members = members;
         let Some((worst, violation, residual, _)) = worst else {
@@ -281,15 +292,7 @@ impl Stepper<'_> {
                 }
             }
             let norm = entries.iter().map(|(_, v)| v * v).sum::<f64>().sqrt();
-            out.push(Cut {
-                family: fi,
-                member: idx,
-                entries,
-                rhs,
-                norm,
-                serial: self.cuts.next_serial,
-            });
-            self.cuts.next_serial += 1;
+            out.push(self.cuts.cut((fi, idx), entries, rhs, norm));
         }
         out
     }

@@ -6,6 +6,7 @@
 //! plots need no font on the machine that draws them.
 
 use super::{OrderFit, StudyError};
+use crate::svg::{escape, PALETTE};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -20,22 +21,12 @@ pub struct Series {
     pub fit: Option<OrderFit>,
 }
 
-const COLORS: [&str; 8] = [
-    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf",
-];
-
 const WIDTH: f64 = 900.0;
 const HEIGHT: f64 = 650.0;
 const LEFT: f64 = 90.0;
 const RIGHT: f64 = 30.0;
 const TOP: f64 = 50.0;
 const BOTTOM: f64 = 60.0;
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
 
 fn positive(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
     points
@@ -236,7 +227,7 @@ impl Frame {
     fn draw_series(&self, svg: &mut String, series: &[Series]) -> Vec<LegendEntry> {
         let mut legend = Vec::new();
         for (k, s) in series.iter().enumerate() {
-            let color = COLORS[k % COLORS.len()];
+            let color = PALETTE[k % PALETTE.len()];
             let pts = positive(&s.points);
             for &(x, y) in &pts {
                 let _ = writeln!(
