@@ -9,11 +9,14 @@
 
 use std::path::PathBuf;
 use sweeping::backends::make_projector;
-use sweeping::crowd::{Motion, Population};
+use sweeping::crowd::Population;
 use sweeping::output::{RunSummary, SummaryCollector, TrajectoryWriter};
-use sweeping::scene::{BuiltScene, ObstacleShape, Overrides, Scene};
+use sweeping::scene::{BuiltScene, Overrides, Scene};
 use sweeping::stepper::{Observer, ObserverError, StepReport};
-use sweeping_testkit::checker::{check_trajectory, scratch, still, Geometry, Obstacle};
+use sweeping_testkit::checker::{check_trajectory, scratch};
+
+mod common;
+use common::scene_geometry::checker_geometry;
 
 /// Overlap and penetration the independent checker lets through (the projection's tolerance).
 const CHECKER_TOL: f64 = 1e-6;
@@ -80,42 +83,6 @@ fn scene_with(file: &str, overrides: &Overrides) -> BuiltScene {
     Scene::from_file(&path)
         .and_then(|s| s.build(overrides))
         .unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// The scene's geometry as the independent checker sees it: a polygon obstacle is its edges.
-fn checker_geometry(built: &BuiltScene) -> Geometry {
-    let offset = |m: &Motion| -> Box<dyn Fn(f64) -> [f64; 2]> {
-        match m {
-            Motion::Static => still(),
-            m => {
-                let m = m.clone();
-                Box::new(move |t| m.offset(t))
-            }
-        }
-    };
-    let mut obstacles = Vec::new();
-    for o in &built.geometry.obstacles {
-        match &o.shape {
-            ObstacleShape::Disk { center, radius } => {
-                obstacles.push(Obstacle::Disk(*center, *radius, offset(&o.motion)))
-            }
-            ObstacleShape::Segment { a, b } => {
-                obstacles.push(Obstacle::Segment(*a, *b, offset(&o.motion)))
-            }
-            ObstacleShape::Polygon(p) => {
-                for k in 0..p.len() {
-                    let b = p[(k + 1) % p.len()];
-                    obstacles.push(Obstacle::Segment(p[k], b, offset(&o.motion)));
-                }
-            }
-        }
-    }
-    Geometry {
-        room: built.geometry.room.clone(),
-        exits: built.geometry.exits.iter().map(|e| (e.a, e.b)).collect(),
-        obstacles,
-        radii: built.population.radii().to_vec(),
-    }
 }
 
 /// Runs `built` with its own backend; the summary, and every step when `record`. The run also

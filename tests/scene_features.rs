@@ -7,10 +7,12 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use sweeping::backends::make_projector;
-use sweeping::crowd::Motion;
 use sweeping::output::{Departure, PeopleWriter, RunSummary, SummaryCollector, TrajectoryWriter};
-use sweeping::scene::{BuiltScene, ObstacleShape, Overrides, Scene};
-use sweeping_testkit::checker::{check_trajectory, scratch, still, Findings, Geometry, Obstacle};
+use sweeping::scene::{BuiltScene, Overrides, Scene};
+use sweeping_testkit::checker::{check_trajectory, scratch, Findings};
+
+mod common;
+use common::scene_geometry::checker_geometry;
 
 /// Overlap and penetration the checker lets through (the projection's tolerance).
 const TOL: f64 = 1e-6;
@@ -25,42 +27,6 @@ fn build(file: &str) -> BuiltScene {
     Scene::from_file(shipped(file))
         .and_then(|s| s.build(&Overrides::default()))
         .unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// The scene's geometry as the checker sees it: a polygon obstacle is its edges.
-fn geometry(built: &BuiltScene) -> Geometry {
-    let offset = |m: &Motion| -> Box<dyn Fn(f64) -> [f64; 2]> {
-        match m {
-            Motion::Static => still(),
-            m => {
-                let m = m.clone();
-                Box::new(move |t| m.offset(t))
-            }
-        }
-    };
-    let mut obstacles = Vec::new();
-    for o in &built.geometry.obstacles {
-        match &o.shape {
-            ObstacleShape::Disk { center, radius } => {
-                obstacles.push(Obstacle::Disk(*center, *radius, offset(&o.motion)))
-            }
-            ObstacleShape::Segment { a, b } => {
-                obstacles.push(Obstacle::Segment(*a, *b, offset(&o.motion)))
-            }
-            ObstacleShape::Polygon(p) => {
-                for k in 0..p.len() {
-                    let b = p[(k + 1) % p.len()];
-                    obstacles.push(Obstacle::Segment(p[k], b, offset(&o.motion)));
-                }
-            }
-        }
-    }
-    Geometry {
-        room: built.geometry.room.clone(),
-        exits: built.geometry.exits.iter().map(|e| (e.a, e.b)).collect(),
-        obstacles,
-        radii: built.population.radii().to_vec(),
-    }
 }
 
 /// The people of one written state: id → position.
@@ -99,7 +65,7 @@ fn run_checked(file: &str) -> Checked {
             &mut [&mut writer, &mut summary, &mut people],
         )
         .unwrap_or_else(|f| panic!("{file}: {f}"));
-    let findings = check_trajectory(&csv, &geometry(&built), TOL);
+    let findings = check_trajectory(&csv, &checker_geometry(&built), TOL);
     assert!(
         findings.problems.is_empty(),
         "{file}: {:#?}",

@@ -77,3 +77,4 @@ pub fn sci(values: &[f64]) -> String {
 }
 
 pub mod kernels;
+pub mod scene_geometry;
