@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 use sweeping::batch::{
-    run_batch, run_trial, trial_state, BatchError, BatchSettings, Plan, ResultsTable, TrialRecord,
-    TrialState, OUTPUTS, RECORD_FILE,
+    middle_flow, run_batch, run_trial, trial_state, BatchError, BatchSettings, Plan, ResultsTable,
+    TrialRecord, TrialState, OUTPUTS, RECORD_FILE,
 };
 use sweeping::output::{RunStatus, RunSummary};
 use sweeping_testkit::checker::{check_trajectory, left_from_people, scratch, Geometry};
@@ -307,9 +307,14 @@ fn a_batch_writes_one_table_that_says_what_each_trial_wrote() {
         let num = |c: &str| cell(row, c).parse::<f64>().unwrap();
         assert_eq!(num("people"), s.people as f64);
         assert_eq!(num("people"), 3.0);
+        assert_eq!(num("people_out"), s.people_out.last().unwrap().1 as f64);
         assert_eq!(num("people_out"), (s.people - s.people_remaining) as f64);
         assert_eq!(num("people_remaining"), 0.0);
         assert_eq!(num("evacuation_time"), s.evacuation_time.unwrap());
+        assert_eq!(
+            cell(row, "flow"),
+            middle_flow(&s.people_out, s.people).map_or(String::new(), |f| f.to_string())
+        );
         assert_eq!(num("t_final"), s.t_final);
         assert_eq!(num("steps"), s.steps as f64);
         assert_eq!(num("solves"), s.solves as f64);

@@ -50,7 +50,7 @@ pub use run::{
     TrialState, RECORD_FILE,
 };
 pub use slurm::slurm_script;
-pub use table::{ResultsRow, ResultsTable, OUTPUTS};
+pub use table::{middle_flow, ResultsRow, ResultsTable, FLOW_FROM, FLOW_TO, OUTPUTS};
 
 use std::path::PathBuf;
 
