@@ -172,6 +172,16 @@ fn plan_errors_name_the_line_and_the_item() {
             &["[plot] y", "`evac` is not an output", "evacuation_time"],
         ),
         (
+            "scenes = [\"room.toml\"]\n[grid]\n\"run.h\" = [0.1]\n[plot]\nx = \"run.h\"\ny = \"flow / width\"\n",
+            4,
+            &["[plot] y", "`width` (what `flow` is divided by) is neither"],
+        ),
+        (
+            "scenes = [\"room.toml\"]\n[grid]\n\"run.h\" = [0.1]\n[plot]\nx = \"run.h\"\ny = \"flow / run.h\"\nband = { from = 2.0, to = 1.6 }\n",
+            4,
+            &["[plot] band", "`from` (2) must be below `to` (1.6)"],
+        ),
+        (
             "scenes = [\"room.toml\"]\n[grid]\n\"run.h\" = [0.1, 0.1]\n",
             3,
             &["the value 0.1 is listed twice"],
