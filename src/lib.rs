@@ -116,6 +116,8 @@ pub mod guide_doctests {
     pub struct TwoClasses;
     #[doc = include_str!("../docs/guide/src/batch.md")]
     pub struct Batch;
+    #[doc = include_str!("../docs/guide/src/bottleneck.md")]
+    pub struct Bottleneck;
     #[doc = include_str!("../docs/guide/src/metric-and-equalities.md")]
     pub struct MetricAndEqualities;
 }

@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 use sweeping::batch::{
-    run_batch, run_trial, trial_state, BatchError, BatchSettings, Plan, ResultsTable, TrialRecord,
-    TrialState, OUTPUTS, RECORD_FILE,
+    middle_flow, run_batch, run_trial, trial_state, BatchError, BatchSettings, Plan, ResultsTable,
+    TrialRecord, TrialState, OUTPUTS, RECORD_FILE,
 };
 use sweeping::output::{RunStatus, RunSummary};
 use sweeping_testkit::checker::{check_trajectory, left_from_people, scratch, Geometry};
@@ -172,6 +172,16 @@ fn plan_errors_name_the_line_and_the_item() {
             &["[plot] y", "`evac` is not an output", "evacuation_time"],
         ),
         (
+            "scenes = [\"room.toml\"]\n[grid]\n\"run.h\" = [0.1]\n[plot]\nx = \"run.h\"\ny = \"flow / width\"\n",
+            4,
+            &["[plot] y", "`width` (what `flow` is divided by) is neither"],
+        ),
+        (
+            "scenes = [\"room.toml\"]\n[grid]\n\"run.h\" = [0.1]\n[plot]\nx = \"run.h\"\ny = \"flow / run.h\"\nband = { from = 2.0, to = 1.6 }\n",
+            4,
+            &["[plot] band", "`from` (2) must be below `to` (1.6)"],
+        ),
+        (
             "scenes = [\"room.toml\"]\n[grid]\n\"run.h\" = [0.1, 0.1]\n",
             3,
             &["the value 0.1 is listed twice"],
@@ -307,9 +317,14 @@ fn a_batch_writes_one_table_that_says_what_each_trial_wrote() {
         let num = |c: &str| cell(row, c).parse::<f64>().unwrap();
         assert_eq!(num("people"), s.people as f64);
         assert_eq!(num("people"), 3.0);
+        assert_eq!(num("people_out"), s.people_out.last().unwrap().1 as f64);
         assert_eq!(num("people_out"), (s.people - s.people_remaining) as f64);
         assert_eq!(num("people_remaining"), 0.0);
         assert_eq!(num("evacuation_time"), s.evacuation_time.unwrap());
+        assert_eq!(
+            cell(row, "flow"),
+            middle_flow(&s.people_out, s.people).map_or(String::new(), |f| f.to_string())
+        );
         assert_eq!(num("t_final"), s.t_final);
         assert_eq!(num("steps"), s.steps as f64);
         assert_eq!(num("solves"), s.solves as f64);
@@ -475,6 +490,62 @@ fn a_trial_held_by_another_process_is_left_to_it() {
     assert_eq!(run_trial(&trial, &out, 1, &()).unwrap(), None);
     drop(lock);
     assert!(run_trial(&trial, &out, 1, &()).unwrap().is_some());
+}
+
+#[test]
+fn every_shipped_plan_reads_and_fits_its_scenes() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/plans");
+    let mut plans: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    plans.sort();
+    assert!(plans.len() >= 2, "{plans:?}");
+    for path in plans {
+        let plan = Plan::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+        plan.check_scenes().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            Some(plan.name.as_str()),
+            path.file_stem().and_then(|s| s.to_str())
+        );
+    }
+}
+
+#[test]
+fn the_bottleneck_plan_moves_the_door_and_plots_its_specific_flow() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/plans/bottleneck.toml");
+    let plan = Plan::from_file(&path).unwrap();
+    // Five widths, five seeds.
+    assert_eq!(plan.trial_count(), 25);
+    let plot = plan.plot.as_ref().unwrap();
+    assert_eq!(plot.x, "door_width");
+    assert_eq!(plot.y_terms(), ("flow", Some("door_width")));
+    let band = plot.band.as_ref().unwrap();
+    assert_eq!((band.from, band.to), (1.6, 2.0));
+    let mut widths = Vec::new();
+    for trial in plan.trials() {
+        let end = |key: &str| -> Vec<f64> {
+            let v = trial.parameter(key).unwrap();
+            v.trim_matches(['[', ']'])
+                .split(',')
+                .map(|x| x.trim().parse().unwrap())
+                .collect()
+        };
+        let (a, b) = (end("exits.0.from"), end("exits.0.to"));
+        let width: f64 = trial.parameter("door_width").unwrap().parse().unwrap();
+        // Both ends on the right wall, the door centred at y = 4 and as wide as its tag.
+        assert_eq!((a[0], b[0]), (10.0, 10.0), "{trial:?}");
+        assert!(((b[1] - a[1]) - width).abs() < 1e-12, "{trial:?}");
+        assert!(((a[1] + b[1]) / 2.0 - 4.0).abs() < 1e-12, "{trial:?}");
+        // The same inflow at every width.
+        assert_eq!(trial.parameter("sources.0.rate").as_deref(), Some("40.0"));
+        assert_eq!(trial.parameter("sources.0.count").as_deref(), Some("400"));
+        if !widths.contains(&width) {
+            widths.push(width);
+        }
+    }
+    assert_eq!(widths, [0.8, 1.2, 1.6, 2.0, 2.4]);
 }
 
 #[test]

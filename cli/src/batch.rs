@@ -223,7 +223,7 @@ fn write_table(plan: &Plan, table: &ResultsTable, out: &Path) -> Result<()> {
     table.write_csv(&out.join("results.csv"))?;
     if let Some(p) = &plan.plot {
         let path = out.join("plot.svg");
-        std::fs::write(&path, plot_svg(table, &p.x, &p.y)?)
+        std::fs::write(&path, plot_svg(table, p)?)
             .with_context(|| format!("writing {}", path.display()))?;
         outln!("plot: {}", path.display());
     }

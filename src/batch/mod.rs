@@ -6,8 +6,9 @@
 //! * [`run_batch`] — every trial not yet finished, one per core, resumable; [`run_trial`]
 //!   runs one (what a Slurm array task does);
 //! * [`ResultsTable`] — the table, built from the trial folders alone
-//!   ([`ResultsTable::collect`]), written as CSV; [`plot_svg`] draws an output against a
-//!   parameter, mean and spread over seeds;
+//!   ([`ResultsTable::collect`]), written as CSV; [`plot_svg`] draws an output, or an output
+//!   divided by a parameter, against a parameter, mean and spread over seeds, over a
+//!   reference band;
 //! * [`slurm_script`] — a Slurm job-array script whose tasks each run one trial.
 //!
 //! ```
@@ -43,14 +44,14 @@ mod run;
 mod slurm;
 mod table;
 
-pub use plan::{Plan, PlotSpec, SlurmSpec, Trial};
+pub use plan::{Plan, PlotBand, PlotSpec, SlurmSpec, Trial};
 pub use plot::plot_svg;
 pub use run::{
     run_batch, run_trial, trial_state, BatchHooks, BatchReport, BatchSettings, TrialRecord,
     TrialState, RECORD_FILE,
 };
 pub use slurm::slurm_script;
-pub use table::{ResultsRow, ResultsTable, OUTPUTS};
+pub use table::{middle_flow, ResultsRow, ResultsTable, FLOW_FROM, FLOW_TO, OUTPUTS};
 
 use std::path::PathBuf;
 

@@ -44,14 +44,41 @@ struct TrialSpec {
 }
 
 /// The plot of a plan's results (`[plot]`): an output against a parameter.
-#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlotSpec {
     /// The parameter on the horizontal axis: an override key, a tag or `seed`; its values
     /// must be numbers.
     pub x: String,
-    /// The output on the vertical axis: one of [`OUTPUTS`](super::OUTPUTS).
+    /// The vertical axis: one of [`OUTPUTS`](super::OUTPUTS), or one divided by a parameter
+    /// or another output, `"flow / door_width"` (a flow per metre of door).
     pub y: String,
+    /// A band of reference values of `y` drawn behind the trials (an experiment's range).
+    pub band: Option<PlotBand>,
+}
+
+impl PlotSpec {
+    /// `y` as (output, divisor): `"flow / door_width"` gives `("flow", Some("door_width"))`.
+    pub fn y_terms(&self) -> (&str, Option<&str>) {
+        match self.y.split_once('/') {
+            Some((a, b)) => (a.trim(), Some(b.trim())),
+            None => (self.y.trim(), None),
+        }
+    }
+}
+
+/// A band of reference values on a plot's vertical axis (`band = { from = 1.6, to = 2.0,
+/// label = "experiments" }`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlotBand {
+    /// Its lower end.
+    pub from: f64,
+    /// Its upper end.
+    pub to: f64,
+    /// What it is, written in the band.
+    #[serde(default)]
+    pub label: String,
 }
 
 /// Slurm settings (`[slurm]`), for `sweep batch --slurm`.
@@ -278,16 +305,39 @@ impl Plan {
                     ),
                 ));
             }
-            if !super::OUTPUTS.contains(&p.y.as_str()) {
+            let (output, per) = p.y_terms();
+            if !super::OUTPUTS.contains(&output) {
                 return Err(invalid(
                     l,
                     "[plot] y",
                     format!(
-                        "`{}` is not an output of the table (it has: {})",
-                        p.y,
+                        "`{output}` is not an output of the table (it has: {})",
                         super::OUTPUTS.join(", ")
                     ),
                 ));
+            }
+            if let Some(per) = per {
+                if !parameters.iter().any(|q| q == per) && !super::OUTPUTS.contains(&per) {
+                    return Err(invalid(
+                        l,
+                        "[plot] y",
+                        format!(
+                            "`{per}` (what `{output}` is divided by) is neither a parameter of the plan nor an output of the table"
+                        ),
+                    ));
+                }
+            }
+            if let Some(b) = &p.band {
+                if !(b.from.is_finite() && b.to.is_finite() && b.from < b.to) {
+                    return Err(invalid(
+                        l,
+                        "[plot] band",
+                        format!(
+                            "`from` ({}) must be below `to` ({}), both finite",
+                            b.from, b.to
+                        ),
+                    ));
+                }
             }
         }
         Ok(Plan {

@@ -5,7 +5,7 @@
 //! Written directly, as the study plots are (`study::plot`): SVG text is laid out by the
 //! viewer, so no font is needed on the machine that draws it.
 
-use super::{BatchError, ResultsTable};
+use super::{BatchError, PlotBand, PlotSpec, ResultsTable};
 use crate::svg::{escape, PALETTE};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -16,6 +16,15 @@ const LEFT: f64 = 90.0;
 const RIGHT: f64 = 30.0;
 const TOP: f64 = 70.0;
 const BOTTOM: f64 = 60.0;
+
+/// What the output on the vertical axis is divided by.
+#[derive(Clone, Copy)]
+enum Divisor<'a> {
+    /// Another output of the trial.
+    Output(&'a str),
+    /// A parameter: its name and column.
+    Parameter(&'a str, usize),
+}
 
 /// The mean and spread of the trials at one value of the parameter.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,13 +85,15 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
-/// Draws output `y` against parameter `x` (a column of the table: a parameter or `seed`) of
-/// the trials that have both.
+/// Draws `plot.y` (an output, or an output divided by a parameter or another output) against
+/// parameter `plot.x` (a column of the table: a parameter or `seed`) of the trials that have
+/// both, over `plot.band` when it has one.
 ///
 /// # Errors
-/// [`BatchError::Plot`] when `x` is not a column, a trial's `x` is not a number, or no trial
-/// has both.
-pub fn plot_svg(table: &ResultsTable, x: &str, y: &str) -> Result<String, BatchError> {
+/// [`BatchError::Plot`] when `x` or the divisor is not a column, a trial's `x` or divisor is
+/// not a number, or no trial has both.
+pub fn plot_svg(table: &ResultsTable, plot: &PlotSpec) -> Result<String, BatchError> {
+    let (x, y) = (plot.x.as_str(), plot.y.as_str());
     let column = if x == "seed" {
         None
     } else {
@@ -96,11 +107,48 @@ pub fn plot_svg(table: &ResultsTable, x: &str, y: &str) -> Result<String, BatchE
                 })?,
         )
     };
-    if !super::OUTPUTS.contains(&y) {
+    let (output, per) = plot.y_terms();
+    if !super::OUTPUTS.contains(&output) {
         return Err(BatchError::Plot(format!(
-            "`{y}` is not an output of the table"
+            "`{output}` is not an output of the table"
         )));
     }
+    let per = match per {
+        None => None,
+        Some(p) if super::OUTPUTS.contains(&p) => Some(Divisor::Output(p)),
+        Some(p) => Some(Divisor::Parameter(
+            p,
+            table
+                .parameters
+                .iter()
+                .position(|q| q == p)
+                .ok_or_else(|| {
+                    BatchError::Plot(format!(
+                        "`{p}` is neither a parameter nor an output of the table"
+                    ))
+                })?,
+        )),
+    };
+    // The trial's value of y: its output, over the divisor's value (none where that is 0).
+    let y_of = |row: &super::ResultsRow| -> Result<Option<f64>, BatchError> {
+        let Some(v) = row.output(output) else {
+            return Ok(None);
+        };
+        let d = match per {
+            None => return Ok(Some(v)),
+            Some(Divisor::Output(o)) => row.output(o),
+            Some(Divisor::Parameter(p, c)) => match &row.parameters[c] {
+                None => None,
+                Some(text) => Some(text.trim().parse::<f64>().map_err(|_| {
+                    BatchError::Plot(format!(
+                        "trial {}: {p} = {text} is not a number to divide {output} by",
+                        row.trial
+                    ))
+                })?),
+            },
+        };
+        Ok(d.filter(|d| *d != 0.0).map(|d| v / d))
+    };
     let x_of = |row: &super::ResultsRow| match column {
         None => row.seed.map(|s| s.to_string()),
         Some(c) => row.parameters[c].clone(),
@@ -124,7 +172,7 @@ pub fn plot_svg(table: &ResultsTable, x: &str, y: &str) -> Result<String, BatchE
     let mut left_out = 0;
     for row in &table.rows {
         let xv = x_of(row);
-        let (Some(xv), Some(yv)) = (xv, row.output(y)) else {
+        let (Some(xv), Some(yv)) = (xv, y_of(row)?) else {
             left_out += 1;
             continue;
         };
@@ -176,7 +224,7 @@ pub fn plot_svg(table: &ResultsTable, x: &str, y: &str) -> Result<String, BatchE
             (name, points)
         })
         .collect();
-    Ok(draw(&lines, &dots, x, y, left_out))
+    Ok(draw(&lines, &dots, x, y, plot.band.as_ref(), left_out))
 }
 
 fn draw(
@@ -184,15 +232,19 @@ fn draw(
     dots: &[(String, f64, f64)],
     x: &str,
     y: &str,
+    band: Option<&PlotBand>,
     left_out: usize,
 ) -> String {
     let (x0, x1) = range(dots.iter().map(|d| d.1));
     let (y0, y1) = range(
-        dots.iter().map(|d| d.2).chain(
-            lines
-                .iter()
-                .flat_map(|(_, p)| p.iter().flat_map(|p| [p.mean - p.sd, p.mean + p.sd])),
-        ),
+        dots.iter()
+            .map(|d| d.2)
+            .chain(
+                lines
+                    .iter()
+                    .flat_map(|(_, p)| p.iter().flat_map(|p| [p.mean - p.sd, p.mean + p.sd])),
+            )
+            .chain(band.into_iter().flat_map(|b| [b.from, b.to])),
     );
     let px = |v: f64| LEFT + (v - x0) / (x1 - x0) * (WIDTH - LEFT - RIGHT);
     let py = |v: f64| HEIGHT - BOTTOM - (v - y0) / (y1 - y0) * (HEIGHT - TOP - BOTTOM);
@@ -230,6 +282,17 @@ fn draw(
         s,
         r#"<rect x="{bx}" y="{by}" width="{bw}" height="{bh}" fill="none" stroke="black"/>"#
     );
+    if let Some(b) = band {
+        let (top, bottom) = (py(b.to), py(b.from));
+        let _ = writeln!(
+            s,
+            r##"<rect x="{bx}" y="{top:.1}" width="{bw}" height="{:.1}" fill="#2ca02c" fill-opacity="0.15"/><text x="{:.1}" y="{:.1}" fill="#2a7a2a">{}</text>"##,
+            bottom - top,
+            bx + 8.0,
+            top + 16.0,
+            escape(&b.label)
+        );
+    }
     for t in ticks(x0, x1) {
         let _ = writeln!(
             s,
@@ -333,6 +396,86 @@ mod tests {
         // Sum of squares 32 over n − 1 = 7.
         assert!((sd - (32.0f64 / 7.0).sqrt()).abs() < 1e-15);
         assert_eq!(mean_sd(&[3.0]), (3.0, 0.0));
+    }
+
+    /// A table of one parameter `w` whose trials have `people_out` people out at `t_final`.
+    fn table(rows: &[(&str, f64, usize)]) -> ResultsTable {
+        let rows = rows
+            .iter()
+            .enumerate()
+            .map(|(trial, &(w, t_final, out))| super::super::ResultsRow {
+                trial,
+                scene: "room.toml".into(),
+                seed: Some(trial as u64),
+                parameters: vec![Some(w.to_string())],
+                status: "completed".into(),
+                error: None,
+                summary: Some(crate::output::RunSummary {
+                    people: out,
+                    t_final,
+                    ..Default::default()
+                }),
+                wall_seconds: None,
+                dir: String::new(),
+            })
+            .collect();
+        ResultsTable {
+            parameters: vec!["w".into()],
+            rows,
+        }
+    }
+
+    fn spec(y: &str, band: Option<PlotBand>) -> PlotSpec {
+        PlotSpec {
+            x: "w".into(),
+            y: y.into(),
+            band,
+        }
+    }
+
+    #[test]
+    fn an_output_over_a_parameter_is_plotted_per_trial() {
+        let t = table(&[("1", 4.0, 4), ("2", 8.0, 4), ("2", 6.0, 4)]);
+        let svg = plot_svg(&t, &spec("people / w", None)).unwrap();
+        // Means of 4/1 and of (4/2, 4/2); of t_final over people, 1 and (1, 0.75).
+        assert!(
+            svg.contains("<title>w = 1: mean 4 ± 0 over 1 trial(s)</title>"),
+            "{svg}"
+        );
+        assert!(
+            svg.contains("<title>w = 2: mean 2 ± 0 over 2 trial(s)</title>"),
+            "{svg}"
+        );
+        let svg = plot_svg(&t, &spec("t_final / people", None)).unwrap();
+        assert!(svg.contains("w = 2: mean 1.75 ±"), "{svg}");
+        // A zero divisor leaves the trial out.
+        let t = table(&[("0", 4.0, 4), ("2", 8.0, 4)]);
+        let svg = plot_svg(&t, &spec("people / w", None)).unwrap();
+        assert!(svg.contains("1 trial(s) without a value left out"), "{svg}");
+        // A divisor that is not a column.
+        let e = plot_svg(&t, &spec("people / width", None)).unwrap_err();
+        assert!(e.to_string().contains("`width` is neither"), "{e}");
+    }
+
+    #[test]
+    fn a_band_is_drawn_and_the_axis_reaches_it() {
+        let t = table(&[("1", 4.0, 4), ("2", 8.0, 4)]);
+        let band = PlotBand {
+            from: 10.0,
+            to: 12.0,
+            label: "experiments <2009>".into(),
+        };
+        let svg = plot_svg(&t, &spec("t_final", Some(band))).unwrap();
+        assert!(svg.contains("experiments &lt;2009&gt;</text>"), "{svg}");
+        assert!(svg.contains(r#"fill-opacity="0.15""#), "{svg}");
+        // The vertical axis runs from the lowest value (4) to the band's top (12).
+        assert!(
+            svg.contains(">12</text>") && svg.contains(">4</text>"),
+            "{svg}"
+        );
+        assert!(!plot_svg(&t, &spec("t_final", None))
+            .unwrap()
+            .contains("fill-opacity=\"0.15\""));
     }
 
     #[test]

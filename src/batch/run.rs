@@ -217,7 +217,7 @@ pub fn run_batch(
     let table = ResultsTable::collect(plan, out);
     table.write_csv(&out.join("results.csv"))?;
     if let Some(plot) = &plan.plot {
-        let svg = super::plot_svg(&table, &plot.x, &plot.y)?;
+        let svg = super::plot_svg(&table, plot)?;
         let path = out.join("plot.svg");
         crate::output::write_whole(&path, svg).map_err(|e| BatchError::Io {
             path,

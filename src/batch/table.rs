@@ -6,14 +6,15 @@ use crate::output::{RunStatus, RunSummary};
 use std::path::Path;
 
 /// The outputs of the table, each a number per trial (empty when the trial has none): people,
-/// people out and still inside at the end, evacuation time (empty when somebody is left),
-/// last time reached, steps, QP solves, solver iterations, largest overlap and wall
+/// people out and still inside at the end, evacuation time (empty when somebody is left), the
+/// flow out in the middle of the run ([`middle_flow`]), last time reached, steps, QP solves, solver iterations, largest overlap and wall
 /// penetration, milliseconds per step (all stages), and the trial's wall-clock seconds.
 pub const OUTPUTS: &[&str] = &[
     "people",
     "people_out",
     "people_remaining",
     "evacuation_time",
+    "flow",
     "t_final",
     "steps",
     "solves",
@@ -23,6 +24,30 @@ pub const OUTPUTS: &[&str] = &[
     "ms_per_step",
     "wall_seconds",
 ];
+
+/// The part of the people whose exits open the window of [`middle_flow`].
+pub const FLOW_FROM: f64 = 0.2;
+/// The part of the people whose exits close it.
+pub const FLOW_TO: f64 = 0.8;
+
+/// People out per second between the exit of the first [`FLOW_FROM`] (20 %) of the `people`
+/// and that of the first [`FLOW_TO`] (80 %): `(k₂ − k₁) / (t(k₂) − t(k₁))`, `t(k)` the
+/// first time `k` people were out (`people_out` as the summary records it, `(t, out)` at each
+/// change), `k₁ = ⌈0.2 N⌉`, `k₂ = ⌊0.8 N⌋`. It is the inverse of the mean time gap between
+/// consecutive exits over the middle of the run, as bottleneck experiments measure a door's
+/// flow: the first exits (through an empty room, before a queue forms) and the last (a
+/// thinning queue) are left out. `None` when fewer than 80 % went out (a clogged door, a
+/// horizon too short) or the window holds no time.
+pub fn middle_flow(people_out: &[(f64, usize)], people: usize) -> Option<f64> {
+    let k1 = ((FLOW_FROM * people as f64).ceil() as usize).max(1);
+    let k2 = (FLOW_TO * people as f64).floor() as usize;
+    if k2 <= k1 {
+        return None;
+    }
+    let time_of = |k: usize| people_out.iter().find(|(_, out)| *out >= k).map(|p| p.0);
+    let (t1, t2) = (time_of(k1)?, time_of(k2)?);
+    (t2 > t1).then(|| (k2 - k1) as f64 / (t2 - t1))
+}
 
 /// One trial's row.
 #[derive(Debug, Clone, PartialEq)]
@@ -58,9 +83,11 @@ impl ResultsRow {
         let s = self.summary.as_ref()?;
         Some(match output {
             "people" => s.people as f64,
-            "people_out" => (s.people - s.people_remaining) as f64,
+            // Who has not arrived yet (a scene's sources) is neither inside nor out.
+            "people_out" => s.people_out.last()?.1 as f64,
             "people_remaining" => s.people_remaining as f64,
             "evacuation_time" => s.evacuation_time?,
+            "flow" => middle_flow(&s.people_out, s.people)?,
             "t_final" => s.t_final,
             "steps" => s.steps as f64,
             "solves" => s.solves as f64,
@@ -165,5 +192,60 @@ impl ResultsTable {
         }
         let bytes = w.into_inner().map_err(|e| io(e.to_string()))?;
         crate::output::write_whole(path, bytes).map_err(|e| io(e.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn middle_flow_counts_the_exits_between_20_and_80_percent() {
+        // 10 people: k₁ = 2 (out at t = 3), k₂ = 8 (out at t = 6, two at once).
+        let out = [
+            (0.0, 0),
+            (2.0, 1),
+            (3.0, 2),
+            (4.0, 4),
+            (5.5, 6),
+            (6.0, 8),
+            (9.0, 10),
+        ];
+        assert_eq!(middle_flow(&out, 10), Some(6.0 / 3.0));
+        // 11 people: k₁ = 3, out at t = 4 when the count jumps from 2 to 4; k₂ = 8.
+        assert_eq!(middle_flow(&out, 11), Some(5.0 / 2.0));
+    }
+
+    #[test]
+    fn people_out_leaves_out_who_has_not_arrived() {
+        let row = ResultsRow {
+            trial: 0,
+            scene: "room.toml".into(),
+            seed: None,
+            parameters: Vec::new(),
+            status: "completed".into(),
+            error: None,
+            summary: Some(RunSummary {
+                people: 10,
+                people_remaining: 5,
+                people_out: vec![(0.0, 0), (4.0, 2), (7.0, 3)],
+                ..Default::default()
+            }),
+            wall_seconds: None,
+            dir: String::new(),
+        };
+        // 3 out, 5 inside, 2 still waiting at their source.
+        assert_eq!(row.output("people_out"), Some(3.0));
+        assert_eq!(row.output("people_remaining"), Some(5.0));
+    }
+
+    #[test]
+    fn middle_flow_is_empty_without_its_window() {
+        // Fewer than 80 % out: the door clogged, or the run ended first.
+        assert_eq!(middle_flow(&[(0.0, 0), (1.0, 5), (2.0, 7)], 10), None);
+        // Nobody, one person, or everybody out at once.
+        assert_eq!(middle_flow(&[(0.0, 0)], 0), None);
+        assert_eq!(middle_flow(&[(0.0, 0), (1.0, 1)], 1), None);
+        assert_eq!(middle_flow(&[(0.0, 0), (1.0, 10)], 10), None);
     }
 }
