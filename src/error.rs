@@ -299,8 +299,9 @@ pub enum SweepError {
         /// What it reported.
         message: String,
     },
-    /// A run failed, with what it computed before: a [`RunFailure`] converted by `?`, so that
-    /// the set-up's error and the run's share one type.
+    /// A run failed, with what it computed before: a
+    /// [`RunFailure`](crate::stepper::RunFailure) converted by `?`, so that the set-up's error
+    /// and the run's share one type.
     #[error("{error} (after {} completed steps, t = {})", partial.stats.steps, display_number(partial.t_final))]
     RunFailed {
         /// What went wrong.

@@ -84,7 +84,7 @@ pub struct StepReport {
     pub solve: SolveStats,
     /// The rows active at the solution (multiplier above the active threshold), with their
     /// multipliers and gradients, when
-    /// [`StepperSettings::record_contacts`](super::StepperSettings::record_contacts) asks for
+    /// [`StepperSettings::record_contacts`](crate::stepper::StepperSettings::record_contacts) asks for
     /// them; empty otherwise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub contacts: Vec<Contact>,

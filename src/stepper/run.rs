@@ -1,5 +1,5 @@
-//! A run: stepping to the horizon with observers, and what it leaves, a
-//! [`Run`](crate::report::Run) or a [`RunFailure`].
+//! A run: stepping to the horizon with observers, and what it leaves, a [`Run`] or a
+//! [`RunFailure`].
 
 use super::{display_number, Observer, Stepper};
 use crate::error::SweepError;
