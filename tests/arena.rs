@@ -1,13 +1,14 @@
 //! A crowd in a round arena (`[arena]`): people kept inside a circle (one concave constraint
 //! each, a convex set) and apart from each other (the pairs, the paper's class). The shipped
 //! scene runs, and an independent checker reads the trajectory it wrote: no overlap, no
-//! penetration of the round wall. Bad `[arena]` tables are errors naming the line.
+//! penetration of the round wall; its pictures draw the round wall. Bad `[arena]` tables are
+//! errors naming the line.
 
 use sweeping::constraint::Curvature;
-use sweeping::output::TrajectoryWriter;
+use sweeping::output::{render_svg, TrajectoryWriter};
 use sweeping::prelude::*;
 use sweeping::scene::spec::DesiredSpec;
-use sweeping::scene::{CrowdBuilder, Effect, Overrides, Scene, SceneError};
+use sweeping::scene::{Arena, CrowdBuilder, Effect, Overrides, Scene, SceneError};
 use sweeping_testkit::checker::{check_trajectory, scratch, Geometry, Obstacle};
 
 const TOL: f64 = 1e-6;
@@ -201,4 +202,52 @@ fn people_outside_the_arena_are_refused_and_crowds_are_drawn_inside() {
         let r = (q[2 * i] - 5.0).hypot(q[2 * i + 1] - 5.0);
         assert!(r <= 1.8 + 1e-12, "person {i} drawn at {r} from the centre");
     }
+}
+
+#[test]
+fn the_arena_is_drawn_as_a_round_wall() {
+    let built = shipped().build(&Overrides::default()).unwrap();
+    assert_eq!(
+        built.geometry.arena,
+        Some(Arena {
+            center: [6.0, 6.0],
+            radius: 5.0
+        })
+    );
+    let svg = render_svg(
+        &built.geometry,
+        &built.population,
+        &built.group_of,
+        built.problem.q0(),
+        0.0,
+        "arena",
+        None,
+    );
+    // SVG's y axis points down: the centre (6, 6) is drawn at (6, −6).
+    assert!(
+        svg.contains(r#"<circle cx="6.0000" cy="-6.0000" r="5.0000" fill="none""#),
+        "{svg}"
+    );
+    let room_only = Scene::from_toml_str(
+        &std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/arena.toml"),
+        )
+        .unwrap()
+        .replace("[arena]\ncenter = [6.0, 6.0]\nradius = 5.0\n", ""),
+        "no-arena.toml",
+    )
+    .unwrap()
+    .build(&Overrides::default())
+    .unwrap();
+    assert_eq!(room_only.geometry.arena, None);
+    let svg = render_svg(
+        &room_only.geometry,
+        &room_only.population,
+        &room_only.group_of,
+        room_only.problem.q0(),
+        0.0,
+        "no arena",
+        None,
+    );
+    assert!(!svg.contains(r#"fill="none" stroke"#), "{svg}");
 }

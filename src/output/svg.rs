@@ -102,6 +102,16 @@ pub(crate) fn static_layer(g: &SceneGeometry, unit: f64) -> String {
             1.6 * unit
         );
     }
+    if let Some(arena) = &g.arena {
+        let _ = writeln!(
+            s,
+            r#"<circle cx="{:.4}" cy="{:.4}" r="{:.4}" fill="none" stroke="{WALL}" stroke-width="{:.4}"/>"#,
+            arena.center[0],
+            -arena.center[1],
+            arena.radius,
+            1.6 * unit
+        );
+    }
     for e in &g.exits {
         let _ = writeln!(
             s,

@@ -148,6 +148,15 @@ impl Obstacle {
     }
 }
 
+/// A checked `[arena]`: the circle people stay inside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Arena {
+    /// Its centre.
+    pub center: [f64; 2],
+    /// Its radius (m).
+    pub radius: f64,
+}
+
 /// What there is to draw.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneGeometry {
@@ -159,6 +168,8 @@ pub struct SceneGeometry {
     pub exits: Vec<ExitSegment>,
     /// Obstacles.
     pub obstacles: Vec<Obstacle>,
+    /// The round arena people stay inside, when the scene has one.
+    pub arena: Option<Arena>,
     /// `[x0, y0, x1, y1]`: the room's bounding box with a margin for people walking out.
     pub bounds: [f64; 4],
 }

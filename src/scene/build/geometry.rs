@@ -6,7 +6,7 @@ use crate::crowd::velocity::ExitSegment;
 use crate::crowd::{segment_distance, Motion, Room, Shape};
 use crate::scene::checks::{bbox, check_resolution, meeting_edges, polygon_area};
 use crate::scene::spec::{ArenaSpec, ObstacleSpec, SceneSpec};
-use crate::scene::{finite, fmt_pt, Ctx, Obstacle, ObstacleShape, SceneError};
+use crate::scene::{finite, fmt_pt, Arena, Ctx, Obstacle, ObstacleShape, SceneError};
 
 /// A wall segment.
 pub(in crate::scene) type Wall = ([f64; 2], [f64; 2]);
@@ -224,13 +224,6 @@ pub(super) fn exits_and_walls(
         }
     }
     Ok((exits, walls))
-}
-
-/// A checked `[arena]`: its centre and radius.
-#[derive(Debug, Clone, Copy)]
-pub(in crate::scene) struct Arena {
-    pub center: [f64; 2],
-    pub radius: f64,
 }
 
 /// `[arena]`, checked: a finite centre, a positive radius, the circle inside the room.

@@ -25,8 +25,9 @@ use crate::backends::BackendChoice;
 use crate::crowd::velocity::ExitSegment;
 use crate::crowd::{ArenaWall, DiskPairs, Motion, PersonShapes, Population, Shape};
 use crate::problem::Problem;
+use crate::scene::Arena;
 use crate::stepper::StepperSettings;
-use geometry::{shapes_of, Arena, Placed, RoomPlan, Wall};
+use geometry::{shapes_of, Placed, RoomPlan, Wall};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -207,7 +208,14 @@ impl Scene {
         let scene_notes = notes::scene_notes(&facts, &output);
         output.notes.extend(scene_notes);
         let settings = stepper_settings(run.h, run.t_end, &obstacles);
-        let geometry = scene_geometry(room, walls, exits, obstacles, population.max_radius());
+        let geometry = scene_geometry(
+            room,
+            walls,
+            exits,
+            obstacles,
+            arena,
+            population.max_radius(),
+        );
         let departed_at_start = vec![false; population.len()];
         Ok(BuiltScene {
             name: self.name.clone(),
@@ -324,6 +332,7 @@ fn scene_geometry(
     walls: Vec<Wall>,
     exits: Vec<ExitSegment>,
     obstacles: Vec<Placed>,
+    arena: Option<Arena>,
     max_radius: f64,
 ) -> SceneGeometry {
     let (bx0, by0, bx1, by1) = room.bbox;
@@ -333,6 +342,7 @@ fn scene_geometry(
         walls,
         exits,
         obstacles: obstacles.into_iter().map(|(o, _, _)| o).collect(),
+        arena,
         bounds: [bx0 - margin, by0 - margin, bx1 + margin, by1 + margin],
     }
 }

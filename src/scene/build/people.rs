@@ -1,12 +1,13 @@
 //! Who is in the scene at the start: the people the file lists, the random crowds placed clear
 //! of the room's walls, the obstacles and each other, and their checked speeds, gaps and radii.
 
-use super::geometry::{shapes_of, Arena, Placed, RoomPlan, Wall};
+use super::geometry::{shapes_of, Placed, RoomPlan, Wall};
 use crate::constraint::ConstraintKernel;
 use crate::crowd::{segment_distance, PersonShapeKernel, Room, ShapeParams};
 use crate::numbers::display_number;
 use crate::scene::checks::{check_desired, polygon_area};
 use crate::scene::spec::{CrowdSpec, DesiredSpec, Drawn, RadiusSpec, SceneSpec};
+use crate::scene::Arena;
 use crate::scene::{
     drawn, finite, fmt_pt, sources, Ctx, ObstacleShape, Origin, SceneError, MAX_PEOPLE,
 };
