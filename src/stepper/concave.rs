@@ -84,6 +84,7 @@ impl Cuts {
         rhs: f64,
         norm: f64,
     ) -> Cut {
+        let serial = self.next_serial;
         self.next_serial += 1;
         Cut {
             family,
@@ -91,7 +92,7 @@ impl Cuts {
             entries,
             rhs,
             norm,
-            serial: self.next_serial - 1,
+            serial,
         }
     }
 
@@ -121,8 +122,9 @@ impl Stepper<'_> {
         }
     }
 
-    /// The key of row `r`: its constraint for an assembled row; for a cut, a key of its own
-    /// (families beyond the problem's), unique while the cut lives.
+    /// The key of row `r`: its constraint for an assembled row; for a cut, a key of its own,
+    /// family `F + f` (`F` the problem's family count, `f` the cut member's family) and member
+    /// the cut's serial, unique within the run.
     pub(super) fn row_key(&self, r: usize) -> RowKey {
         let (fi, idx) = self.row_origin[r];
         match r.checked_sub(self.cuts.base_rows) {
@@ -396,3 +398,7 @@ impl Stepper<'_> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+#[path = "concave_tests.rs"]
+mod tests;
