@@ -101,6 +101,7 @@ fn declared_concave_each_step_is_the_projection_onto_the_ellipse_on_every_backen
     for mut backend in backends() {
         let mut stepper = Stepper::new(&problem, settings(0.1)).unwrap();
         let mut cut_steps = 0;
+        let mut worst: f64 = 0.0;
         while stepper.steps_done() < stepper.n_steps() {
             let (t, q) = (stepper.time(), stepper.state().to_vec());
             let report = stepper.step(backend.as_mut()).unwrap();
@@ -108,6 +109,7 @@ fn declared_concave_each_step_is_the_projection_onto_the_ellipse_on_every_backen
             let expect = project_onto_ellipse(0.25 * report.t, y);
             let x = stepper.state();
             let err = (x[0] - expect[0]).hypot(x[1] - expect[1]);
+            worst = worst.max(err);
             assert!(
                 err < 2e-6,
                 "{}: step {} at t = {t}: {x:?} vs the projection {expect:?} ({err:.2e})",
@@ -117,11 +119,48 @@ fn declared_concave_each_step_is_the_projection_onto_the_ellipse_on_every_backen
             assert!(g(report.t, x) >= -1e-9, "{}: outside", backend.name());
             cut_steps += usize::from(report.cuts > 0);
         }
+        println!(
+            "{}: largest distance to the projection {worst:.2e}",
+            backend.name()
+        );
         // The point reaches the boundary early and slides along it: cuts were needed.
         assert!(
             cut_steps > 20,
             "{}: {cut_steps} steps with cuts",
             backend.name()
+        );
+    }
+}
+
+/// The cuts stop only when the true constraint's stationarity holds to the KKT tolerance: a
+/// tighter tolerance brings every step's point along the boundary to the exact projection.
+#[test]
+fn a_tighter_kkt_tolerance_brings_each_step_to_the_projection() {
+    let problem = ellipse(true);
+    for (kkt_tolerance, bound) in [(1e-6, 2e-6), (1e-10, 1e-9)] {
+        let settings = StepperSettings {
+            kkt_tolerance,
+            ..settings(0.1)
+        };
+        let mut stepper = Stepper::new(&problem, settings).unwrap();
+        let mut backend = ReferenceProjector {
+            tolerance: 1e-12,
+            ..Default::default()
+        };
+        let mut worst: f64 = 0.0;
+        while stepper.steps_done() < stepper.n_steps() {
+            let q = stepper.state().to_vec();
+            let report = stepper.step(&mut backend).unwrap();
+            let expect = project_onto_ellipse(0.25 * report.t, [q[0] + report.h, q[1] + report.h]);
+            let x = stepper.state();
+            worst = worst.max((x[0] - expect[0]).hypot(x[1] - expect[1]));
+        }
+        println!(
+            "KKT tolerance {kkt_tolerance:.0e}: largest distance to the projection {worst:.2e}"
+        );
+        assert!(
+            worst < bound,
+            "KKT tolerance {kkt_tolerance:.0e}: {worst:.2e}"
         );
     }
 }
