@@ -165,6 +165,36 @@ fn a_tighter_kkt_tolerance_brings_each_step_to_the_projection() {
     }
 }
 
+/// The cuts stop only when the point is within `concave_tolerance` of the set, however loose
+/// the KKT tolerance: the distance outside is a criterion of its own.
+#[test]
+fn the_concave_tolerance_bounds_the_distance_outside_whatever_the_kkt_tolerance() {
+    let problem = ellipse(true);
+    for (concave_tolerance, bound) in [(1e-7, 1e-6), (1e-12, 1e-11)] {
+        let settings = StepperSettings {
+            kkt_tolerance: 1e-2,
+            concave_tolerance,
+            ..settings(0.1)
+        };
+        let mut stepper = Stepper::new(&problem, settings).unwrap();
+        let mut backend = ReferenceProjector {
+            tolerance: 1e-13,
+            ..Default::default()
+        };
+        let mut worst: f64 = 0.0;
+        while stepper.steps_done() < stepper.n_steps() {
+            let report = stepper.step(&mut backend).unwrap();
+            // |∇g| ≥ 1 on this ellipse's boundary, so −g bounds the distance outside.
+            worst = worst.max(-g(report.t, stepper.state()));
+        }
+        println!("concave tolerance {concave_tolerance:.0e}: largest −g {worst:.2e}");
+        assert!(
+            worst < bound,
+            "concave tolerance {concave_tolerance:.0e}: −g = {worst:.2e}"
+        );
+    }
+}
+
 #[test]
 fn declared_concave_the_trial_ends_inside_and_passes_the_monitor() {
     let problem = ellipse(true);
