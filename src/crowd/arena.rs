@@ -119,11 +119,7 @@ impl ConstraintFamily for ArenaWall {
     /// `|∇gᵢ| = 1` on person `i`'s two coordinates: the largest displacement of anyone not
     /// seen leaving.
     fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
-        (0..self.population.len())
-            .filter(|&i| !self.population.has_departed(i))
-            .map(|i| (x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2))
-            .fold(0.0, f64::max)
-            .sqrt()
+        self.population.largest_displacement(q, x)
     }
 
     fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {

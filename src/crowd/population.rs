@@ -265,6 +265,18 @@ impl Population {
         self.departed.get(i)
     }
 
+    /// The largest displacement `|xᵢ − qᵢ|` of anyone not seen leaving (the present people
+    /// and perhaps a few more: a bound on how far a person's linearization has drifted).
+    pub fn largest_displacement(&self, q: &[f64], x: &[f64]) -> f64 {
+        // The largest squared displacement, then one square root (monotone and correctly
+        // rounded, so the same number as the largest root).
+        (0..self.len())
+            .filter(|&i| !self.has_departed(i))
+            .map(|i| (x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2))
+            .fold(0.0, f64::max)
+            .sqrt()
+    }
+
     /// Clears every departure: the start of a new run from `q₀`.
     pub fn reset_departures(&self) {
         for b in &self.departed.0 {

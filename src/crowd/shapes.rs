@@ -541,14 +541,7 @@ impl ConstraintFamily for PersonShapes {
     }
 
     fn linearization_drift_bound(&self, _t: f64, q: &[f64], x: &[f64]) -> f64 {
-        // The largest squared displacement, then one square root (monotone and correctly
-        // rounded, so the same number as the largest root), over everyone not seen leaving
-        // (the present people and perhaps a few more: still a bound).
-        (0..self.population.len())
-            .filter(|&i| !self.population.has_departed(i))
-            .map(|i| (x[2 * i] - q[2 * i]).powi(2) + (x[2 * i + 1] - q[2 * i + 1]).powi(2))
-            .fold(0.0, f64::max)
-            .sqrt()
+        self.population.largest_displacement(q, x)
     }
 
     fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {
