@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use sweeping::batch::{
     middle_flow, run_batch, run_trial, trial_state, BatchError, BatchSettings, Plan, ResultsTable,
-    TrialRecord, TrialState, OUTPUTS, RECORD_FILE,
+    Trial, TrialRecord, TrialState, OUTPUTS, RECORD_FILE,
 };
 use sweeping::output::{RunStatus, RunSummary};
 use sweeping_testkit::checker::{check_trajectory, left_from_people, scratch, Geometry};
@@ -525,15 +525,7 @@ fn the_bottleneck_plan_moves_the_door_and_plots_its_specific_flow() {
     assert_eq!((band.from, band.to), (1.6, 2.0));
     let mut widths = Vec::new();
     for trial in plan.trials() {
-        let end = |key: &str| -> Vec<f64> {
-            let v = trial.parameter(key).unwrap();
-            v.trim_matches(['[', ']'])
-                .split(',')
-                .map(|x| x.trim().parse().unwrap())
-                .collect()
-        };
-        let (a, b) = (end("exits.0.from"), end("exits.0.to"));
-        let width: f64 = trial.parameter("door_width").unwrap().parse().unwrap();
+        let (a, b, width) = door_of(&trial);
         // Both ends on the right wall, the door centred at y = 4 and as wide as its tag.
         assert_eq!((a[0], b[0]), (10.0, 10.0), "{trial:?}");
         assert!(((b[1] - a[1]) - width).abs() < 1e-12, "{trial:?}");
@@ -566,16 +558,21 @@ fn the_shipped_plan_reads_and_fits_its_scene() {
     );
     // Each width is the distance between the door's two ends.
     for trial in plan.trials() {
-        let end = |key: &str| -> Vec<f64> {
-            let v = trial.parameter(key).unwrap();
-            v.trim_matches(['[', ']'])
-                .split(',')
-                .map(|x| x.trim().parse().unwrap())
-                .collect()
-        };
-        let (a, b) = (end("exits.0.from"), end("exits.0.to"));
-        let width: f64 = trial.parameter("door_width").unwrap().parse().unwrap();
+        let (a, b, width) = door_of(&trial);
         assert!(((b[1] - a[1]) - width).abs() < 1e-12, "{trial:?}");
         assert_eq!(a[0], b[0]);
     }
+}
+
+/// A trial's door: its two ends (`exits.0.from`, `exits.0.to`) and its `door_width` tag.
+fn door_of(trial: &Trial) -> (Vec<f64>, Vec<f64>, f64) {
+    let end = |key: &str| -> Vec<f64> {
+        let v = trial.parameter(key).unwrap();
+        v.trim_matches(['[', ']'])
+            .split(',')
+            .map(|x| x.trim().parse().unwrap())
+            .collect()
+    };
+    let width = trial.parameter("door_width").unwrap().parse().unwrap();
+    (end("exits.0.from"), end("exits.0.to"), width)
 }
