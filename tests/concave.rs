@@ -375,3 +375,57 @@ fn an_uncertifiable_step_is_a_typed_error_naming_the_constraint() {
     );
     assert!(message.contains("inside ellipse"), "{message}");
 }
+
+/// `g = 1 − |z − c|²`: inside the unit disk centred at `c`.
+struct InsideUnitDisk {
+    center: [f64; 2],
+}
+impl Constraint<2> for InsideUnitDisk {
+    fn value<D: Scalar>(&self, _t: D, z: [D; 2]) -> D {
+        let (dx, dy) = (z[0] - self.center[0], z[1] - self.center[1]);
+        -(dx * dx + dy * dy) + 1.0
+    }
+    fn curvature(&self) -> Curvature {
+        Curvature::Concave
+    }
+}
+
+/// Two convex sets at once (the lens between two unit disks), the point pushed into the
+/// lens's corner: every member is checked at each iterate, not only those active in the
+/// solve, so each step ends within the concave tolerance of both disks.
+#[test]
+fn in_a_lens_each_step_ends_inside_both_disks() {
+    let problem = Problem::new(vec![0.3, 0.0], |_t: f64, _q: &[f64], f: &mut [f64]| {
+        f[0] = 0.3;
+        f[1] = 1.0;
+    })
+    .with_constraint("disk A", InsideUnitDisk { center: [0.0, 0.0] }, [0, 1])
+    .with_constraint("disk B", InsideUnitDisk { center: [1.0, 0.0] }, [0, 1]);
+    let settings = StepperSettings {
+        h: 0.05,
+        t_end: 2.0,
+        ..Default::default()
+    };
+    let mut stepper = Stepper::new(&problem, settings).unwrap();
+    let mut backend = ReferenceProjector {
+        tolerance: 1e-13,
+        ..Default::default()
+    };
+    let mut worst: f64 = 0.0;
+    while stepper.steps_done() < stepper.n_steps() {
+        stepper.step(&mut backend).unwrap();
+        let x = stepper.state();
+        for c in [[0.0, 0.0], [1.0, 0.0]] {
+            // Outside a unit disk by (x − c)·… : |x − c| − 1.
+            worst = worst.max((x[0] - c[0]).hypot(x[1] - c[1]) - 1.0);
+        }
+    }
+    let x = stepper.state();
+    println!("lens: ends at {x:?}, largest distance outside {worst:.2e}");
+    // The corner of the lens, where both circles meet.
+    assert!(
+        (x[0] - 0.5).abs() < 1e-6 && (x[1] - 0.75f64.sqrt()).abs() < 1e-6,
+        "{x:?}"
+    );
+    assert!(worst < 1e-9, "{worst:.2e}");
+}
