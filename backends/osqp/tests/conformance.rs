@@ -56,9 +56,19 @@ fn perturbed(base: &ProjectionProblem, k: usize, scale_rows: bool) -> Projection
     ProjectionProblem::new(y, a, b).unwrap()
 }
 
+/// OSQP with a fixed `rho` adaptation interval: with its default `0` the interval follows the
+/// measured set-up time, so a loaded machine changes the iterations, and one weighted instance
+/// (seed 11 014) then ran out of them. `25` converges on every instance, every time.
+fn reproducible() -> OsqpProjector {
+    OsqpProjector::new(OsqpSettings {
+        adaptive_rho_interval: 25,
+        ..OsqpSettings::default()
+    })
+}
+
 #[test]
 fn agrees_with_reference_on_random_instances() {
-    let mut osqp = OsqpProjector::default();
+    let mut osqp = reproducible();
     let tolerance = osqp.tolerance();
     // The reference (coordinate ascent) may run out of sweeps on a degenerate instance.
     let compared = agreement_on_random_instances(
@@ -81,7 +91,7 @@ fn agrees_with_reference_on_random_instances() {
 
 #[test]
 fn agrees_with_reference_on_weighted_instances_with_equalities() {
-    let mut osqp = OsqpProjector::default();
+    let mut osqp = reproducible();
     let tolerance = osqp.tolerance();
     let compared = agreement_on_random_instances(
         &mut osqp,
