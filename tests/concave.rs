@@ -132,6 +132,25 @@ fn declared_concave_each_step_is_the_projection_onto_the_ellipse_on_every_backen
     }
 }
 
+/// Runs `problem` to its end on the reference backend (at `1e-13`), showing `see` each step's
+/// report, the configuration before it and the one after.
+fn each_step(
+    problem: &Problem,
+    settings: StepperSettings,
+    mut see: impl FnMut(&StepReport, &[f64], &[f64]),
+) {
+    let mut stepper = Stepper::new(problem, settings).unwrap();
+    let mut backend = ReferenceProjector {
+        tolerance: 1e-13,
+        ..Default::default()
+    };
+    while stepper.steps_done() < stepper.n_steps() {
+        let q = stepper.state().to_vec();
+        let report = stepper.step(&mut backend).unwrap();
+        see(&report, &q, stepper.state());
+    }
+}
+
 /// The cuts stop only when the true constraint's stationarity holds to the KKT tolerance: a
 /// tighter tolerance brings every step's point along the boundary to the exact projection.
 #[test]
@@ -142,19 +161,11 @@ fn a_tighter_kkt_tolerance_brings_each_step_to_the_projection() {
             kkt_tolerance,
             ..settings(0.1)
         };
-        let mut stepper = Stepper::new(&problem, settings).unwrap();
-        let mut backend = ReferenceProjector {
-            tolerance: 1e-12,
-            ..Default::default()
-        };
         let mut worst: f64 = 0.0;
-        while stepper.steps_done() < stepper.n_steps() {
-            let q = stepper.state().to_vec();
-            let report = stepper.step(&mut backend).unwrap();
+        each_step(&problem, settings, |report, q, x| {
             let expect = project_onto_ellipse(0.25 * report.t, [q[0] + report.h, q[1] + report.h]);
-            let x = stepper.state();
             worst = worst.max((x[0] - expect[0]).hypot(x[1] - expect[1]));
-        }
+        });
         println!(
             "KKT tolerance {kkt_tolerance:.0e}: largest distance to the projection {worst:.2e}"
         );
@@ -176,17 +187,11 @@ fn the_concave_tolerance_bounds_the_distance_outside_whatever_the_kkt_tolerance(
             concave_tolerance,
             ..settings(0.1)
         };
-        let mut stepper = Stepper::new(&problem, settings).unwrap();
-        let mut backend = ReferenceProjector {
-            tolerance: 1e-13,
-            ..Default::default()
-        };
         let mut worst: f64 = 0.0;
-        while stepper.steps_done() < stepper.n_steps() {
-            let report = stepper.step(&mut backend).unwrap();
+        each_step(&problem, settings, |report, _q, x| {
             // |∇g| ≥ 1 on this ellipse's boundary, so −g bounds the distance outside.
-            worst = worst.max(-g(report.t, stepper.state()));
-        }
+            worst = worst.max(-g(report.t, x));
+        });
         println!("concave tolerance {concave_tolerance:.0e}: largest −g {worst:.2e}");
         assert!(
             worst < bound,
