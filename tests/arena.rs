@@ -5,6 +5,7 @@
 //! errors naming the line.
 
 use sweeping::constraint::Curvature;
+use sweeping::crowd::{ArenaWall, DiskPairs, Population};
 use sweeping::output::{render_svg, TrajectoryWriter};
 use sweeping::prelude::*;
 use sweeping::scene::spec::DesiredSpec;
@@ -250,4 +251,131 @@ fn the_arena_is_drawn_as_a_round_wall() {
         None,
     );
     assert!(!svg.contains(r#"fill="none" stroke"#), "{svg}");
+}
+
+/// The projection of `y` onto `{x : aₖ·x ≥ bₖ} ∩ {x : |xᵢ − c| ≤ ρᵢ}` by Dykstra's alternating
+/// projections (one set at a time, each exactly, with its correction), independently of the
+/// library: it converges to the projection onto the intersection.
+fn dykstra(
+    y: &[f64],
+    halfspaces: &[(Vec<f64>, f64)],
+    balls: &[(usize, [f64; 2], f64)],
+) -> Vec<f64> {
+    let n = y.len();
+    let sets = halfspaces.len() + balls.len();
+    let mut x = y.to_vec();
+    let mut corrections = vec![vec![0.0; n]; sets];
+    for _ in 0..200_000 {
+        let before = x.clone();
+        for (s, correction) in corrections.iter_mut().enumerate() {
+            let z: Vec<f64> = x
+                .iter()
+                .zip(correction.iter())
+                .map(|(a, b)| a + b)
+                .collect();
+            let mut p = z.clone();
+            if s < halfspaces.len() {
+                let (a, b) = &halfspaces[s];
+                let slack = a.iter().zip(&z).map(|(a, z)| a * z).sum::<f64>() - b;
+                if slack < 0.0 {
+                    let a2: f64 = a.iter().map(|a| a * a).sum();
+                    for (pk, ak) in p.iter_mut().zip(a) {
+                        *pk -= slack / a2 * ak;
+                    }
+                }
+            } else {
+                let (i, c, rho) = balls[s - halfspaces.len()];
+                let (dx, dy) = (z[2 * i] - c[0], z[2 * i + 1] - c[1]);
+                let d = dx.hypot(dy);
+                if d > rho {
+                    p[2 * i] = c[0] + dx * rho / d;
+                    p[2 * i + 1] = c[1] + dy * rho / d;
+                }
+            }
+            for k in 0..n {
+                correction[k] = z[k] - p[k];
+            }
+            x = p;
+        }
+        let moved = x
+            .iter()
+            .zip(&before)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if moved < 1e-15 {
+            break;
+        }
+    }
+    x
+}
+
+/// Three people pushed together against the round wall: each step is the projection of the
+/// prediction onto the pairs linearized at the step's start and the exact disks of the arena
+/// (the scheme, both classes at once), checked against Dykstra's projection onto the same sets.
+/// The people keep pressing into the wall, so the cuts of a member whose distance does not
+/// halve are merged into one aggregate row, and that path is checked too.
+#[test]
+fn each_step_in_the_arena_is_the_projection_onto_the_linearized_pairs_and_the_exact_disks() {
+    let (center, radius) = ([0.0, 0.0], 1.5);
+    let radii = vec![0.3, 0.35, 0.25];
+    let population = Population::new(radii.clone()).shared();
+    let q0 = vec![0.6, 0.0, 0.0, 0.62, -0.1, -0.6];
+    let target = [5.0, 1.0];
+    let mut problem = Problem::new(q0, move |_t: f64, q: &[f64], f: &mut [f64]| {
+        for i in 0..q.len() / 2 {
+            let (dx, dy) = (target[0] - q[2 * i], target[1] - q[2 * i + 1]);
+            let d = dx.hypot(dy);
+            f[2 * i] = dx / d;
+            f[2 * i + 1] = dy / d;
+        }
+    });
+    problem.push_family(Box::new(ArenaWall::new(population.clone(), center, radius)));
+    problem.push_family(Box::new(DiskPairs::new(population.clone())));
+    let settings = StepperSettings {
+        h: 0.05,
+        t_end: 1.5,
+        kkt_tolerance: 1e-10,
+        concave_tolerance: 1e-12,
+        ..Default::default()
+    };
+    let mut stepper = Stepper::new(&problem, settings).unwrap();
+    let mut backend = ReferenceProjector {
+        tolerance: 1e-13,
+        ..Default::default()
+    };
+    let mut worst: f64 = 0.0;
+    let mut cut_steps = 0;
+    while stepper.steps_done() < stepper.n_steps() {
+        let (t, q) = (stepper.time(), stepper.state().to_vec());
+        let mut f = vec![0.0; q.len()];
+        problem.perturbation().eval(t, &q, &mut f);
+        let report = stepper.step(&mut backend).unwrap();
+        let y: Vec<f64> = q.iter().zip(&f).map(|(q, f)| q + report.h * f).collect();
+        let mut halfspaces = Vec::new();
+        for i in 0..3 {
+            for j in i + 1..3 {
+                // g = |qᵢ − qⱼ| − rᵢ − rⱼ linearized at q: ∇g·x ≥ ∇g·q − g(q).
+                let (dx, dy) = (q[2 * i] - q[2 * j], q[2 * i + 1] - q[2 * j + 1]);
+                let d = dx.hypot(dy);
+                let (ex, ey) = (dx / d, dy / d);
+                let mut a = vec![0.0; 6];
+                (a[2 * i], a[2 * i + 1], a[2 * j], a[2 * j + 1]) = (ex, ey, -ex, -ey);
+                let aq: f64 = a.iter().zip(&q).map(|(a, q)| a * q).sum();
+                halfspaces.push((a, aq - (d - radii[i] - radii[j])));
+            }
+        }
+        let balls: Vec<_> = (0..3).map(|i| (i, center, radius - radii[i])).collect();
+        let expect = dykstra(&y, &halfspaces, &balls);
+        let x = stepper.state();
+        let err = x
+            .iter()
+            .zip(&expect)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        worst = worst.max(err);
+        cut_steps += usize::from(report.cuts > 0);
+    }
+    println!("arena, three people: largest distance to the projection {worst:.2e}, {cut_steps} steps with cuts");
+    assert!(cut_steps > 10, "{cut_steps} steps with cuts");
+    assert!(worst < 1e-8, "{worst:.2e}");
 }
