@@ -434,3 +434,36 @@ fn in_a_lens_each_step_ends_inside_both_disks() {
     );
     assert!(worst < 1e-9, "{worst:.2e}");
 }
+
+/// A concave tolerance looser than the violation tolerance is refused before the first step,
+/// naming both (a certified step would otherwise fail the check after it, mid-run).
+#[test]
+fn a_concave_tolerance_looser_than_the_violation_tolerance_is_refused_up_front() {
+    let problem = ellipse(true);
+    let e = Stepper::new(&problem, loose_settings())
+        .err()
+        .expect("refused");
+    let message = e.to_string();
+    assert!(
+        message.contains("concave_tolerance = 1e-4")
+            && message.contains("violation_tolerance = 1e-6"),
+        "{message}"
+    );
+    // Equal is allowed, and without a concave constraint the concave tolerance is not read.
+    let equal = StepperSettings {
+        concave_tolerance: 1e-6,
+        violation_tolerance: 1e-6,
+        ..settings(0.1)
+    };
+    assert!(Stepper::new(&problem, equal).is_ok());
+    let convex_only = Problem::new(vec![0.5, 0.2], push);
+    assert!(Stepper::new(&convex_only, loose_settings()).is_ok());
+}
+
+fn loose_settings() -> StepperSettings {
+    StepperSettings {
+        concave_tolerance: 1e-4,
+        violation_tolerance: 1e-6,
+        ..settings(0.1)
+    }
+}

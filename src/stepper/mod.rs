@@ -141,6 +141,17 @@ impl<'p> Stepper<'p> {
             .families()
             .iter()
             .any(|f| f.curvature() == Curvature::Concave && !f.is_affine());
+        // A convex set's cuts stop within `concave_tolerance` of it, and the check after the
+        // step refuses a distance beyond `violation_tolerance`: the first must not exceed the
+        // second, or a certified step fails its check.
+        if concave && settings.concave_tolerance > settings.violation_tolerance {
+            return Err(SweepError::InvalidInput(format!(
+                "concave_tolerance = {:e} exceeds violation_tolerance = {:e}: the cuts of a \
+                 convex set (a constraint declared concave) would stop farther outside it than \
+                 the check after each step allows; lower concave_tolerance",
+                settings.concave_tolerance, settings.violation_tolerance
+            )));
+        }
         let mut stepper = Self {
             problem,
             n_steps,
