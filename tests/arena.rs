@@ -9,7 +9,7 @@ use sweeping::crowd::{ArenaWall, DiskPairs, Population};
 use sweeping::output::{render_svg, TrajectoryWriter};
 use sweeping::prelude::*;
 use sweeping::scene::spec::DesiredSpec;
-use sweeping::scene::{Arena, CrowdBuilder, Effect, Overrides, Scene, SceneError};
+use sweeping::scene::{Arena, BuiltScene, CrowdBuilder, Effect, Overrides, Scene, SceneError};
 use sweeping_testkit::checker::{check_trajectory, scratch, Geometry, Obstacle};
 
 const TOL: f64 = 1e-6;
@@ -215,15 +215,7 @@ fn the_arena_is_drawn_as_a_round_wall() {
             radius: 5.0
         })
     );
-    let svg = render_svg(
-        &built.geometry,
-        &built.population,
-        &built.group_of,
-        built.problem.q0(),
-        0.0,
-        "arena",
-        None,
-    );
+    let svg = picture_at_start(&built);
     // SVG's y axis points down: the centre (6, 6) is drawn at (6, −6).
     assert!(
         svg.contains(r#"<circle cx="6.0000" cy="-6.0000" r="5.0000" fill="none""#),
@@ -241,15 +233,7 @@ fn the_arena_is_drawn_as_a_round_wall() {
     .build(&Overrides::default())
     .unwrap();
     assert_eq!(room_only.geometry.arena, None);
-    let svg = render_svg(
-        &room_only.geometry,
-        &room_only.population,
-        &room_only.group_of,
-        room_only.problem.q0(),
-        0.0,
-        "no arena",
-        None,
-    );
+    let svg = picture_at_start(&room_only);
     assert!(!svg.contains(r#"fill="none" stroke"#), "{svg}");
 }
 
@@ -378,4 +362,17 @@ fn each_step_in_the_arena_is_the_projection_onto_the_linearized_pairs_and_the_ex
     println!("arena, three people: largest distance to the projection {worst:.2e}, {cut_steps} steps with cuts");
     assert!(cut_steps > 10, "{cut_steps} steps with cuts");
     assert!(worst < 1e-8, "{worst:.2e}");
+}
+
+/// The scene's SVG picture at its start.
+fn picture_at_start(built: &BuiltScene) -> String {
+    render_svg(
+        &built.geometry,
+        &built.population,
+        &built.group_of,
+        built.problem.q0(),
+        0.0,
+        &built.name,
+        None,
+    )
 }
