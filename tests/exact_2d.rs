@@ -26,6 +26,7 @@
 //! `γ < 0.7 h` ends at `z + h u + (0.7 h − γ) n`, exactly the true motion.
 
 mod common;
+use common::run;
 
 use std::sync::Arc;
 use sweeping::api::conformance::ReferenceProjector;
@@ -73,18 +74,6 @@ fn disk_problem() -> Problem {
         f.copy_from_slice(&[1.0, 0.0]);
     })
     .with_family(obstacle)
-}
-
-fn run(problem: &Problem, h: f64, t_end: f64, projector: &mut dyn Projector) -> Run {
-    let settings = StepperSettings {
-        h,
-        t_end,
-        ..Default::default()
-    };
-    Stepper::new(problem, settings)
-        .expect("feasible start")
-        .run(projector, &mut [])
-        .unwrap_or_else(|f| panic!("h = {h}: {f}"))
 }
 
 fn max_error(r: &Run, exact: impl Fn(f64) -> [f64; 2]) -> f64 {

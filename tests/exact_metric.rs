@@ -11,6 +11,7 @@
 //!   the next step corrects: the position converges at order 1, the residual `|h|` at order 2.
 
 mod common;
+use common::run;
 
 use sweeping::api::conformance::ReferenceProjector;
 use sweeping::api::Metric;
@@ -18,18 +19,6 @@ use sweeping::prelude::*;
 use sweeping::stepper::Run;
 use sweeping::study::distance;
 use sweeping::study::exact::{ExactCase, MassesAgainstMovingWall, PointOnMovingCircle};
-
-fn run(problem: &Problem, h: f64, t_end: f64, projector: &mut dyn Projector) -> Run {
-    let settings = StepperSettings {
-        h,
-        t_end,
-        ..Default::default()
-    };
-    Stepper::new(problem, settings)
-        .expect("feasible start")
-        .run(projector, &mut [])
-        .unwrap_or_else(|f| panic!("h = {h}: {f}"))
-}
 
 /// `max_k |q(t_k) − q_k|` over the grid.
 fn grid_error(case: &dyn ExactCase, r: &Run) -> f64 {

@@ -78,3 +78,22 @@ pub fn sci(values: &[f64]) -> String {
 
 pub mod kernels;
 pub mod scene_geometry;
+
+/// `problem` run with step `h` to `t_end` on `projector`, with the default settings otherwise;
+/// a failure panics naming `h`.
+pub fn run(
+    problem: &sweeping::problem::Problem,
+    h: f64,
+    t_end: f64,
+    projector: &mut dyn Projector,
+) -> sweeping::stepper::Run {
+    let settings = sweeping::stepper::StepperSettings {
+        h,
+        t_end,
+        ..Default::default()
+    };
+    sweeping::stepper::Stepper::new(problem, settings)
+        .expect("feasible start")
+        .run(projector, &mut [])
+        .unwrap_or_else(|f| panic!("h = {h}: {f}"))
+}
