@@ -1,6 +1,6 @@
-//! The interior point as crowds use it: a push through a chain, answered exactly by the finish
-//! from the interior point's support; and straight away, without the support method's
-//! attempt, when a block goes to the interior point solve after solve.
+//! The interior point as crowds use it: a push through a chain, answered by the interior point
+//! within its accuracy; and straight away, without the support method's attempt, when a block
+//! goes to the interior point solve after solve.
 
 use sweeping_api::conformance::max_gap;
 use sweeping_api::{ProjectionProblem, Projector, RowKey, SparseRows};
@@ -47,7 +47,7 @@ fn interior(active_set_iterations: u32) -> NativeProjector {
 }
 
 #[test]
-fn a_push_through_a_chain_is_answered_exactly_from_the_interior_point() {
+fn a_push_through_a_chain_is_answered_by_the_interior_point_within_its_accuracy() {
     let p = chain(12, false);
     let sol = interior(0).project(&p).unwrap();
     assert_eq!(
@@ -60,9 +60,14 @@ fn a_push_through_a_chain_is_answered_exactly_from_the_interior_point() {
     let gap = max_gap(&sol.x, &exact);
     assert!(gap <= 1e-10, "{:?}", sol.x);
     // The wall and the chain's first four rows hold the push (the row that held at `y` among
-    // them), the rest are slack: exactly zero, the finish's multipliers.
+    // them); the rest are slack, their multipliers the interior point's last `μ / slack`:
+    // no contact force at any threshold a report uses.
     for (i, &l) in sol.multipliers.iter().enumerate() {
-        assert_eq!(l > 0.0, i < 5, "row {i}: {:?}", sol.multipliers);
+        if i < 5 {
+            assert!(l > 0.1, "row {i}: {:?}", sol.multipliers);
+        } else {
+            assert!((0.0..=1e-12).contains(&l), "row {i}: {:?}", sol.multipliers);
+        }
     }
     assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
 }

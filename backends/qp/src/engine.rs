@@ -30,9 +30,10 @@ pub struct EngineSettings {
     /// support changes by a few rows a step (a crowd walking, a queue moving) and loses to
     /// the interior point when it changes by hundreds (a jam).
     pub active_set_iterations: u32,
-    /// Most active-set iterations when it finishes an interior point's answer from the
-    /// interior point's support (rows whose multiplier exceeds their slack), the most violated
-    /// row joining alone; `0` keeps the interior point's answer as it is. Default `16`.
+    /// Most active-set iterations when it finishes an interior point's answer that is not the
+    /// block's answer on its own (short of its tolerance, failing the KKT check, or violating
+    /// a row it left out), from the interior point's support (rows whose multiplier exceeds
+    /// their slack), the most violated row joining alone; `0` never finishes. Default `16`.
     pub finish_iterations: u32,
     /// Start the active set from the previous projection's support, matched by row keys.
     /// Default `true`.
@@ -548,6 +549,23 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                 .map_err(|reason| unsolved(iterations, reason))?;
         let missed = !violated.is_empty();
         iterations = iterations.saturating_add(it.iterations);
+        // An interior point within its tolerance, or stalled near it (the directions'
+        // rounding, with weights spanning twenty orders of magnitude, sets a floor), is the
+        // answer when it is certified: within its accuracy of the projection, as exact as
+        // the scheme needs. The active set's finish is for the others.
+        let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
+        let acceptable =
+            it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy;
+        if !missed && acceptable && certified(&x, &it.lambda) {
+            return Ok(BlockAnswer {
+                x,
+                lambda: it.lambda,
+                method: Method::InteriorPoint,
+                iterations,
+                warm,
+                short_of: (!it.converged).then_some(it.accuracy * it.length),
+            });
+        }
         if settings.finish_iterations > 0 {
             let finished = finish_interior_point(context, orderings, block, (&it, &r), missed);
             match finished {
@@ -574,22 +592,6 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                 _ => keep = None,
             }
             continue;
-        }
-        // An interior point that stalled near its tolerance (the directions' rounding, with
-        // weights spanning twenty orders of magnitude, sets a floor) is answered as it is,
-        // counted as short of the tolerance.
-        let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
-        let acceptable =
-            it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy;
-        if acceptable && certified(&x, &it.lambda) {
-            return Ok(BlockAnswer {
-                x,
-                lambda: it.lambda,
-                method: Method::InteriorPoint,
-                iterations,
-                warm,
-                short_of: (!it.converged).then_some(it.accuracy * it.length),
-            });
         }
         if !it.converged {
             if let Some(rows) = farkas(p, &r, &it.lambda) {
@@ -639,15 +641,12 @@ fn finish_interior_point(
 ) -> Finished {
     let p = &block.problem;
     let settings = context.settings;
-    // The interior point's support, finished exactly when the active set gets there
-    // within its cap: rows reached only like `√μ` are then where they belong. On a
-    // jam (more tight rows than unknowns) it runs out, and the interior point's answer
-    // stands. The finish's tests are at `1e-12`, and on a sliver of a feasible set an
-    // answer that passes them can lie `1e-8` from the projection, farther than the
-    // interior point: it is kept only where it agrees with the interior point's
-    // answer. An interior point too far short of its tolerance to be kept leaves the
-    // finish as the way to an answer: the finish then gets more iterations. (Nearer,
-    // its answer stands: on a sliver a longer finish ends farther from the projection.)
+    // The interior point's support, finished when the active set gets there within its cap.
+    // The finish's tests are at `1e-12`, and on a sliver of a feasible set an answer that
+    // passes them can lie `1e-8` from the projection, farther than the interior point: it is
+    // kept only where it agrees with the interior point's answer. An interior point too far
+    // short of its tolerance to be kept leaves the finish as the way to an answer: the finish
+    // then gets more iterations.
     let cap = if it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy {
         settings.finish_iterations
     } else {

@@ -15,9 +15,11 @@
 //!    analysed once per block). A jam — more tight rows than unknowns, rows of contact loops
 //!    linearly dependent, multipliers not unique — is its normal case: the normal matrix stays
 //!    positive definite whatever the rows. It runs to its accuracy contract ([`Tolerance`]),
-//!    and the active set then **finishes** from its support (the rows whose multiplier
-//!    exceeds their slack) within [`EngineSettings::finish_iterations`]; the finish is kept
-//!    only where it agrees with the interior point's answer.
+//!    and its answer, certified, is the block's: within that accuracy of the projection. An
+//!    answer short of the contract, failing the certificate or violating a row the interior
+//!    point left out is **finished** by the active set from its support (the rows whose
+//!    multiplier exceeds their slack) within [`EngineSettings::finish_iterations`]; the
+//!    finish is kept only where it agrees with the interior point's answer.
 //!
 //! Every answer passes the KKT check ([`sweeping_api::ProjectionProblem::kkt_residuals`]) at
 //! [`EngineSettings::kkt_tolerance`] before it is returned; a block that neither method
