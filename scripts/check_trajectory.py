@@ -10,7 +10,9 @@ each waypoint between two frames, against both frames' positions), people writte
 room (the trajectory writes only people present: their disk not wholly outside), non-finite
 numbers, people who came back after leaving (written again after a frame without them), the
 largest speed between frames; compares who is missing from each frame with the departures of
-`people.csv` (each one wholly outside the room); then compares the summary's counts, times and
+`people.csv` (each one wholly outside the room); a run that ends with everybody gone
+between two frames ends on an empty frame, which has no rows: it is taken at the summary's
+`t_final` when `people.csv` says everybody left by then; then compares the summary's counts, times and
 largest overlap and penetration with what the trajectory shows. Standard library only
 (Python 3.11 or later, for tomllib).
 
@@ -217,6 +219,21 @@ with open(os.path.join(out, 'trajectory.csv')) as f:
         rows[tf][int(i)] = (xf, yf, 1)
         ids.add(int(i))
 times = sorted(rows)
+# A frame with nobody in it has no rows, so a run that ends with everybody gone between two
+# sampled frames ends on a frame the file cannot show: its time is the summary's t_final, and
+# people.csv must say that everybody left by then.
+summary_path = os.path.join(out, 'summary.json')
+if times and os.path.exists(summary_path):
+    try:
+        t_end_run = json.load(open(summary_path)).get('t_final')
+    except ValueError:
+        t_end_run = None
+    if (isinstance(t_end_run, (int, float)) and t_end_run > times[-1] + 1e-9 * max(1.0, abs(t_end_run))
+            and N > 0 and all(d is not None and d[0] <= t_end_run + 1e-9 * max(1.0, abs(t_end_run))
+                              for d in departures)):
+        print(f'frame t={t_end_run}: empty (everybody left by then, as people.csv says), not written')
+        rows[t_end_run] = {}
+        times.append(t_end_run)
 print(f'frames {len(times)}, t {times[0] if times else None}..{times[-1] if times else None}, ids {len(ids)}, scene people {N}')
 if bad:
     print(f'NON-FINITE values: {len(bad)}, first {bad[:3]}')

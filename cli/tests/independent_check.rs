@@ -133,3 +133,50 @@ fn the_independent_check_sees_an_obstacle_at_its_waypoints_between_frames() {
         "{text}"
     );
 }
+
+/// A run that ends with everybody gone between two sampled frames ends on a frame with no rows
+/// (the file cannot show it): the check takes it from the summary's final time when
+/// `people.csv` says everybody left by then, and flags the summary when it does not.
+#[test]
+fn the_independent_check_reads_an_empty_last_frame_from_the_departures() {
+    let has_tomllib = Command::new("python3")
+        .args(["-c", "import tomllib"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_tomllib {
+        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+        return;
+    }
+    let scene = "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[exits]]\nfrom = [4.0, 1.0]\n\
+                 to = [4.0, 3.0]\n[[people]]\nposition = [3.5, 2.0]\nradius = 0.2\n\
+                 [desired]\nkind = \"exit\"\n[run]\nh = 0.01\nt_end = 5.0\nstop_when_empty = true\n\
+                 [output]\ntrajectory_every = 0.5\n";
+    let run = sweep_run("independent-check-empty-end", scene, &["--threads", "1"]);
+    assert!(run.success, "{}", run.output);
+    let summary = std::fs::read_to_string(run.out.join("summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    let t_final = summary["t_final"].as_f64().unwrap();
+    assert!(
+        t_final > 0.5 && t_final < 1.0 && summary["people_remaining"] == 0,
+        "{summary}"
+    );
+    let scene = run.out.with_file_name("independent-check-empty-end.toml");
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 0, "{text}");
+    assert!(text.contains("empty (everybody left by then"), "{text}");
+    // The same run with the departure struck from people.csv: the last frame written still
+    // holds the person, and the summary's count of nobody left disagrees with it.
+    let people = run.out.join("people.csv");
+    let text = std::fs::read_to_string(&people).unwrap();
+    let struck: Vec<String> = text
+        .lines()
+        .map(|l| match l.split_once(',') {
+            Some(("0", rest)) => format!("0,{},,,", rest.split(',').next().unwrap()),
+            _ => l.to_string(),
+        })
+        .collect();
+    std::fs::write(&people, struck.join("\n") + "\n").unwrap();
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 1, "{text}");
+    assert!(text.contains("SUMMARY_REMAINING(0 vs 1)"), "{text}");
+}
