@@ -3,7 +3,8 @@
 
 usage: python3 scripts/check_trajectory.py SCENE.toml OUTDIR [--tol 1e-9]
 
-Reads the scene file (room, exits, obstacles and their motion, people and crowds) and the
+Reads the scene file (room, exits and obstacles, from WKT too, their motion, an arena's round
+wall, people, crowds, sources) and the
 run's `trajectory.csv`, `people.csv` and `summary.json`, and recomputes at every recorded
 frame: overlaps of people, penetrations of walls and obstacles (of obstacles on a path also at
 each waypoint between two frames, against both frames' positions), people written outside the
@@ -12,13 +13,15 @@ numbers, people who came back after leaving (written again after a frame without
 largest speed between frames; compares who is missing from each frame with the departures of
 `people.csv` (each one wholly outside the room); a run that ends with everybody gone
 between two frames ends on an empty frame, which has no rows: it is taken at the summary's
-`t_final` when `people.csv` says everybody left by then; then compares the summary's counts, times and
-largest overlap and penetration with what the trajectory shows. Standard library only
+`t_final` when `people.csv` says everybody left by then; then compares the summary's counts,
+times and largest overlap and penetration with what the trajectory shows. Standard library only
 (Python 3.11 or later, for tomllib).
 
 People are numbered as `sweep run` numbers them: the `[[people]]` first, then each crowd in
-order. Their radii are read from `people.csv`, and checked against the scene's where it gives
-them (a crowd with a range of radii draws them at random: they must lie in the range).
+order, then each source's. A source's people may be missing from the frames before their first,
+but not be written before they are due. Radii are read from `people.csv` and checked against
+the scene's: a number, or the range a crowd's or a source's radii are drawn from, plus half of
+its `gap` (the disk its people keep clear).
 
 Prints what it found; exits with 1 when a flag is raised (anything beyond `--tol`, or a
 summary that disagrees with the trajectory), 0 otherwise.
@@ -45,13 +48,44 @@ with open(scene_path, "rb") as scene_file:
     sc = tomllib.load(scene_file)
 
 # ---------- geometry
+def wkt_rings(text):
+    """The rings (or line strings) of a WKT geometry, in order, as lists of points; a ring's
+    closing point (a repeat of its first) dropped. Polygons' rings are grouped by polygon."""
+    text = text.strip()
+    kind = re.match(r'[A-Za-z]+', text).group(0).upper()
+    body = text[len(kind):].strip()
+
+    def points(chunk):
+        pts = [tuple(float(v) for v in pair.split()) for pair in chunk.split(',')]
+        if len(pts) > 1 and pts[0] == pts[-1]:
+            pts = pts[:-1]
+        return pts
+
+    if kind in ('LINESTRING', 'POLYGON'):
+        parts = [re.findall(r'\(([^()]*)\)', body)]
+    else:  # MULTILINESTRING, MULTIPOLYGON: one group per part
+        parts = ([re.findall(r'\(([^()]*)\)', g) for g in re.findall(r'\(\s*(\([^()]*\)(?:\s*,\s*\([^()]*\))*)\s*\)', body)]
+                 if kind == 'MULTIPOLYGON' else [[c] for c in re.findall(r'\(([^()]*)\)', body)])
+    return kind, [[points(c) for c in group] for group in parts]
+
+
 room = sc['room']
+wkt_holes = []
 if 'rectangle' in room:
     x0, y0, x1, y1 = room['rectangle']
     poly = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
-else:
+elif 'polygon' in room:
     poly = [tuple(p) for p in room['polygon']]
+else:
+    text = room.get('wkt')
+    if text is None:
+        with open(os.path.join(os.path.dirname(scene_path), room['wkt_file'])) as wkt_file:
+            text = wkt_file.read()
+    _, polygons = wkt_rings(text)
+    poly, wkt_holes = polygons[0][0], polygons[0][1:]
 exits = [(tuple(e['from']), tuple(e['to'])) for e in sc.get('exits', [])]
+if 'exits_wkt' in room:
+    exits += [(line[0], line[1]) for group in wkt_rings(room['exits_wkt'])[1] for line in group]
 
 
 def seg_dist(p, a, b):
@@ -134,6 +168,11 @@ for o in sc.get('obstacles', []):
         obstacles.append(('seg', (tuple(o['segment']['from']), tuple(o['segment']['to'])), mot))
     elif 'polygon' in o:
         obstacles.append(('poly', [tuple(p) for p in o['polygon']], mot))
+# A WKT room's holes, then `obstacles_wkt`'s polygons, numbered after the [[obstacles]].
+obstacles += [('poly', hole, None) for hole in wkt_holes]
+if 'obstacles_wkt' in room:
+    obstacles += [('poly', group[0], None) for group in wkt_rings(room['obstacles_wkt'])[1]]
+arena = sc.get('arena')
 
 
 def offset(mot, t):
@@ -166,16 +205,56 @@ def obstacle_gap(p, r, ob, t):
     return g - r
 
 
-# ---------- people radii and speeds
-scene_radii, speeds = [], []
+# ---------- people radii, speeds and arrivals
+def radius_range(spec, gap):
+    """[lo, hi] a radius spec allows, with half the group's gap added (the constraints' disk,
+    which people.csv lists)."""
+    if isinstance(spec, (int, float)):
+        lo, hi = spec, spec
+    elif isinstance(spec, list):
+        lo, hi = spec
+    elif 'uniform' in spec:
+        lo, hi = spec['uniform']
+    else:
+        lo, hi = spec.get('within', [0.0, math.inf])
+    return (lo + gap / 2, hi + gap / 2)
+
+
+def top_speed(spec):
+    """The largest desired speed a speed spec allows (for the report only)."""
+    if spec is None:
+        return 1.0
+    if isinstance(spec, (int, float)):
+        return spec
+    if 'uniform' in spec:
+        return spec['uniform'][1]
+    return spec.get('within', [0.0, math.inf])[1]
+
+
+def arrival_times(src):
+    """When each person of a [[sources]] entry is due, at the earliest."""
+    if 'times' in src:
+        counts = src.get('counts', [1] * len(src['times']))
+        return [t for t, k in zip(src['times'], counts) for _ in range(k)]
+    start = src.get('start', 0.0)
+    return [start + k / src['rate'] for k in range(src['count'])]
+
+
+# Who is in the scene, numbered as `sweep run` numbers them: [[people]], [[crowds]], then
+# [[sources]]; due[i] is when person i may first be written (0 for everybody there at t = 0).
+scene_radii, speeds, due = [], [], []
 for p in sc.get('people', []):
-    scene_radii.append((p['radius'], p['radius'])); speeds.append(p.get('speed', 1.0))
+    scene_radii.append(radius_range(p['radius'], 0.0)); speeds.append(top_speed(p.get('speed')))
+    due.append(0.0)
 for c in sc.get('crowds', []):
-    r = c['radius']
-    lo, hi = (r[0], r[1]) if isinstance(r, list) else (r, r)
-    scene_radii.extend([(lo, hi)] * c['count'])
-    sp = c.get('speed', 1.0)
-    speeds.extend([sp if isinstance(sp, (int, float)) else float('nan')] * c['count'])
+    scene_radii.extend([radius_range(c['radius'], c.get('gap', 0.0))] * c['count'])
+    speeds.extend([top_speed(c.get('speed'))] * c['count'])
+    due.extend([0.0] * c['count'])
+for src in sc.get('sources', []):
+    times_due = arrival_times(src)
+    scene_radii.extend([radius_range(src['radius'], src.get('gap', 0.0))] * len(times_due))
+    speeds.extend([top_speed(src.get('speed'))] * len(times_due))
+    due.extend(times_due)
 N = len(scene_radii)
 flags = []
 radii, departures = [], []
@@ -239,12 +318,22 @@ if bad:
     print(f'NON-FINITE values: {len(bad)}, first {bad[:3]}')
 if ids and (min(ids) < 0 or max(ids) > N - 1):
     print(f'ID MISMATCH: ids {sorted(ids)[:5]}..{max(ids)} vs N={N}'); flags.append('IDS')
-# Who is missing from a frame has left by then, as people.csv says, and who is written has not.
+# Who is missing from a frame has left by then, as people.csv says, or has not arrived yet (not
+# written before); who is written has not left, and is due by then.
+first_seen = {}
+for t in times:
+    for i in rows[t]:
+        first_seen.setdefault(i, t)
+for i, t in first_seen.items():
+    if i < N and t < due[i] - 1e-9 * max(1.0, abs(due[i])):
+        print(f'person {i} is written at t={t}, before their arrival is due at t={due[i]}')
+        flags.append('EARLY_ARRIVAL'); break
 for t in times:
     for i in range(N):
         d = departures[i]
         gone = d is not None and d[0] <= t + 1e-9 * max(1.0, abs(t))
-        if (i in rows[t]) == gone:
+        pending = not gone and first_seen.get(i, math.inf) > t
+        if not pending and (i in rows[t]) == gone:
             print(f'frame t={t}: person {i} is {"written" if gone else "missing"}, people.csv says '
                   f'{"they left at t=" + str(d[0]) if gone else "they had not left"}')
             flags.append('DEPARTURES'); break
@@ -303,6 +392,11 @@ for t in times:
             pen = -obstacle_gap((x, y), r, ob, t)
             if pen > worst_obs[0]:
                 worst_obs = (pen, f'person {i} obstacle #{k} at t={t}')
+        if arena is not None:
+            c, big = arena['center'], arena['radius']
+            pen = math.hypot(x - c[0], y - c[1]) + r - big
+            if pen > worst_wall[0]:
+                worst_wall = (pen, f'person {i} arena wall at t={t} centre ({x},{y})')
         # a person written is present: their disk is not wholly outside the room
         if not inside_poly((x, y), poly) and dist_to_boundary((x, y), poly) >= r:
             outside_present = max(outside_present, (dist_to_boundary((x, y), poly), f'person {i} written wholly outside the room at t={t} ({x},{y})'), key=lambda z: z[0])
@@ -340,7 +434,8 @@ for t in times:
                 rate = d / dt if dt > 0 else float('inf')
                 if rate > worst_disp[0]:
                     worst_disp = (rate, f'person {i} moved {d:.6g} in dt={dt:.6g} ({pt}->{t}), speed {speeds[i]}')
-    if first_empty is None and N > 0 and not pres:
+    everybody_left = all(d is not None and d[0] <= t + 1e-9 * max(1.0, abs(t)) for d in departures)
+    if first_empty is None and N > 0 and not pres and everybody_left:
         first_empty = t
     prev = (t, fr)
 
@@ -397,7 +492,10 @@ if os.path.exists(sp):
                     c = k
             return c
         for t in times:
-            k = N - len(rows[t])
+            # Out: written before and missing now (not the people still to arrive).
+            k = sum(1 for i in first_seen if first_seen[i] <= t and i not in rows[t]) + sum(
+                1 for i, d in enumerate(departures)
+                if i not in first_seen and d is not None and d[0] <= t + 1e-9 * max(1.0, abs(t)))
             if k != out_at(t):
                 flags.append(f'PEOPLE_OUT_MISMATCH(t={t}: csv {k} vs summary {out_at(t)})'); break
 else:

@@ -180,3 +180,105 @@ fn the_independent_check_reads_an_empty_last_frame_from_the_departures() {
     assert_eq!(code, 1, "{text}");
     assert!(text.contains("SUMMARY_REMAINING(0 vs 1)"), "{text}");
 }
+
+/// People who arrive during the run (a source) and a crowd that keeps a gap: the check reads
+/// whom it expects when, and which radii (half the gap added), from the scene; a source's
+/// person written before they are due is flagged.
+#[test]
+fn the_independent_check_follows_sources_and_gaps_and_flags_an_early_arrival() {
+    let has_tomllib = Command::new("python3")
+        .args(["-c", "import tomllib"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_tomllib {
+        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+        return;
+    }
+    let scene = "[room]\nrectangle = [0.0, 0.0, 6.0, 4.0]\n[[exits]]\nfrom = [6.0, 1.0]\n\
+                 to = [6.0, 3.0]\n[[crowds]]\ncount = 6\nregion = [1.0, 0.5, 3.0, 3.5]\n\
+                 radius = { normal = [0.2, 0.02], within = [0.16, 0.24] }\ngap = 0.3\nseed = 7\n\
+                 [[sources]]\ndoor = { from = [0.0, 1.5], to = [0.0, 2.5] }\nrate = 4.0\n\
+                 count = 6\nstart = 0.6\nradius = { uniform = [0.18, 0.22] }\nseed = 1\n\
+                 [desired]\nkind = \"exit\"\n[run]\nh = 0.02\nt_end = 30.0\n\
+                 stop_when_empty = true\n[output]\ntrajectory_every = 0.2\n";
+    let run = sweep_run("independent-check-sources", scene, &["--threads", "1"]);
+    assert!(run.success, "{}", run.output);
+    let scene = run.out.with_file_name("independent-check-sources.toml");
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 0, "{text}");
+    assert!(text.contains("FLAGS: none"), "{text}");
+    // The last source's person (id 11, due at 0.6 + 5/4 = 1.85 s) written at t = 0 too.
+    let csv = run.out.join("trajectory.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    assert!(!lines.iter().any(|l| l.starts_with("0,11,")), "{text}");
+    lines.insert(1, "0,11,0.3,2.0".to_string());
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 1, "{text}");
+    assert!(text.contains("EARLY_ARRIVAL"), "{text}");
+}
+
+/// Moves person `id` to `(x, y)` in every frame of the run's trajectory.
+fn move_person(out: &Path, id: usize, x: f64, y: f64) {
+    let csv = out.join("trajectory.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let moved: Vec<String> = text
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            if f.len() >= 4 && f[1] == id.to_string() {
+                format!("{},{id},{x},{y}", f[0])
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    std::fs::write(&csv, moved.join("\n") + "\n").unwrap();
+}
+
+/// A room, its hole and its exits given in WKT, and a round arena: the check reads the same
+/// geometry as the run (clean as written), and flags a person put into the hole, or across
+/// the arena's wall.
+#[test]
+fn the_independent_check_reads_wkt_rooms_and_arenas() {
+    let has_tomllib = Command::new("python3")
+        .args(["-c", "import tomllib"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_tomllib {
+        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+        return;
+    }
+    let wkt = "[room]\nwkt = \"POLYGON ((0 0, 6 0, 6 4, 0 4, 0 0), (3 1, 4 1, 4 3, 3 3, 3 1))\"\n\
+               exits_wkt = \"LINESTRING (6 1.5, 6 2.5)\"\n[[people]]\nposition = [1.0, 2.0]\n\
+               radius = 0.2\n[[people]]\nposition = [1.0, 3.0]\nradius = 0.2\n\
+               [desired]\nkind = \"exit\"\n[run]\nh = 0.02\nt_end = 1.0\n";
+    let run = sweep_run("independent-check-wkt", wkt, &["--threads", "1"]);
+    assert!(run.success, "{}", run.output);
+    let scene = run.out.with_file_name("independent-check-wkt.toml");
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 0, "{text}");
+    move_person(&run.out, 1, 3.5, 2.0);
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 1, "{text}");
+    assert!(text.contains("OBSTACLE"), "{text}");
+
+    let arena = "[room]\nrectangle = [0.0, 0.0, 8.0, 8.0]\n[arena]\ncenter = [4.0, 4.0]\n\
+                 radius = 3.0\n[[people]]\nposition = [4.0, 4.0]\nradius = 0.25\n\
+                 [desired]\nkind = \"point\"\npoint = [7.5, 4.0]\n[run]\nh = 0.02\n\
+                 t_end = 3.0\n";
+    let run = sweep_run("independent-check-arena", arena, &["--threads", "1"]);
+    assert!(run.success, "{}", run.output);
+    let scene = run.out.with_file_name("independent-check-arena.toml");
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 0, "{text}");
+    // Pressed against the round wall, not through it; 0.1 m through once moved.
+    move_person(&run.out, 0, 6.85, 4.0);
+    let (code, text) = check(&scene, &run.out).unwrap();
+    assert_eq!(code, 1, "{text}");
+    assert!(
+        text.contains("WALL") && text.contains("1.000e-01"),
+        "{text}"
+    );
+}
