@@ -688,3 +688,80 @@ mod fuzz {
         }
     }
 }
+
+/// A run with arrivals, resumed while people are queueing through the source's door (some in,
+/// touching their neighbours, some still waiting for their place): the resumed run starts with
+/// exactly who was in, and goes on as the run that never stopped. It used to let in again, in
+/// order of their due times, everybody of a source it found in the room, so that people touching
+/// an earlier one vanished from the room until their place came free, and people still waiting
+/// took theirs at once.
+#[test]
+fn a_run_with_arrivals_resumed_mid_queue_goes_on_as_the_run_that_never_stopped() {
+    let scene = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes/arrivals.toml"),
+    )
+    .unwrap();
+    fn args<'a>(rest: &[&'a str]) -> Vec<&'a str> {
+        let mut a = vec!["--backend", "clarabel", "--threads", "1"];
+        a.extend_from_slice(rest);
+        a
+    }
+    let (ok, printed, whole) = sweep(
+        "resume-arrivals-whole",
+        &scene,
+        &args(&["--t-end", "5", "--out", "whole"]),
+    );
+    assert!(ok, "{printed}");
+    let (ok, printed, dir) = sweep(
+        "resume-arrivals",
+        &scene,
+        &args(&["--t-end", "3", "--out", "first"]),
+    );
+    assert!(ok, "{printed}");
+    let first_out = dir.join("first");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(first_out.join("summary.json")).unwrap())
+            .unwrap();
+    assert!(
+        summary["arrivals"]["still_waiting"].as_u64().unwrap() > 0,
+        "nobody waiting at t = 3 s: {summary}"
+    );
+    let second_out = dir.join("second");
+    let (ok, printed, _) = sweep(
+        "resume-arrivals-second",
+        &scene,
+        &args(&[
+            "--resume",
+            first_out.to_str().unwrap(),
+            "--t-end",
+            "5",
+            "--out",
+            second_out.to_str().unwrap(),
+        ]),
+    );
+    assert!(ok, "{printed}");
+    let (whole, first, second) = (
+        frames(&whole.join("whole")),
+        frames(&first_out),
+        frames(&second_out),
+    );
+    let t3 = 3_000_000;
+    assert_eq!(second.keys().next(), Some(&t3));
+    assert_eq!(second[&t3], first[&t3]);
+    assert_eq!(second.keys().last(), whole.keys().last());
+    for (t, frame) in &second {
+        assert!(
+            frame.keys().eq(whole[t].keys()),
+            "t = {}: {:?} present, the run that never stopped has {:?}",
+            *t as f64 * 1e-6,
+            frame.keys().collect::<Vec<_>>(),
+            whole[t].keys().collect::<Vec<_>>()
+        );
+        let g = gap(frame, &whole[t]);
+        assert!(
+            g < 1e-9,
+            "t = {}: {g:e} from the run that never stopped",
+            *t as f64 * 1e-6
+        );
+    }
+}

@@ -332,6 +332,20 @@ impl Population {
         }
     }
 
+    /// Latches person `i` as arrived by `t`, whatever their place: a run resumed from a state
+    /// in which they were in the room or had left (see
+    /// [`crate::scene::BuiltScene::resume_at`]) starts with them in, as the run that reached
+    /// that state had them. Nothing for someone there from the start.
+    pub fn set_arrived(&self, i: usize, t: f64) {
+        let Some(a) = &self.arrivals else {
+            return;
+        };
+        if a.due[i].is_some() && !a.arrived.get(i) {
+            a.arrived.set(i);
+            a.log.lock().unwrap_or_else(|e| e.into_inner()).arrived_at[i] = Some(t);
+        }
+    }
+
     /// Lets in, at time `t`, everybody due by `t` whose disk at their place in `q` overlaps
     /// nobody present (people due earlier first, then by index); who is due but finds their
     /// place taken waits, and the wait is recorded. Returns how many came in. A run calls it

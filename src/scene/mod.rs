@@ -230,6 +230,11 @@ pub struct BuiltScene {
     /// The people who had left at the start: nobody, unless the run was resumed from a
     /// state of an earlier one ([`BuiltScene::resume_at`]).
     pub departed_at_start: Vec<bool>,
+    /// The people of a source who had arrived at the start, present or gone: nobody, unless
+    /// the run was resumed from a state of an earlier one ([`BuiltScene::resume_at`]). They are
+    /// in as the run starts, wherever their neighbours stand; the others come in when due and
+    /// their place is free.
+    pub arrived_at_start: Vec<bool>,
     /// The waypoint each person of a journey has reached, one record per journey (empty
     /// without journeys); a run starts them all at the first waypoint.
     pub journeys: Vec<Arc<crate::crowd::journey::JourneyProgress>>,

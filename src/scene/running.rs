@@ -20,8 +20,9 @@ pub struct ResumeState {
 
 impl BuiltScene {
     /// Makes the run start from `state`, a state an earlier run of this scene reached,
-    /// instead of the scene's own start: the time, every person's position and who had left
-    /// (latched, as the earlier run had them). The horizon stays the scene's (or the
+    /// instead of the scene's own start: the time, every person's position, who had left and
+    /// who of a source had arrived (latched, as the earlier run had them: everybody in the
+    /// room or gone; who is written absent at their place is still to come). The horizon stays the scene's (or the
     /// override's): a run resumed at `t` goes on to the same `T`.
     ///
     /// The state is checked against the scene, since the run trusts it from then on: the
@@ -64,6 +65,8 @@ impl BuiltScene {
         }
         let mut state = state;
         let places = self.problem.q0().to_vec();
+        // Everybody of a source but who is still to come had arrived by then.
+        let mut arrived: Vec<bool> = (0..n).map(|i| self.population.due(i).is_some()).collect();
         for i in 0..n {
             let p = Population::position(&state.q, i);
             let r = self.population.radius(i);
@@ -74,6 +77,7 @@ impl BuiltScene {
                 && p == Population::position(&places, i)
             {
                 state.departed[i] = false;
+                arrived[i] = false;
                 continue;
             }
             if state.departed[i] {
@@ -98,6 +102,7 @@ impl BuiltScene {
         let t = state.t;
         self.problem.set_start(state.t, state.q);
         self.departed_at_start = state.departed;
+        self.arrived_at_start = arrived;
         // Checked as a start is, with the departures latched (people who left are in no
         // constraint).
         self.latch_departures_at_start();
@@ -106,6 +111,7 @@ impl BuiltScene {
         if let Err(source) = checked {
             self.problem.set_start(t0, q0);
             self.departed_at_start = vec![false; n];
+            self.arrived_at_start = vec![false; n];
             return Err(ResumeError::Infeasible { t, source });
         }
         Ok(())
@@ -174,9 +180,10 @@ impl BuiltScene {
     }
 
     /// Clears every departure, then latches those of [`BuiltScene::departed_at_start`]; clears
-    /// every arrival, then lets in who is due by the start and finds their place free (who
-    /// was present in a resumed state is where nobody else is): the population as the run
-    /// starts.
+    /// every arrival, then latches those of [`BuiltScene::arrived_at_start`] (in a resumed
+    /// state they may touch their neighbours, as people in a queue do, which would keep a
+    /// newcomer out) and lets in who else is due by the start and finds their place free: the
+    /// population as the run starts.
     fn latch_departures_at_start(&self) {
         self.population.reset_departures();
         for (i, _) in self
@@ -188,6 +195,9 @@ impl BuiltScene {
             self.population.set_departed(i);
         }
         self.population.reset_arrivals();
+        for (i, _) in self.arrived_at_start.iter().enumerate().filter(|(_, &a)| a) {
+            self.population.set_arrived(i, self.problem.t0());
+        }
         self.population.admit(self.problem.t0(), self.problem.q0());
         for j in &self.journeys {
             j.reset();

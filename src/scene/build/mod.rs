@@ -217,6 +217,7 @@ impl Scene {
             population.max_radius(),
         );
         let departed_at_start = vec![false; population.len()];
+        let arrived_at_start = vec![false; population.len()];
         Ok(BuiltScene {
             name: self.name.clone(),
             problem,
@@ -233,6 +234,7 @@ impl Scene {
             effects,
             distance_field,
             departed_at_start,
+            arrived_at_start,
             journeys,
         })
     }
