@@ -67,7 +67,7 @@ impl BuiltScene {
         let places = self.problem.q0().to_vec();
         // Everybody of a source but who is still to come had arrived by then.
         let mut arrived: Vec<bool> = (0..n).map(|i| self.population.due(i).is_some()).collect();
-        for i in 0..n {
+        for (i, in_by_now) in arrived.iter_mut().enumerate() {
             let p = Population::position(&state.q, i);
             let r = self.population.radius(i);
             // Someone of a source written absent at their place, never having moved, has not
@@ -77,7 +77,7 @@ impl BuiltScene {
                 && p == Population::position(&places, i)
             {
                 state.departed[i] = false;
-                arrived[i] = false;
+                *in_by_now = false;
                 continue;
             }
             if state.departed[i] {
