@@ -4,7 +4,7 @@
 
 mod support;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use support::sweep_run;
@@ -29,6 +29,19 @@ h = 0.01
 t_end = 1.0
 "#;
 
+/// Whether this machine lacks a `python3` with `tomllib` (3.11 or later), which the script
+/// needs; says so, for the test that is then skipped.
+fn no_python_with_tomllib() -> bool {
+    let has_tomllib = Command::new("python3")
+        .args(["-c", "import tomllib"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_tomllib {
+        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+    }
+    !has_tomllib
+}
+
 /// Runs the script on `scene` and `out`: its exit code and what it printed.
 fn check(scene: &Path, out: &Path) -> Option<(i32, String)> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/check_trajectory.py");
@@ -43,24 +56,26 @@ fn check(scene: &Path, out: &Path) -> Option<(i32, String)> {
     Some((ran.status.code()?, text))
 }
 
-#[test]
-fn the_independent_check_passes_a_run_and_flags_an_overlap_put_into_it() {
-    let has_tomllib = Command::new("python3")
-        .args(["-c", "import tomllib"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !has_tomllib {
-        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
-        return;
-    }
-    let run = sweep_run("independent-check", SMALL, &["--threads", "1"]);
+/// Runs `scene` (named `name`) on one thread and the script on its outputs, which must pass:
+/// the scene file's path and the output directory, for a test to tamper with.
+fn run_checked_clean(name: &str, scene: &str) -> (PathBuf, PathBuf) {
+    let run = sweep_run(name, scene, &["--threads", "1"]);
     assert!(run.success, "{}", run.output);
-    let scene = run.out.with_file_name("independent-check.toml");
+    let scene = run.out.with_file_name(format!("{name}.toml"));
     let (code, text) = check(&scene, &run.out).unwrap();
     assert_eq!(code, 0, "{text}");
     assert!(text.contains("FLAGS: none"), "{text}");
+    (scene, run.out)
+}
+
+#[test]
+fn the_independent_check_passes_a_run_and_flags_an_overlap_put_into_it() {
+    if no_python_with_tomllib() {
+        return;
+    }
+    let (scene, out) = run_checked_clean("independent-check", SMALL);
     // Person 1 put 0.3 m from person 0 in the last frame: 0.15 of overlap.
-    let csv = run.out.join("trajectory.csv");
+    let csv = out.join("trajectory.csv");
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     let last_t = lines.last().unwrap().split(',').next().unwrap().to_string();
@@ -78,7 +93,7 @@ fn the_independent_check_passes_a_run_and_flags_an_overlap_put_into_it() {
         }
     }
     std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
-    let (code, text) = check(&scene, &run.out).unwrap();
+    let (code, text) = check(&scene, &out).unwrap();
     assert_eq!(code, 1, "{text}");
     assert!(
         text.contains("OVERLAP") && text.contains("1.500e-01"),
@@ -93,12 +108,7 @@ fn the_independent_check_passes_a_run_and_flags_an_overlap_put_into_it() {
 /// wall is back where it started.
 #[test]
 fn the_independent_check_sees_an_obstacle_at_its_waypoints_between_frames() {
-    let has_tomllib = Command::new("python3")
-        .args(["-c", "import tomllib"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !has_tomllib {
-        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+    if no_python_with_tomllib() {
         return;
     }
     let scene = "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[obstacles]]\n\
@@ -107,12 +117,8 @@ fn the_independent_check_sees_an_obstacle_at_its_waypoints_between_frames() {
                  [[people]]\nposition = [1.25, 2.0]\nradius = 0.25\nspeed = 0\n\
                  [desired]\nkind = \"constant\"\nvelocity = [0.0, 0.0]\n\
                  [run]\nh = 0.005\nt_end = 0.05\n[output]\ntrajectory_every = 0.01\n";
-    let run = sweep_run("independent-check-waypoints", scene, &["--threads", "1"]);
-    assert!(run.success, "{}", run.output);
-    let scene = run.out.with_file_name("independent-check-waypoints.toml");
-    let (code, text) = check(&scene, &run.out).unwrap();
-    assert_eq!(code, 0, "{text}");
-    let csv = run.out.join("trajectory.csv");
+    let (scene, out) = run_checked_clean("independent-check-waypoints", scene);
+    let csv = out.join("trajectory.csv");
     let text = std::fs::read_to_string(&csv).unwrap();
     let unpushed: Vec<String> = text
         .lines()
@@ -126,7 +132,7 @@ fn the_independent_check_sees_an_obstacle_at_its_waypoints_between_frames() {
         })
         .collect();
     std::fs::write(&csv, unpushed.join("\n") + "\n").unwrap();
-    let (code, text) = check(&scene, &run.out).unwrap();
+    let (code, text) = check(&scene, &out).unwrap();
     assert_eq!(code, 1, "{text}");
     assert!(
         text.contains("OBSTACLE") && text.contains("7.000e-02") && text.contains("waypoint"),
@@ -139,34 +145,26 @@ fn the_independent_check_sees_an_obstacle_at_its_waypoints_between_frames() {
 /// `people.csv` says everybody left by then, and flags the summary when it does not.
 #[test]
 fn the_independent_check_reads_an_empty_last_frame_from_the_departures() {
-    let has_tomllib = Command::new("python3")
-        .args(["-c", "import tomllib"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !has_tomllib {
-        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+    if no_python_with_tomllib() {
         return;
     }
     let scene = "[room]\nrectangle = [0.0, 0.0, 4.0, 4.0]\n[[exits]]\nfrom = [4.0, 1.0]\n\
                  to = [4.0, 3.0]\n[[people]]\nposition = [3.5, 2.0]\nradius = 0.2\n\
                  [desired]\nkind = \"exit\"\n[run]\nh = 0.01\nt_end = 5.0\nstop_when_empty = true\n\
                  [output]\ntrajectory_every = 0.5\n";
-    let run = sweep_run("independent-check-empty-end", scene, &["--threads", "1"]);
-    assert!(run.success, "{}", run.output);
-    let summary = std::fs::read_to_string(run.out.join("summary.json")).unwrap();
+    let (scene, out) = run_checked_clean("independent-check-empty-end", scene);
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
     let summary: serde_json::Value = serde_json::from_str(&summary).unwrap();
     let t_final = summary["t_final"].as_f64().unwrap();
     assert!(
         t_final > 0.5 && t_final < 1.0 && summary["people_remaining"] == 0,
         "{summary}"
     );
-    let scene = run.out.with_file_name("independent-check-empty-end.toml");
-    let (code, text) = check(&scene, &run.out).unwrap();
-    assert_eq!(code, 0, "{text}");
+    let (_, text) = check(&scene, &out).unwrap();
     assert!(text.contains("empty (everybody left by then"), "{text}");
     // The same run with the departure struck from people.csv: the last frame written still
     // holds the person, and the summary's count of nobody left disagrees with it.
-    let people = run.out.join("people.csv");
+    let people = out.join("people.csv");
     let text = std::fs::read_to_string(&people).unwrap();
     let struck: Vec<String> = text
         .lines()
@@ -176,7 +174,7 @@ fn the_independent_check_reads_an_empty_last_frame_from_the_departures() {
         })
         .collect();
     std::fs::write(&people, struck.join("\n") + "\n").unwrap();
-    let (code, text) = check(&scene, &run.out).unwrap();
+    let (code, text) = check(&scene, &out).unwrap();
     assert_eq!(code, 1, "{text}");
     assert!(text.contains("SUMMARY_REMAINING(0 vs 1)"), "{text}");
 }
@@ -186,12 +184,7 @@ fn the_independent_check_reads_an_empty_last_frame_from_the_departures() {
 /// person written before they are due is flagged.
 #[test]
 fn the_independent_check_follows_sources_and_gaps_and_flags_an_early_arrival() {
-    let has_tomllib = Command::new("python3")
-        .args(["-c", "import tomllib"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !has_tomllib {
-        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+    if no_python_with_tomllib() {
         return;
     }
     let scene = "[room]\nrectangle = [0.0, 0.0, 6.0, 4.0]\n[[exits]]\nfrom = [6.0, 1.0]\n\
@@ -201,20 +194,15 @@ fn the_independent_check_follows_sources_and_gaps_and_flags_an_early_arrival() {
                  count = 6\nstart = 0.6\nradius = { uniform = [0.18, 0.22] }\nseed = 1\n\
                  [desired]\nkind = \"exit\"\n[run]\nh = 0.02\nt_end = 30.0\n\
                  stop_when_empty = true\n[output]\ntrajectory_every = 0.2\n";
-    let run = sweep_run("independent-check-sources", scene, &["--threads", "1"]);
-    assert!(run.success, "{}", run.output);
-    let scene = run.out.with_file_name("independent-check-sources.toml");
-    let (code, text) = check(&scene, &run.out).unwrap();
-    assert_eq!(code, 0, "{text}");
-    assert!(text.contains("FLAGS: none"), "{text}");
+    let (scene, out) = run_checked_clean("independent-check-sources", scene);
     // The last source's person (id 11, due at 0.6 + 5/4 = 1.85 s) written at t = 0 too.
-    let csv = run.out.join("trajectory.csv");
+    let csv = out.join("trajectory.csv");
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     assert!(!lines.iter().any(|l| l.starts_with("0,11,")), "{text}");
     lines.insert(1, "0,11,0.3,2.0".to_string());
     std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
-    let (code, text) = check(&scene, &run.out).unwrap();
+    let (code, text) = check(&scene, &out).unwrap();
     assert_eq!(code, 1, "{text}");
     assert!(text.contains("EARLY_ARRIVAL"), "{text}");
 }
@@ -242,25 +230,16 @@ fn move_person(out: &Path, id: usize, x: f64, y: f64) {
 /// the arena's wall.
 #[test]
 fn the_independent_check_reads_wkt_rooms_and_arenas() {
-    let has_tomllib = Command::new("python3")
-        .args(["-c", "import tomllib"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if !has_tomllib {
-        eprintln!("skipped: no python3 with tomllib (Python 3.11 or later) on this machine");
+    if no_python_with_tomllib() {
         return;
     }
     let wkt = "[room]\nwkt = \"POLYGON ((0 0, 6 0, 6 4, 0 4, 0 0), (3 1, 4 1, 4 3, 3 3, 3 1))\"\n\
                exits_wkt = \"LINESTRING (6 1.5, 6 2.5)\"\n[[people]]\nposition = [1.0, 2.0]\n\
                radius = 0.2\n[[people]]\nposition = [1.0, 3.0]\nradius = 0.2\n\
                [desired]\nkind = \"exit\"\n[run]\nh = 0.02\nt_end = 1.0\n";
-    let run = sweep_run("independent-check-wkt", wkt, &["--threads", "1"]);
-    assert!(run.success, "{}", run.output);
-    let scene = run.out.with_file_name("independent-check-wkt.toml");
-    let (code, text) = check(&scene, &run.out).unwrap();
-    assert_eq!(code, 0, "{text}");
-    move_person(&run.out, 1, 3.5, 2.0);
-    let (code, text) = check(&scene, &run.out).unwrap();
+    let (scene, out) = run_checked_clean("independent-check-wkt", wkt);
+    move_person(&out, 1, 3.5, 2.0);
+    let (code, text) = check(&scene, &out).unwrap();
     assert_eq!(code, 1, "{text}");
     assert!(text.contains("OBSTACLE"), "{text}");
 
@@ -268,14 +247,10 @@ fn the_independent_check_reads_wkt_rooms_and_arenas() {
                  radius = 3.0\n[[people]]\nposition = [4.0, 4.0]\nradius = 0.25\n\
                  [desired]\nkind = \"point\"\npoint = [7.5, 4.0]\n[run]\nh = 0.02\n\
                  t_end = 3.0\n";
-    let run = sweep_run("independent-check-arena", arena, &["--threads", "1"]);
-    assert!(run.success, "{}", run.output);
-    let scene = run.out.with_file_name("independent-check-arena.toml");
-    let (code, text) = check(&scene, &run.out).unwrap();
-    assert_eq!(code, 0, "{text}");
+    let (scene, out) = run_checked_clean("independent-check-arena", arena);
     // Pressed against the round wall, not through it; 0.1 m through once moved.
-    move_person(&run.out, 0, 6.85, 4.0);
-    let (code, text) = check(&scene, &run.out).unwrap();
+    move_person(&out, 0, 6.85, 4.0);
+    let (code, text) = check(&scene, &out).unwrap();
     assert_eq!(code, 1, "{text}");
     assert!(
         text.contains("WALL") && text.contains("1.000e-01"),
