@@ -79,7 +79,13 @@ fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_s
     // other side's support) is wrong by every row, and one guess of the support method cannot
     // mend it, so every solve goes to the interior point.
     let (left, right) = (chain(12, false), chain(12, true));
-    let mut native = interior(1);
+    // The interior point from Mehrotra's point, so that its iterations do not depend on the
+    // last solve (its warm start has a test of its own, below).
+    let mut native = NativeProjector::new(NativeSettings {
+        active_set_iterations: 1,
+        interior_point_warm_floor: 0.0,
+        ..NativeSettings::default()
+    });
     let mut clarabel = ClarabelProjector::default();
     let mut iterations = Vec::new();
     for solve in 0..9 {
@@ -96,8 +102,8 @@ fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_s
         assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
         iterations.push(sol.stats.iterations);
     }
-    // The interior point does not depend on the warm start, so a solve that went straight to
-    // it (the 4th, 6th, 7th and 8th: streaks 3, 5, 6, 7) reports one iteration fewer, the
+    // The interior point then does not depend on the warm start, so a solve that went straight
+    // to it (the 4th, 6th, 7th and 8th: streaks 3, 5, 6, 7) reports one iteration fewer, the
     // support method's one guess, than the same problem solved with the attempt.
     for (straight, attempted) in [(3, 1), (5, 1), (6, 0), (7, 1)] {
         assert_eq!(
@@ -110,4 +116,47 @@ fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_s
         let same = if attempted % 2 == 0 { 0 } else { 1 };
         assert_eq!(iterations[attempted], iterations[same], "{iterations:?}");
     }
+}
+
+/// The recorded door queue with keyed rows, `y` moved by up to `by` per coordinate (seeded):
+/// the next step of the queue, as far as the projection sees it.
+fn door_queue_moved(by: f64, seed: u64) -> ProjectionProblem {
+    use rand::{Rng, SeedableRng};
+    let p = sweeping_testkit::fixtures::problem("door_queue_qp.json");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let y = p.y().iter().map(|v| v + rng.gen_range(-by..=by)).collect();
+    let keys = (0..p.n_rows() as u64)
+        .map(|m| RowKey {
+            family: 2,
+            member: m,
+        })
+        .collect();
+    ProjectionProblem::new(y, p.a().clone(), p.b().to_vec())
+        .unwrap()
+        .with_row_keys(keys)
+        .unwrap()
+}
+
+/// From one step of a door queue to the next the forces change little: the interior point
+/// started from the last multipliers (by row key) takes fewer iterations than from Mehrotra's
+/// point, and lands on the same answer.
+#[test]
+fn the_next_step_of_a_door_queue_starts_the_interior_point_from_the_last_multipliers() {
+    let (first, next) = (door_queue_moved(0.0, 1), door_queue_moved(1e-3, 2));
+    let iterations = |warm_floor: f64| {
+        let mut native = NativeProjector::new(NativeSettings {
+            active_set_iterations: 0,
+            interior_point_warm_floor: warm_floor,
+            ..NativeSettings::default()
+        });
+        native.project(&first).unwrap();
+        let sol = native.project(&next).unwrap();
+        assert_eq!(sol.stats.counters.fallbacks, 0);
+        (sol.stats.iterations, sol.x)
+    };
+    let (warm, x_warm) = iterations(NativeSettings::default().interior_point_warm_floor);
+    let (cold, x_cold) = iterations(0.0);
+    assert!(warm < cold, "{warm} iterations warm, {cold} cold");
+    let gap = max_gap(&x_warm, &x_cold);
+    assert!(gap < 1e-9, "{gap:e} between the warm and the cold answer");
 }

@@ -15,6 +15,11 @@
 //! this system, which is why the method is the engine's answer to a jam. Its iterates reach
 //! rows that are tight with a zero multiplier (weakly active) only like `√μ`, so it runs until
 //! the duality gap is small against the squared step (see [`Tolerance`]), not to a fixed `μ`.
+//!
+//! It starts from Mehrotra's point, or from given multipliers (a [`Warm`] start: the previous
+//! projection's, matched by row keys), `d = Aᵀλ` and the slacks that `d` leaves, both raised to
+//! a floor proportional to the block's length scale: from one step of a door queue to the next
+//! the forces change little, and such a start saves the first iterations.
 
 use crate::normal::NormalMatrix;
 use sweeping_api::SparseRows;
@@ -54,6 +59,16 @@ impl Default for Tolerance {
     fn default() -> Self {
         Self { accuracy: 1e-10 }
     }
+}
+
+/// A start from given multipliers instead of Mehrotra's point.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Warm<'a> {
+    /// One multiplier per row (`0` for a row without a guess).
+    pub(crate) multipliers: &'a [f64],
+    /// The least slack and multiplier of the start, against the block's length scale: off the
+    /// boundary, where the first directions can still move.
+    pub(crate) floor: f64,
 }
 
 /// Where the method stopped.
@@ -222,6 +237,19 @@ fn step_to_boundary(v: &[f64], dv: &[f64]) -> f64 {
 
 fn inf_norm(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |acc: f64, x| acc.max(x.abs()))
+}
+
+/// The start from the multipliers `guess`: `d = Aᵀλ`, the slacks `A d − r` it leaves, and
+/// both slacks and multipliers raised to at least `floor`.
+fn warm_point(run: &mut Run<'_>, d: &mut [f64], guess: &[f64], floor: f64) -> (Vec<f64>, Vec<f64>) {
+    let floor = floor.max(f64::MIN_POSITIVE);
+    run.a.mul_transpose_vec(guess, d);
+    run.a.mul_vec(d, &mut run.row_work);
+    let slack = (0..run.r.len())
+        .map(|i| (run.row_work[i] - run.r[i]).max(floor))
+        .collect();
+    let lambda = guess.iter().map(|l| l.max(floor)).collect();
+    (slack, lambda)
 }
 
 /// Mehrotra's starting point: the least-squares `d̂ = argmin ½‖d‖² + ½‖Ad − r‖²` (`normal`
@@ -433,6 +461,8 @@ impl Run<'_> {
 ///
 /// `kkt` is the caller's certificate: the method does not stop before the residuals and every
 /// product `λᵢ sᵢ` are within it (absolute), so that a converged iterate passes the check.
+/// `warm` starts it from given multipliers (one per row; a start of another length is
+/// ignored) instead of Mehrotra's point.
 pub(crate) fn solve(
     a: &SparseRows,
     r: &[f64],
@@ -440,9 +470,12 @@ pub(crate) fn solve(
     tolerance: Tolerance,
     kkt: f64,
     max_iterations: u32,
+    warm: Option<Warm<'_>>,
 ) -> Option<Iterate> {
     let (m, n) = (a.n_rows(), a.n_cols());
-    if m == 0 || normal.factor(&vec![1.0; m]).is_err() {
+    let warm = warm.filter(|w| w.multipliers.len() == m);
+    // Mehrotra's point is a least-squares solve with unit weights; a warm start needs none.
+    if m == 0 || (warm.is_none() && normal.factor(&vec![1.0; m]).is_err()) {
         return None;
     }
     let row_norm: Vec<f64> = (0..m)
@@ -462,7 +495,10 @@ pub(crate) fn solve(
         scratch: Scratch::default(),
     };
     let mut d = vec![0.0; n];
-    let (mut slack, mut lambda) = starting_point(&mut run, &mut d);
+    let (mut slack, mut lambda) = match warm {
+        Some(warm) => warm_point(&mut run, &mut d, warm.multipliers, warm.floor * length),
+        None => starting_point(&mut run, &mut d),
+    };
     let mut res = Residuals {
         dual: vec![0.0; n],
         primal: vec![0.0; m],

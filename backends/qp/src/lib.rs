@@ -12,7 +12,8 @@
 //!    projections or more skips this attempt (but at powers of two).
 //! 2. otherwise **the interior point** (Mehrotra's predictor–corrector on the normal equations
 //!    `(I + AᵀWA) Δd = …`, one sparse Cholesky factorization an iteration, the pattern
-//!    analysed once per block). A jam — more tight rows than unknowns, rows of contact loops
+//!    analysed once per block), started from the previous projection's multipliers by row key
+//!    where the block has any ([`EngineSettings::interior_point_warm_floor`]). A jam — more tight rows than unknowns, rows of contact loops
 //!    linearly dependent, multipliers not unique — is its normal case: the normal matrix stays
 //!    positive definite whatever the rows. It runs to its accuracy contract ([`Tolerance`]),
 //!    and its answer, certified, is the block's: within that accuracy of the projection. An
@@ -70,5 +71,13 @@ pub fn interior_point(
     max_iterations: u32,
 ) -> Option<Iterate> {
     let mut normal = normal::NormalMatrix::new(a).ok()?;
-    ipm::solve(a, r, &mut normal, tolerance, f64::INFINITY, max_iterations)
+    ipm::solve(
+        a,
+        r,
+        &mut normal,
+        tolerance,
+        f64::INFINITY,
+        max_iterations,
+        None,
+    )
 }
