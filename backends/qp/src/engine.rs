@@ -514,6 +514,7 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
     let m = p.n_rows();
     let r = p.shortfall(p.y());
     let (start, streak, warm) = warm_start(context, p, &r);
+    // `warm`: some row of the block is remembered, with a positive multiplier.
     let guess = if warm && settings.interior_point_warm_floor > 0.0 {
         remembered_multipliers(context, p)
     } else {
@@ -760,14 +761,14 @@ fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start
 }
 
 /// The previous projection's multiplier of each row of `p`, matched by row key (`0` for a row
-/// it did not have in its support), when it had any of them.
+/// it did not have in its support; the memory holds positive multipliers only).
 fn remembered_multipliers(context: &Context<'_>, p: &ProjectionProblem) -> Option<Vec<f64>> {
     let keys = p.row_keys()?;
-    let guess: Vec<f64> = keys
-        .iter()
-        .map(|k| context.memory.get(k).map_or(0.0, |rem| rem.multiplier))
-        .collect();
-    guess.iter().any(|&l| l > 0.0).then_some(guess)
+    Some(
+        keys.iter()
+            .map(|k| context.memory.get(k).map_or(0.0, |rem| rem.multiplier))
+            .collect(),
+    )
 }
 
 /// The active set's start from an interior point's iterate: the rows whose multiplier exceeds
