@@ -160,3 +160,22 @@ fn the_next_step_of_a_door_queue_starts_the_interior_point_from_the_last_multipl
     let gap = max_gap(&x_warm, &x_cold);
     assert!(gap < 1e-9, "{gap:e} between the warm and the cold answer");
 }
+
+/// A warm floor that is not a finite positive number is Mehrotra's point, not a broken start.
+#[test]
+fn a_warm_floor_that_is_no_finite_positive_number_starts_cold() {
+    let (first, next) = (door_queue_moved(0.0, 1), door_queue_moved(1e-3, 2));
+    let mut counts = Vec::new();
+    for floor in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let mut native = NativeProjector::new(NativeSettings {
+            active_set_iterations: 0,
+            interior_point_warm_floor: floor,
+            ..NativeSettings::default()
+        });
+        native.project(&first).unwrap();
+        let sol = native.project(&next).unwrap();
+        assert_eq!(sol.stats.counters.fallbacks, 0, "floor {floor}");
+        counts.push(sol.stats.iterations);
+    }
+    assert!(counts.iter().all(|&c| c == counts[0]), "{counts:?}");
+}

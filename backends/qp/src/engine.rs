@@ -25,7 +25,8 @@ pub struct EngineSettings {
     /// With [`warm_start`](Self::warm_start), the interior point starts from the previous
     /// projection's multipliers (by row key; `0` for a row without one) when the block has
     /// any, the start's slacks and multipliers raised to at least this fraction of the
-    /// block's length scale; `0` starts it from Mehrotra's point every time. Default `0.1`.
+    /// block's length scale; `0` (or anything but a finite positive number) starts it from
+    /// Mehrotra's point every time. Default `0.1`.
     pub interior_point_warm_floor: f64,
     /// Most active-set iterations per block from the warm start before the interior point
     /// takes the block (at most 16 on blocks of 400 rows or more); `0` sends every block to
@@ -515,7 +516,8 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
     let r = p.shortfall(p.y());
     let (start, streak, warm) = warm_start(context, p, &r);
     // `warm`: some row of the block is remembered, with a positive multiplier.
-    let guess = if warm && settings.interior_point_warm_floor > 0.0 {
+    let floor = settings.interior_point_warm_floor;
+    let guess = if warm && floor > 0.0 && floor.is_finite() {
         remembered_multipliers(context, p)
     } else {
         None
