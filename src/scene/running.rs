@@ -22,8 +22,8 @@ impl BuiltScene {
     /// Makes the run start from `state`, a state an earlier run of this scene reached,
     /// instead of the scene's own start: the time, every person's position, who had left and
     /// who of a source had arrived (latched, as the earlier run had them: everybody in the
-    /// room or gone; who is written absent at their place is still to come). The horizon stays the scene's (or the
-    /// override's): a run resumed at `t` goes on to the same `T`.
+    /// room or gone; who is written absent at their place is still to come). The horizon
+    /// stays the scene's (or the override's): a run resumed at `t` goes on to the same `T`.
     ///
     /// The state is checked against the scene, since the run trusts it from then on: the
     /// time lies in `[t₀, T)`; everybody marked present has a disk in the room (not wholly

@@ -137,45 +137,41 @@ fn door_queue_moved(by: f64, seed: u64) -> ProjectionProblem {
         .unwrap()
 }
 
+/// The recorded door queue projected, then projected again moved by up to 1e-3 (its next
+/// step), every block by the interior point started with `warm_floor`: the second answer,
+/// which must need no fallback.
+fn door_queue_next_step(warm_floor: f64) -> sweeping_api::Projection {
+    let (first, next) = (door_queue_moved(0.0, 1), door_queue_moved(1e-3, 2));
+    let mut native = NativeProjector::new(NativeSettings {
+        active_set_iterations: 0,
+        interior_point_warm_floor: warm_floor,
+        ..NativeSettings::default()
+    });
+    native.project(&first).unwrap();
+    let sol = native.project(&next).unwrap();
+    assert_eq!(sol.stats.counters.fallbacks, 0, "floor {warm_floor}");
+    sol
+}
+
 /// From one step of a door queue to the next the forces change little: the interior point
 /// started from the last multipliers (by row key) takes fewer iterations than from Mehrotra's
 /// point, and lands on the same answer.
 #[test]
 fn the_next_step_of_a_door_queue_starts_the_interior_point_from_the_last_multipliers() {
-    let (first, next) = (door_queue_moved(0.0, 1), door_queue_moved(1e-3, 2));
-    let iterations = |warm_floor: f64| {
-        let mut native = NativeProjector::new(NativeSettings {
-            active_set_iterations: 0,
-            interior_point_warm_floor: warm_floor,
-            ..NativeSettings::default()
-        });
-        native.project(&first).unwrap();
-        let sol = native.project(&next).unwrap();
-        assert_eq!(sol.stats.counters.fallbacks, 0);
-        (sol.stats.iterations, sol.x)
-    };
-    let (warm, x_warm) = iterations(NativeSettings::default().interior_point_warm_floor);
-    let (cold, x_cold) = iterations(0.0);
-    assert!(warm < cold, "{warm} iterations warm, {cold} cold");
-    let gap = max_gap(&x_warm, &x_cold);
+    let warm = door_queue_next_step(NativeSettings::default().interior_point_warm_floor);
+    let cold = door_queue_next_step(0.0);
+    let (w, c) = (warm.stats.iterations, cold.stats.iterations);
+    assert!(w < c, "{w} iterations warm, {c} cold");
+    let gap = max_gap(&warm.x, &cold.x);
     assert!(gap < 1e-9, "{gap:e} between the warm and the cold answer");
 }
 
 /// A warm floor that is not a finite positive number is Mehrotra's point, not a broken start.
 #[test]
 fn a_warm_floor_that_is_no_finite_positive_number_starts_cold() {
-    let (first, next) = (door_queue_moved(0.0, 1), door_queue_moved(1e-3, 2));
-    let mut counts = Vec::new();
-    for floor in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let mut native = NativeProjector::new(NativeSettings {
-            active_set_iterations: 0,
-            interior_point_warm_floor: floor,
-            ..NativeSettings::default()
-        });
-        native.project(&first).unwrap();
-        let sol = native.project(&next).unwrap();
-        assert_eq!(sol.stats.counters.fallbacks, 0, "floor {floor}");
-        counts.push(sol.stats.iterations);
-    }
+    let counts: Vec<_> = [0.0, -1.0, f64::NAN, f64::INFINITY]
+        .into_iter()
+        .map(|floor| door_queue_next_step(floor).stats.iterations)
+        .collect();
     assert!(counts.iter().all(|&c| c == counts[0]), "{counts:?}");
 }

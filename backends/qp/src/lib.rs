@@ -13,9 +13,10 @@
 //! 2. otherwise **the interior point** (Mehrotra's predictor–corrector on the normal equations
 //!    `(I + AᵀWA) Δd = …`, one sparse Cholesky factorization an iteration, the pattern
 //!    analysed once per block), started from the previous projection's multipliers by row key
-//!    where the block has any ([`EngineSettings::interior_point_warm_floor`]). A jam — more tight rows than unknowns, rows of contact loops
-//!    linearly dependent, multipliers not unique — is its normal case: the normal matrix stays
-//!    positive definite whatever the rows. It runs to its accuracy contract ([`Tolerance`]),
+//!    where the block has any ([`EngineSettings::interior_point_warm_floor`]). A jam — more
+//!    tight rows than unknowns, rows of contact loops linearly dependent, multipliers not
+//!    unique — is its normal case: the normal matrix stays positive definite whatever the
+//!    rows. It runs to its accuracy contract ([`Tolerance`]),
 //!    and its answer, certified, is the block's: within that accuracy of the projection. An
 //!    answer short of the contract, failing the certificate or violating a row the interior
 //!    point left out is **finished** by the active set from its support (the rows whose
