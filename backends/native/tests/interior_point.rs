@@ -175,3 +175,61 @@ fn a_warm_floor_that_is_no_finite_positive_number_starts_cold() {
         .collect();
     assert!(counts.iter().all(|&c| c == counts[0]), "{counts:?}");
 }
+
+/// The recorded cycling queue of the large evacuation, whose interior point stalls short of
+/// its tolerance, run alone with `acceptable` as the tolerance's threshold.
+fn cycling_queue_interior_point(acceptable: f64) -> sweeping_qp::Iterate {
+    let p = sweeping_testkit::fixtures::problem("large_evacuation_cycling_qp.json");
+    let r = p.shortfall(p.y());
+    let tolerance = sweeping_qp::Tolerance {
+        acceptable,
+        ..sweeping_qp::Tolerance::default()
+    };
+    sweeping_qp::interior_point(p.a(), &r, tolerance, 100).unwrap()
+}
+
+/// A run that stalls once its best iterate is acceptable stops waiting soon after, and keeps
+/// that iterate: the iterations after it would not have improved on it.
+#[test]
+fn a_stalled_interior_point_with_an_acceptable_iterate_stops_waiting() {
+    let settled = cycling_queue_interior_point(sweeping_qp::Tolerance::default().acceptable);
+    let waited = cycling_queue_interior_point(0.0);
+    assert!(!settled.converged && !waited.converged);
+    assert!(
+        settled.iterations < waited.iterations,
+        "{} iterations settled, {} waiting",
+        settled.iterations,
+        waited.iterations
+    );
+    assert!(settled.accuracy <= 1e-6, "{:e}", settled.accuracy);
+    assert_eq!(settled.d, waited.d);
+    assert_eq!(settled.lambda, waited.lambda);
+}
+
+/// The engine takes a stalled interior point's answer when it is within the tolerance's
+/// `acceptable` (counted as reduced, and the projection as Clarabel finds it); with
+/// `acceptable = 0` it asks the active set to finish it, which cannot on this queue, and says
+/// so rather than answer.
+#[test]
+fn a_stalled_interior_point_is_the_answer_only_within_acceptable() {
+    let p = sweeping_testkit::fixtures::problem("large_evacuation_cycling_qp.json");
+    let project = |acceptable: f64| {
+        let mut native = NativeProjector::new(NativeSettings {
+            active_set_iterations: 0,
+            interior_point: sweeping_qp::Tolerance {
+                acceptable,
+                ..sweeping_qp::Tolerance::default()
+            },
+            ..NativeSettings::default()
+        });
+        native.project(&p)
+    };
+    let accepted = project(1e-6).unwrap();
+    assert_eq!(accepted.stats.counters.reduced, 1);
+    assert_eq!(accepted.stats.counters.fallbacks, 0);
+    let reference = ClarabelProjector::default().project(&p).unwrap();
+    let gap = max_gap(&accepted.x, &reference.x);
+    assert!(gap < 1e-8, "{gap:e} from Clarabel's answer");
+    let refused = project(0.0).unwrap_err().to_string();
+    assert!(refused.contains("did not converge"), "{refused}");
+}

@@ -25,8 +25,9 @@ pub struct EngineSettings {
     /// With [`warm_start`](Self::warm_start), the interior point starts from the previous
     /// projection's multipliers (by row key; `0` for a row without one) when the block has
     /// any, the start's slacks and multipliers raised to at least this fraction of the
-    /// block's length scale; `0` (or anything but a finite positive number) starts it from
-    /// Mehrotra's point every time. Default `0.1`.
+    /// block's length scale; so does a run again after rows that screening left out came
+    /// back violated, from the last run's multipliers. `0` (or anything but a finite
+    /// positive number) starts it from Mehrotra's point every time. Default `0.1`.
     pub interior_point_warm_floor: f64,
     /// Most active-set iterations per block from the warm start before the interior point
     /// takes the block (at most 16 on blocks of 400 rows or more); `0` sends every block to
@@ -473,13 +474,6 @@ fn parallel_groups(blocks: &[Block], parallel_rows: usize) -> Vec<Vec<usize>> {
     groups
 }
 
-/// An interior point that stops short of its tolerance is still the answer within this many
-/// times the tolerance (counted in [`BackendCounters::reduced`], with its estimated error): on
-/// a jam the directions' rounding stops some runs short of it, where the iterate lies nearer
-/// the projection than that measure says (measured:
-/// `docs/lab/2026-12-04-projection-engine.md`).
-const STALL_ALLOWANCE: f64 = 1e4;
-
 /// Blocks of at least this many rows give the active set at most [`LARGE_BLOCK_ITERATIONS`]:
 /// on a jam's large blocks the interior point is the better bet, on smaller ones an iteration
 /// of the active set costs a small fraction of an interior point with its set-up (measured:
@@ -517,7 +511,8 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
     let (start, streak, warm) = warm_start(context, p, &r);
     // `warm`: some row of the block is remembered, with a positive multiplier.
     let floor = settings.interior_point_warm_floor;
-    let guess = if warm && floor > 0.0 && floor.is_finite() {
+    let warm_starts = floor > 0.0 && floor.is_finite();
+    let mut guess = if warm && warm_starts {
         remembered_multipliers(context, p)
     } else {
         None
@@ -574,8 +569,7 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         // answer when it is certified: within its accuracy of the projection, as exact as
         // the scheme needs. The active set's finish is for the others.
         let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
-        let acceptable =
-            it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy;
+        let acceptable = it.converged || it.accuracy <= settings.interior_point.acceptable;
         if !missed && acceptable && certified(&x, &it.lambda) {
             return Ok(BlockAnswer {
                 x,
@@ -610,6 +604,11 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                     violated.iter().for_each(|&i| rows[i] = true)
                 }
                 _ => keep = None,
+            }
+            // The run again differs from this one by the rows that joined: it starts from
+            // this run's multipliers (`0` on the rows it left out).
+            if warm_starts {
+                guess = Some(it.lambda);
             }
             continue;
         }
@@ -667,7 +666,7 @@ fn finish_interior_point(
     // kept only where it agrees with the interior point's answer. An interior point too far
     // short of its tolerance to be kept leaves the finish as the way to an answer: the finish
     // then gets more iterations.
-    let cap = if it.converged || it.accuracy <= STALL_ALLOWANCE * settings.interior_point.accuracy {
+    let cap = if it.converged || it.accuracy <= settings.interior_point.acceptable {
         settings.finish_iterations
     } else {
         settings

@@ -33,6 +33,11 @@ const REFINEMENTS: usize = 4;
 /// Iterations without the residuals or `μ` halving after which the method stops.
 const STALLED: u32 = 10;
 
+/// The same, once the best iterate is certifiable and within [`Tolerance::acceptable`]: the
+/// engine would take it, and waiting [`STALLED`] iterations for progress rarely improves on it
+/// (measured: `docs/lab/2026-12-05-interior-point-settled.md`).
+const SETTLED: u32 = 3;
+
 /// The least slack and multiplier, against the length scale.
 const FLOOR: f64 = 1e-30;
 
@@ -49,15 +54,26 @@ const LATE: f64 = 1e-8;
 /// last direction measures how far the step still is from the answer; a bound from the gap
 /// alone (`‖d − d*‖₂ ≤ ‖r_d‖₂ + √(sᵀλ)`) would be far too pessimistic to stop on, since the
 /// iterates reach rows that are tight with a zero multiplier only like `√μ`.
+///
+/// A run that stops short of `accuracy` (its progress stalled: on a jam the directions'
+/// rounding, with weights spanning twenty orders of magnitude, sets a floor) returns its best
+/// iterate; the engine takes it as the answer when it lies within `acceptable` and passes the
+/// KKT check, and the run stops waiting for progress soon after it has such an iterate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tolerance {
     /// Target accuracy against the block's length scale. Default `1e-10`.
     pub accuracy: f64,
+    /// The accuracy, against the block's length scale, of an iterate short of `accuracy`
+    /// that is still an answer. Default `1e-6` (a micrometre on a metre's jam).
+    pub acceptable: f64,
 }
 
 impl Default for Tolerance {
     fn default() -> Self {
-        Self { accuracy: 1e-10 }
+        Self {
+            accuracy: 1e-10,
+            acceptable: 1e-6,
+        }
     }
 }
 
@@ -382,17 +398,22 @@ impl Progress {
     }
 
     /// Counts `progress` (the residuals and `μ`, against the length scale): whether [`STALLED`]
-    /// iterations have now passed without it halving. Progress is the residuals and `μ`
-    /// falling; the last direction comes and goes (a random instance sat at one residual for
-    /// five iterations and then converged).
-    fn stalled(&mut self, progress: f64) -> bool {
+    /// iterations have now passed without it halving, or [`SETTLED`] when the best iterate is
+    /// certifiable and within `acceptable`. Progress is the residuals and `μ` falling; the
+    /// last direction comes and goes (a random instance sat at one residual for five
+    /// iterations and then converged).
+    fn stalled(&mut self, progress: f64, acceptable: f64) -> bool {
         if progress < 0.5 * self.least {
             self.least = progress;
             self.since = 0;
         } else {
             self.since += 1;
         }
-        self.since >= STALLED
+        let settled = self
+            .best
+            .as_ref()
+            .is_some_and(|((uncertifiable, off), _)| !uncertifiable && *off <= acceptable);
+        self.since >= if settled { SETTLED } else { STALLED }
     }
 }
 
@@ -547,7 +568,7 @@ pub(crate) fn solve(
         }
         let iterate = (&d[..], &lambda[..], &slack[..]);
         progress.offer((!certifiable, off), iterate, iterations, length);
-        let stalled = progress.stalled(residual.max(mu / length));
+        let stalled = progress.stalled(residual.max(mu / length), tolerance.acceptable);
         if iterations >= max_iterations || stalled {
             break;
         }
