@@ -226,6 +226,9 @@ fn a_stalled_interior_point_is_the_answer_only_within_acceptable() {
     };
     let accepted = project(1e-6).unwrap();
     assert_eq!(accepted.stats.counters.reduced, 1);
+    // Its estimated distance from the projection: short of the tolerance, within `acceptable`.
+    let reduced_by = accepted.stats.counters.reduced_by;
+    assert!(reduced_by > 0.0 && reduced_by < 1e-8, "{reduced_by:e}");
     assert_eq!(accepted.stats.counters.fallbacks, 0);
     let reference = ClarabelProjector::default().project(&p).unwrap();
     let gap = max_gap(&accepted.x, &reference.x);
