@@ -25,9 +25,10 @@ pub struct EngineSettings {
     /// With [`warm_start`](Self::warm_start), the interior point starts from the previous
     /// projection's multipliers (by row key; `0` for a row without one) when the block has
     /// any, the start's slacks and multipliers raised to at least this fraction of the
-    /// block's length scale; so does a run again after rows that screening left out came
-    /// back violated, from the last run's multipliers. `0` (or anything but a finite
-    /// positive number) starts it from Mehrotra's point every time. Default `0.1`.
+    /// block's length scale. A run repeated because rows that screening left out came back
+    /// violated starts from the last run's multipliers under the same floor, with or
+    /// without `warm_start`. `0` (or anything but a finite positive number) starts every
+    /// run from Mehrotra's point. Default `0.1`.
     pub interior_point_warm_floor: f64,
     /// Most active-set iterations per block from the warm start before the interior point
     /// takes the block (at most 16 on blocks of 400 rows or more); `0` sends every block to
