@@ -64,7 +64,8 @@ pub struct Tolerance {
     /// Target accuracy against the block's length scale. Default `1e-10`.
     pub accuracy: f64,
     /// The accuracy, against the block's length scale, of an iterate short of `accuracy`
-    /// that is still an answer. Default `1e-6` (a micrometre on a metre's jam).
+    /// that is still an answer; `0` (or a negative number, or NaN) accepts none. Default
+    /// `1e-6` (a micrometre on a metre's jam).
     pub acceptable: f64,
 }
 
