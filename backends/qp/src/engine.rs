@@ -92,6 +92,8 @@ struct BlockAnswer {
     /// For an interior point accepted short of its tolerance, how far its tests were from it,
     /// as a length ([`ipm::Iterate::accuracy`] times the block's length scale).
     short_of: Option<f64>,
+    /// The screening reach of the block's rows at the next projection ([`next_reach`]).
+    screen_reach: f64,
 }
 
 /// Why a block has no answer.
@@ -111,6 +113,8 @@ struct Remembered {
     multiplier: f64,
     /// How many projections in a row this row's block went to the interior point.
     interior_streak: u32,
+    /// The screening reach of this row's block at the next projection.
+    screen_reach: f64,
 }
 
 /// The projection engine; see the [crate documentation](crate).
@@ -228,10 +232,12 @@ impl Engine {
         let results = self.solve_blocks(&blocks, tol);
         let mut answers = Vec::with_capacity(results.len());
         let mut methods = Vec::with_capacity(results.len());
+        let mut reaches = Vec::with_capacity(results.len());
         for (index, (block, result)) in blocks.blocks().iter().zip(results).enumerate() {
             match result {
                 Ok(answer) => {
                     methods.push(Some(answer.method));
+                    reaches.push(answer.screen_reach);
                     answers.push(Projection {
                         x: answer.x,
                         multipliers: answer.lambda,
@@ -268,6 +274,7 @@ impl Engine {
                         answer.stats.counters.fallbacks =
                             answer.stats.counters.fallbacks.saturating_add(1);
                         methods.push(None);
+                        reaches.push(SCREEN_REACH);
                         answers.push(answer);
                     }
                     None => {
@@ -300,7 +307,7 @@ impl Engine {
                 message: format!("stitched answer has KKT residual {whole:.3e} > {allowed:.1e}"),
             });
         }
-        self.remember(problem, &blocks, &methods, &answer);
+        self.remember(problem, &blocks, (&methods, &reaches), &answer);
         answer.stats.setup_seconds = setup_seconds;
         answer.stats.solve_seconds = solve_start.elapsed().as_secs_f64();
         Ok(answer)
@@ -378,14 +385,14 @@ impl Engine {
         &mut self,
         problem: &ProjectionProblem,
         blocks: &Blocks,
-        methods: &[Option<Method>],
+        (methods, reaches): (&[Option<Method>], &[f64]),
         answer: &Projection,
     ) {
         let Some(keys) = problem.row_keys() else {
             return;
         };
         let previous = std::mem::take(&mut self.memory);
-        for (block, method) in blocks.blocks().iter().zip(methods) {
+        for ((block, method), &screen_reach) in blocks.blocks().iter().zip(methods).zip(reaches) {
             let interior = *method == Some(Method::InteriorPoint);
             let streak = if interior {
                 1 + block
@@ -416,6 +423,7 @@ impl Engine {
                     Remembered {
                         multiplier: lambda,
                         interior_streak: streak,
+                        screen_reach,
                     },
                 );
             }
@@ -509,7 +517,9 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
     let settings = context.settings;
     let m = p.n_rows();
     let r = p.shortfall(p.y());
-    let (start, streak, warm) = warm_start(context, p, &r);
+    let (start, streak, warm, reach) = warm_start(context, p, &r);
+    // The reach that would have kept every row a screened run missed (`None`: no repeat).
+    let mut needed: Option<f64> = None;
     // `warm`: some row of the block is remembered, with a positive multiplier.
     let floor = settings.interior_point_warm_floor;
     let warm_starts = floor > 0.0 && floor.is_finite();
@@ -536,6 +546,7 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                     iterations: outcome.iterations,
                     warm,
                     short_of: None,
+                    screen_reach: next_reach(reach, needed),
                 });
             }
             Ok(outcome) => iterations += outcome.iterations,
@@ -551,7 +562,7 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
     // The rows that can matter first (see [`screened_rows`]); when the answer violates a
     // row left out and the finish cannot repair it, those rows join, and after
     // [`SCREEN_ROUNDS`] such rounds every row is taken.
-    let mut keep = screened_rows(p, &r);
+    let mut keep = screened_rows(p, &r, reach);
     let mut rounds = 0;
     loop {
         let (it, violated) = interior_point_on(
@@ -579,6 +590,7 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                 iterations,
                 warm,
                 short_of: (!it.converged).then_some(it.accuracy * it.length),
+                screen_reach: next_reach(reach, needed),
             });
         }
         if settings.finish_iterations > 0 {
@@ -592,6 +604,7 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                         iterations: iterations.saturating_add(outcome.iterations),
                         warm,
                         short_of: None,
+                        screen_reach: next_reach(reach, needed),
                     });
                 }
                 Finished::Infeasible(rows) => return Err(BlockFailure::Infeasible(rows)),
@@ -611,6 +624,8 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
             if warm_starts {
                 guess = Some(it.lambda);
             }
+            let missed_reach = reach_to_keep(p, &r, &violated);
+            needed = Some(needed.map_or(missed_reach, |n: f64| n.max(missed_reach)));
             continue;
         }
         if !it.converged {
@@ -728,7 +743,7 @@ fn first_pass(
 /// The active set's start: the remembered multipliers by row key, or, without any, the rows
 /// violated at `y` with their own half-space multipliers. Also the longest streak of interior
 /// points among the remembered rows, and whether any row was remembered.
-fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start, u32, bool) {
+fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start, u32, bool, f64) {
     let m = p.n_rows();
     let remembered: Vec<Option<Remembered>> = match (context.settings.warm_start, p.row_keys()) {
         (true, Some(keys)) => keys
@@ -753,13 +768,18 @@ fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start
         .map(|rem| rem.interior_streak)
         .max()
         .unwrap_or(0);
+    let reach = remembered
+        .iter()
+        .flatten()
+        .map(|rem| rem.screen_reach)
+        .fold(SCREEN_REACH, f64::max);
     let start = Start {
         lambda: support.iter().map(|&i| join[i]).collect(),
         support,
         join,
         join_at_most: None,
     };
-    (start, streak, warm)
+    (start, streak, warm, reach)
 }
 
 /// The previous projection's multiplier of each row of `p`, matched by row key (`0` for a row
@@ -807,6 +827,45 @@ fn finish_start(it: &ipm::Iterate, r: &[f64], p: &ProjectionProblem) -> Start {
 /// are left out of the interior point's first try.
 const SCREEN_REACH: f64 = 0.5;
 
+/// The widest reach a block's screening grows to ([`next_reach`]).
+const SCREEN_REACH_MAX: f64 = 4.0;
+
+/// The factor by which a block's reach shrinks back towards [`SCREEN_REACH`] at each
+/// projection that needed no repeated run.
+const SCREEN_REACH_DECAY: f64 = 0.8;
+
+/// The screening reach of a block at the next projection: wide enough to have kept the rows
+/// its screened run missed and had to be repeated with (`needed`, with a quarter to spare;
+/// the hall's queues push along chains of contacts beyond the reach that suits a jam), else
+/// shrinking back.
+fn next_reach(reach: f64, needed: Option<f64>) -> f64 {
+    match needed {
+        Some(needed) => reach.max(1.25 * needed).min(SCREEN_REACH_MAX),
+        None => (SCREEN_REACH_DECAY * reach).max(SCREEN_REACH),
+    }
+}
+
+/// The least reach at which [`screened_rows`] keeps every row of `rows`: their room at `y`
+/// against the block's largest violation.
+fn reach_to_keep(p: &ProjectionProblem, r: &[f64], rows: &[usize]) -> f64 {
+    let distance = |i: usize| {
+        let norm = p.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
+        if norm > 0.0 {
+            r[i] / norm
+        } else {
+            0.0
+        }
+    };
+    let worst = (0..r.len()).map(distance).fold(0.0, f64::max);
+    if worst > 0.0 {
+        rows.iter()
+            .map(|&i| -distance(i) / worst)
+            .fold(0.0, f64::max)
+    } else {
+        0.0
+    }
+}
+
 /// Rows are left out only when at least this fraction of the block's rows can be: a door
 /// queue, nearly every row tight, is solved whole at once.
 const SCREEN_FRACTION: f64 = 0.25;
@@ -819,7 +878,7 @@ const SCREEN_ROUNDS: usize = 3;
 /// matrix's fill, which the method's factorizations pay for, grows with rows it need not see.
 /// Rows that `y` satisfies with more room than [`SCREEN_REACH`] times the block's largest
 /// violation are left out, when at least [`SCREEN_FRACTION`] of the rows are.
-fn screened_rows(p: &ProjectionProblem, r: &[f64]) -> Option<Vec<bool>> {
+fn screened_rows(p: &ProjectionProblem, r: &[f64], reach: f64) -> Option<Vec<bool>> {
     let a = p.a();
     let m = a.n_rows();
     let distance: Vec<f64> = (0..m)
@@ -833,10 +892,7 @@ fn screened_rows(p: &ProjectionProblem, r: &[f64]) -> Option<Vec<bool>> {
         })
         .collect();
     let worst = distance.iter().fold(0.0, |acc: f64, d| acc.max(*d));
-    let keep: Vec<bool> = distance
-        .iter()
-        .map(|d| *d >= -SCREEN_REACH * worst)
-        .collect();
+    let keep: Vec<bool> = distance.iter().map(|d| *d >= -reach * worst).collect();
     let left_out = keep.iter().filter(|k| !**k).count();
     ((left_out as f64) >= SCREEN_FRACTION * m as f64).then_some(keep)
 }
@@ -969,4 +1025,33 @@ fn farkas(p: &ProjectionProblem, r: &[f64], lambda: &[f64]) -> Option<Vec<usize>
             .filter(|&i| hat[i] > 1e-9)
             .collect::<Vec<_>>()
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A block whose screened run missed rows keeps them the next time (with a quarter to
+    /// spare, up to the widest reach); one that missed none shrinks back to the jam's reach.
+    #[test]
+    fn the_screening_reach_widens_after_a_repeat_and_shrinks_back() {
+        assert_eq!(next_reach(SCREEN_REACH, Some(0.8)), 1.0);
+        assert_eq!(next_reach(2.0, Some(0.8)), 2.0);
+        assert_eq!(next_reach(3.0, Some(10.0)), SCREEN_REACH_MAX);
+        assert_eq!(next_reach(1.0, None), 0.8);
+        assert_eq!(next_reach(0.55, None), SCREEN_REACH);
+    }
+
+    /// `d₀ ≥ 1` is violated by 1 at `y = 0`; `d₁ ≥ −0.7` has room 0.7 and `2 d₁ ≥ −3` room
+    /// 1.5 (as distances): keeping both needs a reach of 1.5.
+    #[test]
+    fn the_reach_to_keep_rows_is_their_room_against_the_largest_violation() {
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)], vec![(1, 2.0)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, -0.7, -3.0]).unwrap();
+        let r = p.shortfall(p.y());
+        assert!((reach_to_keep(&p, &r, &[1]) - 0.7).abs() < 1e-15);
+        assert!((reach_to_keep(&p, &r, &[1, 2]) - 1.5).abs() < 1e-15);
+        let keep = screened_rows(&p, &r, 1.0).unwrap();
+        assert_eq!(keep, vec![true, true, false]);
+    }
 }
