@@ -742,7 +742,8 @@ fn first_pass(
 
 /// The active set's start: the remembered multipliers by row key, or, without any, the rows
 /// violated at `y` with their own half-space multipliers. Also the longest streak of interior
-/// points among the remembered rows, and whether any row was remembered.
+/// points among the remembered rows, whether any row was remembered, and the widest screening
+/// reach among them ([`SCREEN_REACH`] without one).
 fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start, u32, bool, f64) {
     let m = p.n_rows();
     let remembered: Vec<Option<Remembered>> = match (context.settings.warm_start, p.row_keys()) {
@@ -876,8 +877,10 @@ const SCREEN_ROUNDS: usize = 3;
 /// The rows an interior point needs to see first, or `None` for every row. A jam's block
 /// holds every pair within the broad phase's reach, and most of them stay apart: the normal
 /// matrix's fill, which the method's factorizations pay for, grows with rows it need not see.
-/// Rows that `y` satisfies with more room than [`SCREEN_REACH`] times the block's largest
-/// violation are left out, when at least [`SCREEN_FRACTION`] of the rows are.
+/// Rows that `y` satisfies with more room than `reach` times the block's largest violation
+/// are left out, when at least [`SCREEN_FRACTION`] of the rows are; `reach` is
+/// [`SCREEN_REACH`], or wider for a block whose screened run had to be repeated
+/// ([`next_reach`]).
 fn screened_rows(p: &ProjectionProblem, r: &[f64], reach: f64) -> Option<Vec<bool>> {
     let a = p.a();
     let m = a.n_rows();
