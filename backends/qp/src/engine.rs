@@ -849,22 +849,31 @@ fn next_reach(reach: f64, needed: Option<f64>) -> f64 {
 /// The least reach at which [`screened_rows`] keeps every row of `rows`: their room at `y`
 /// against the block's largest violation.
 fn reach_to_keep(p: &ProjectionProblem, r: &[f64], rows: &[usize]) -> f64 {
-    let distance = |i: usize| {
-        let norm = p.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
-        if norm > 0.0 {
-            r[i] / norm
-        } else {
-            0.0
-        }
-    };
-    let worst = (0..r.len()).map(distance).fold(0.0, f64::max);
+    let (distance, worst) = signed_distances(p, r);
     if worst > 0.0 {
         rows.iter()
-            .map(|&i| -distance(i) / worst)
+            .map(|&i| -distance[i] / worst)
             .fold(0.0, f64::max)
     } else {
         0.0
     }
+}
+
+/// Each row's `rᵢ/‖aᵢ‖` (how far `y` violates it, negative for room; `0` for an empty row),
+/// and the largest violation among them (`0` when none is violated).
+fn signed_distances(p: &ProjectionProblem, r: &[f64]) -> (Vec<f64>, f64) {
+    let distance: Vec<f64> = (0..p.n_rows())
+        .map(|i| {
+            let norm = p.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
+            if norm > 0.0 {
+                r[i] / norm
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let worst = distance.iter().fold(0.0, |acc: f64, d| acc.max(*d));
+    (distance, worst)
 }
 
 /// Rows are left out only when at least this fraction of the block's rows can be: a door
@@ -882,19 +891,8 @@ const SCREEN_ROUNDS: usize = 3;
 /// [`SCREEN_REACH`], or wider for a block whose screened run had to be repeated
 /// ([`next_reach`]).
 fn screened_rows(p: &ProjectionProblem, r: &[f64], reach: f64) -> Option<Vec<bool>> {
-    let a = p.a();
-    let m = a.n_rows();
-    let distance: Vec<f64> = (0..m)
-        .map(|i| {
-            let norm = a.row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
-            if norm > 0.0 {
-                r[i] / norm
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    let worst = distance.iter().fold(0.0, |acc: f64, d| acc.max(*d));
+    let m = p.n_rows();
+    let (distance, worst) = signed_distances(p, r);
     let keep: Vec<bool> = distance.iter().map(|d| *d >= -reach * worst).collect();
     let left_out = keep.iter().filter(|k| !**k).count();
     ((left_out as f64) >= SCREEN_FRACTION * m as f64).then_some(keep)
