@@ -1043,16 +1043,49 @@ mod tests {
         assert_eq!(next_reach(0.55, None), SCREEN_REACH);
     }
 
-    /// `d₀ ≥ 1` is violated by 1 at `y = 0`; `d₁ ≥ −0.7` has room 0.7 and `2 d₁ ≥ −3` room
-    /// 1.5 (as distances): keeping both needs a reach of 1.5.
+    /// `d₀ ≥ 2` is violated by 2 at `y = 0`; `d₁ ≥ −0.7` has room 0.7 and `2 d₁ ≥ −3` room
+    /// 1.5 (as distances): keeping both needs a reach of 1.5 / 2. A row without entries
+    /// (`0 ≥ −1`) has neither room nor violation as a distance.
     #[test]
     fn the_reach_to_keep_rows_is_their_room_against_the_largest_violation() {
-        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)], vec![(1, 2.0)]]);
-        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![1.0, -0.7, -3.0]).unwrap();
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)], vec![(1, 2.0)], vec![]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![2.0, -0.7, -3.0, -1.0]).unwrap();
         let r = p.shortfall(p.y());
-        assert!((reach_to_keep(&p, &r, &[1]) - 0.7).abs() < 1e-15);
-        assert!((reach_to_keep(&p, &r, &[1, 2]) - 1.5).abs() < 1e-15);
-        let keep = screened_rows(&p, &r, 1.0).unwrap();
-        assert_eq!(keep, vec![true, true, false]);
+        assert!((reach_to_keep(&p, &r, &[1]) - 0.35).abs() < 1e-15);
+        assert!((reach_to_keep(&p, &r, &[1, 2]) - 0.75).abs() < 1e-15);
+        assert_eq!(reach_to_keep(&p, &r, &[3]), 0.0);
+        let keep = screened_rows(&p, &r, 0.5).unwrap();
+        assert_eq!(keep, vec![true, true, false, true]);
+    }
+
+    /// Screening leaves rows out only when at least a quarter of them can be: with one row
+    /// of five beyond the reach, or none, the block is solved whole.
+    #[test]
+    fn a_block_with_few_rows_beyond_the_reach_is_not_screened() {
+        let a = SparseRows::from_rows(
+            2,
+            &[
+                vec![(0, 1.0)],
+                vec![(1, 1.0)],
+                vec![(0, 1.0), (1, 1.0)],
+                vec![(0, -1.0)],
+                vec![(1, 2.0)],
+            ],
+        );
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![2.0, 1.0, 0.5, -0.5, -3.0]).unwrap();
+        let r = p.shortfall(p.y());
+        assert_eq!(screened_rows(&p, &r, 0.5), None);
+        assert_eq!(screened_rows(&p, &r, 10.0), None);
+        let keep = screened_rows(&p, &r, 0.2).unwrap();
+        assert_eq!(keep, vec![true, true, true, false, false]);
+    }
+
+    /// Where `y` violates no row there is no violation to measure room against: no reach.
+    #[test]
+    fn no_reach_is_needed_where_nothing_is_violated() {
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
+        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![-1.0, -0.5]).unwrap();
+        let r = p.shortfall(p.y());
+        assert_eq!(reach_to_keep(&p, &r, &[0, 1]), 0.0);
     }
 }
