@@ -583,6 +583,23 @@ mod tests {
         assert!(v.iter().all(|x| x.is_finite()));
     }
 
+    /// Two rows equal to within rounding, weighted `1e20` (an interior point's tight rows near
+    /// its answer): the second pivot is lost to cancellation, and raised far above every entry
+    /// (`1e8` times the largest diagonal) its component of a solve is zero instead of the
+    /// rounding divided by what is left of the pivot.
+    #[test]
+    fn a_pivot_lost_to_cancellation_gives_no_direction_along_it() {
+        let a = SparseRows::from_rows(
+            2,
+            &[vec![(0, 1.0), (1, 1.0)], vec![(0, 1.0), (1, 1.0 + 1e-12)]],
+        );
+        let mut normal = NormalMatrix::new(&a).unwrap();
+        normal.factor(&[1e20, 1e20]).unwrap();
+        let mut v = vec![0.0, 1e20];
+        normal.solve(&mut v);
+        assert!(v.iter().all(|x| x.abs() < 1e-6), "{v:?}");
+    }
+
     #[test]
     fn a_weight_that_is_not_finite_is_refused() {
         let a = chain(4);
