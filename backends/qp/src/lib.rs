@@ -47,6 +47,7 @@ mod engine;
 mod ipm;
 mod ldl;
 mod normal;
+mod simplicial;
 
 pub use engine::{Engine, EngineSettings, Method};
 pub use ipm::{Iterate, Tolerance};

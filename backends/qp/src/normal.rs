@@ -7,6 +7,7 @@
 //! Cholesky factorization exists. Its pattern is that of `I + AᵀA` for every `W`: it is
 //! ordered (AMD) and analysed once per block, and only refactored numerically after that.
 
+use crate::simplicial::Reaches;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
@@ -66,6 +67,8 @@ pub(crate) struct NormalMatrix {
     /// Where the diagonal entries are.
     diagonal: Vec<usize>,
     symbolic: SymbolicCholesky<usize>,
+    /// For a column-by-column factor, its rows' reaches (found once for the pattern).
+    reaches: Option<Reaches>,
     factor: Vec<f64>,
     workspace: MemBuffer,
     /// A right-hand side in the order's numbering.
@@ -178,8 +181,15 @@ impl NormalMatrix {
             .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
             .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
         let workspace = MemBuffer::try_new(scratch).map_err(|_| NotFactorable)?;
+        let reaches = match symbolic.raw() {
+            SymbolicCholeskyRaw::Simplicial(l) => {
+                Some(Reaches::of(renumbered.pattern.as_ref(), l).map_err(|_| NotFactorable)?)
+            }
+            SymbolicCholeskyRaw::Supernodal(_) => None,
+        };
         Ok(Self {
             n,
+            reaches,
             factor: vec![0.0; symbolic.len_val()],
             values: vec![0.0; row_idx.len()],
             diagonal: diagonal.iter().map(|&e| renumbered.moved[e]).collect(),
@@ -237,6 +247,23 @@ impl NormalMatrix {
             dynamic_regularization_delta: largest * 1e8,
             dynamic_regularization_epsilon: 0.5,
         };
+        if let (Some(reaches), SymbolicCholeskyRaw::Simplicial(l)) =
+            (self.reaches.as_mut(), self.symbolic.raw())
+        {
+            let matrix = (self.pattern.as_ref(), &self.values[..]);
+            let (epsilon, delta) = (
+                regularization.dynamic_regularization_epsilon,
+                regularization.dynamic_regularization_delta,
+            );
+            if reaches
+                .factor(matrix, l, (epsilon, delta), &mut self.factor)
+                .is_ok()
+            {
+                self.factored = true;
+                return Ok(());
+            }
+            return Err(NotFactorable);
+        }
         let matrix = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
         let stack = MemStack::new(&mut self.workspace);
         if self
@@ -529,17 +556,28 @@ mod tests {
         for side in [4, 9, 30] {
             let a = grid(side);
             let n = a.n_cols();
-            let w: Vec<f64> = (0..a.n_rows())
+            let b: Vec<f64> = (0..n).map(|j| (j as f64 * 0.37).sin()).collect();
+            // Moderate weights, and an interior point's near its answer (tight rows 1e20,
+            // the others 1e-20), whose cancellations call on the dynamic regularization of
+            // the column-by-column factor (`ByFill` on these grids; faer's supernodal one
+            // refuses such weights on the largest).
+            let moderate: Vec<f64> = (0..a.n_rows())
                 .map(|i| 10f64.powi((i % 9) as i32 - 4))
                 .collect();
-            let b: Vec<f64> = (0..n).map(|j| (j as f64 * 0.37).sin()).collect();
-            for layout in [Layout::ByUnknowns, Layout::ByFill] {
+            let extreme: Vec<f64> = (0..a.n_rows())
+                .map(|i| if i % 3 == 0 { 1e-20 } else { 1e20 })
+                .collect();
+            for (w, layout) in [
+                (&moderate, Layout::ByUnknowns),
+                (&moderate, Layout::ByFill),
+                (&extreme, Layout::ByFill),
+            ] {
                 let mut normal = NormalMatrix::with_layout(&a, layout).unwrap();
-                normal.factor(&w).unwrap();
+                normal.factor(w).unwrap();
                 let mut ours = b.clone();
                 normal.solve(&mut ours);
                 let mut theirs = b.clone();
-                solved_by_faers_own_ordering(&a, &w, layout, &mut theirs);
+                solved_by_faers_own_ordering(&a, w, layout, &mut theirs);
                 let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                 assert_eq!(bits(&ours), bits(&theirs), "{side} × {side}, {layout:?}");
             }
@@ -598,6 +636,24 @@ mod tests {
         let mut v = vec![0.0, 1e20];
         normal.solve(&mut v);
         assert!(v.iter().all(|x| x.abs() < 1e-6), "{v:?}");
+    }
+
+    /// Weights whose products overflow leave no factor (a pivot that is not a number), for
+    /// either layout: refused, not factored into NaNs.
+    #[test]
+    fn weights_that_overflow_the_matrix_are_refused() {
+        let a = chain(SUPERNODAL_FROM + 3);
+        let w = vec![f64::MAX / 2.0; a.n_rows()];
+        for layout in [Layout::ByUnknowns, Layout::ByFill] {
+            let mut normal = NormalMatrix::with_layout(&a, layout).unwrap();
+            assert_eq!(normal.factor(&w), Err(NotFactorable), "{layout:?}");
+        }
+        let small = chain(5);
+        let mut normal = NormalMatrix::new(&small).unwrap();
+        assert_eq!(
+            normal.factor(&vec![f64::MAX / 2.0; small.n_rows()]),
+            Err(NotFactorable)
+        );
     }
 
     #[test]
