@@ -1,8 +1,7 @@
 //! The normal matrix `I + AᵀWA` of a block, and its Cholesky factor.
 //!
-//! Both methods of the engine solve with it: the interior point with the weights `W =
-//! diag(λ/s)` of its iterate, the support method with weights `σ` on the rows of its support
-//! and `0` elsewhere. Whatever the rows — more of them than unknowns, linearly dependent — it
+//! The interior point solves with it, with the weights `W = diag(λ/s)` of its iterate.
+//! Whatever the rows — more of them than unknowns, linearly dependent — it
 //! is symmetric positive definite (the identity comes from the objective `½‖d‖²`), so a
 //! Cholesky factorization exists. Its pattern is that of `I + AᵀA` for every `W`: it is
 //! ordered (AMD) and analysed once per block, and only refactored numerically after that.
