@@ -35,6 +35,33 @@ pub(crate) enum Layout {
     ByFill,
 }
 
+impl Layout {
+    /// faer's choice between the supernodal and the column-by-column factorization for a
+    /// matrix of `n` unknowns.
+    fn threshold(self, n: usize) -> SupernodalThreshold {
+        match self {
+            Layout::ByFill => SupernodalThreshold::AUTO,
+            Layout::ByUnknowns if n >= SUPERNODAL_FROM => SupernodalThreshold::FORCE_SUPERNODAL,
+            Layout::ByUnknowns => SupernodalThreshold::FORCE_SIMPLICIAL,
+        }
+    }
+}
+
+/// The dynamic regularization of `I + AᵀWA`, whose largest diagonal entry is `largest`.
+///
+/// Every pivot of `I + AᵀWA` is at least 1 in exact arithmetic (a Schur complement of the
+/// identity plus a positive semidefinite matrix); one far below it is rounding after
+/// cancellation between weights of 1e20, as near an interior point's answer. Such a pivot is
+/// made far larger than any entry, which sets the direction's component there to zero instead
+/// of letting the rounding through (the treatment of dependent rows in the normal equations
+/// of LIPSOL, Zhang 1996).
+fn regularization(largest: f64) -> LltRegularization<f64> {
+    LltRegularization {
+        dynamic_regularization_delta: largest * 1e8,
+        dynamic_regularization_epsilon: 0.5,
+    }
+}
+
 /// Why a factorization could not be used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct NotFactorable;
@@ -132,11 +159,7 @@ impl NormalMatrix {
             row_slots.push(slots.len());
         }
         let diagonal: Vec<usize> = (0..n).map(|j| entry(j, j)).collect();
-        let threshold = match layout {
-            Layout::ByFill => SupernodalThreshold::AUTO,
-            Layout::ByUnknowns if n >= SUPERNODAL_FROM => SupernodalThreshold::FORCE_SUPERNODAL,
-            Layout::ByUnknowns => SupernodalThreshold::FORCE_SIMPLICIAL,
-        };
+        let threshold = layout.threshold(n);
         let analyse = |pattern: SymbolicSparseColMatRef<'_, usize>, ordering, threshold| {
             factorize_symbolic_cholesky(
                 pattern,
@@ -236,16 +259,7 @@ impl NormalMatrix {
             .iter()
             .map(|&p| self.values[p])
             .fold(1.0, f64::max);
-        // Every pivot of `I + AᵀWA` is at least 1 in exact arithmetic (a Schur complement of
-        // the identity plus a positive semidefinite matrix); one far below it is rounding
-        // after cancellation between weights of 1e20, as near an interior point's answer.
-        // Such a pivot is made far larger than any entry, which sets the direction's component there to zero
-        // instead of letting the rounding through (the treatment of dependent rows in the
-        // normal equations of LIPSOL, Zhang 1996).
-        let regularization = LltRegularization {
-            dynamic_regularization_delta: largest * 1e8,
-            dynamic_regularization_epsilon: 0.5,
-        };
+        let regularization = regularization(largest);
         if let (Some(reaches), SymbolicCholeskyRaw::Simplicial(l)) =
             (self.reaches.as_mut(), self.symbolic.raw())
         {
@@ -504,11 +518,7 @@ mod tests {
                 }
             }
         }
-        let threshold = match layout {
-            Layout::ByFill => SupernodalThreshold::AUTO,
-            Layout::ByUnknowns if n >= SUPERNODAL_FROM => SupernodalThreshold::FORCE_SUPERNODAL,
-            Layout::ByUnknowns => SupernodalThreshold::FORCE_SIMPLICIAL,
-        };
+        let threshold = layout.threshold(n);
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
         let symbolic = factorize_symbolic_cholesky(
             pattern,
@@ -521,10 +531,7 @@ mod tests {
         )
         .unwrap();
         let largest = (0..n).map(|j| values[entry(j, j)]).fold(1.0, f64::max);
-        let regularization = LltRegularization {
-            dynamic_regularization_delta: largest * 1e8,
-            dynamic_regularization_epsilon: 0.5,
-        };
+        let regularization = regularization(largest);
         let mut factor = vec![0.0; symbolic.len_val()];
         let mut workspace = MemBuffer::new(
             symbolic
