@@ -54,6 +54,14 @@ pub struct Blocks {
     empty_rows: Vec<usize>,
 }
 
+/// Whether `y` violates row `r` (`aᵣ·y ≥ bᵣ` fails, `=` on an equality row); a NaN counts as
+/// violated, so that its block is built and its solver reports it.
+fn violated_at_y(problem: &ProjectionProblem, r: usize) -> bool {
+    let ay: f64 = problem.a().row(r).map(|(c, v)| v * problem.y()[c]).sum();
+    ay.partial_cmp(&problem.b()[r])
+        .is_none_or(|o| o.is_lt() || (r < problem.equalities() && o.is_gt()))
+}
+
 /// Union–find root with path halving.
 fn find(parent: &mut [usize], mut i: usize) -> usize {
     while parent[i] != i {
@@ -68,7 +76,7 @@ impl Blocks {
     /// connect anything and are dropped from the sub-problems; a row without a non-zero entry
     /// belongs to no block (see [`Blocks::empty_rows`]).
     pub fn split(problem: &ProjectionProblem) -> Self {
-        Self::split_keeping(problem, |_| true)
+        Self::split_keeping(problem, |_| true, |_| true)
     }
 
     /// [`Blocks::split`] without the components in which `y` satisfies every row (`aᵢ·y ≥
@@ -87,20 +95,44 @@ impl Blocks {
     /// assert_eq!(blocks.blocks()[0].rows, vec![1]);
     /// ```
     pub fn split_violated(problem: &ProjectionProblem) -> Self {
-        let (a, y, b) = (problem.a(), problem.y(), problem.b());
-        let k = problem.equalities();
-        // Kept unless `aᵢ·y ≥ bᵢ` holds (`=` on an equality row), so a NaN keeps its block,
-        // whose solver reports it.
-        Self::split_keeping(problem, |r| {
-            let ay: f64 = a.row(r).map(|(c, v)| v * y[c]).sum();
-            ay.partial_cmp(&b[r])
-                .is_none_or(|o| o.is_lt() || (r < k && o.is_gt()))
-        })
+        Self::split_keeping(problem, |_| true, |r| violated_at_y(problem, r))
     }
 
-    /// The components holding at least one row for which `keep` is true; every empty row is
-    /// still listed in [`Blocks::empty_rows`].
-    fn split_keeping(problem: &ProjectionProblem, keep: impl Fn(usize) -> bool) -> Self {
+    /// [`Blocks::split_violated`] of the rows `among` marks alone: the components of the graph
+    /// of those rows that hold a row `y` violates. Rows left unmarked belong to no block (their
+    /// multiplier is `0` in [`Blocks::stitch`]), so the answer stitched from these blocks is the
+    /// projection onto the marked rows' set; it is the whole problem's when it satisfies the
+    /// unmarked rows too. A jam's candidate pairs connect everybody into one block, while the
+    /// rows that can be active form thousands of small clusters.
+    ///
+    /// ```
+    /// use sweeping_api::{Blocks, ProjectionProblem, SparseRows};
+    /// // Row 1 joins rows 0 and 2 through unknowns 1 and 2; left out, they are two blocks.
+    /// let a = SparseRows::from_rows(4, &[
+    ///     vec![(0, 1.0), (1, 1.0)], vec![(1, 1.0), (2, 1.0)], vec![(2, 1.0), (3, 1.0)],
+    /// ]);
+    /// let p = ProjectionProblem::new(vec![0.0; 4], a, vec![1.0, -9.0, 1.0]).unwrap();
+    /// assert_eq!(Blocks::split_violated(&p).blocks().len(), 1);
+    /// let blocks = Blocks::split_among(&p, &[true, false, true]);
+    /// assert_eq!(blocks.blocks().len(), 2);
+    /// assert_eq!(blocks.blocks()[1].rows, vec![2]);
+    /// ```
+    ///
+    /// # Panics
+    /// When `among` does not hold one flag per row.
+    pub fn split_among(problem: &ProjectionProblem, among: &[bool]) -> Self {
+        assert_eq!(among.len(), problem.n_rows(), "one flag per row");
+        Self::split_keeping(problem, |r| among[r], |r| violated_at_y(problem, r))
+    }
+
+    /// The components of the graph of the rows for which `joins` is true that hold at least
+    /// one row for which `keep` is true; every empty row among those that join is listed in
+    /// [`Blocks::empty_rows`].
+    fn split_keeping(
+        problem: &ProjectionProblem,
+        joins: impl Fn(usize) -> bool,
+        keep: impl Fn(usize) -> bool,
+    ) -> Self {
         let a = problem.a();
         let (m, n) = (a.n_rows(), a.n_cols());
         let mut parent: Vec<usize> = (0..n).collect();
@@ -134,6 +166,9 @@ impl Blocks {
         }
         let mut first_col = vec![usize::MAX; m];
         for (r, first) in first_col.iter_mut().enumerate() {
+            if !joins(r) {
+                continue;
+            }
             for (c, v) in a.row(r) {
                 if v == 0.0 {
                     continue;
@@ -157,6 +192,9 @@ impl Blocks {
         let mut rows_of: Vec<Vec<usize>> = Vec::new();
         let mut empty_rows = Vec::new();
         for (r, &c) in first_col.iter().enumerate() {
+            if !joins(r) {
+                continue;
+            }
             if c == usize::MAX {
                 empty_rows.push(r);
                 continue;

@@ -24,8 +24,9 @@ fn chain(k: usize, from_the_right: bool) -> ProjectionProblem {
         y.push(y[y.len() - 1] + 1.15);
     }
     if from_the_right {
-        // The last point pushed back onto the one before it instead: the wall is far.
-        y = (0..k).map(|i| 10.0 + i.min(k - 2) as f64 * 1.6).collect();
+        // The last point pushed back onto the one before it instead: the wall is far, and
+        // every row within the screening's reach, so that the block is solved whole.
+        y = (0..k).map(|i| 10.0 + i.min(k - 2) as f64 * 1.15).collect();
     }
     let keys = (0..rows.len() as u64)
         .map(|m| RowKey {

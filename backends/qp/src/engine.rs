@@ -5,10 +5,11 @@
 use crate::active_set::{self, Failure, Memory, Options, Orderings, Start};
 use crate::ipm::{self, Tolerance};
 use crate::normal::{Layout, NormalMatrix};
+use crate::screen::{row_slack, Screening, SCREEN_REACH, SCREEN_ROUNDS};
 use std::time::Instant;
 use sweeping_api::{
     BackendCounters, Block, Blocks, EqualityPairs, FastMap, MetricChange, Projection,
-    ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats, SolveStatus, SparseRows,
+    ProjectionError, ProjectionProblem, Projector, RowKey, SolveStats, SolveStatus,
 };
 
 /// Settings of an [`Engine`]. Every field has a documented default.
@@ -92,8 +93,6 @@ struct BlockAnswer {
     /// For an interior point accepted short of its tolerance, how far its tests were from it,
     /// as a length ([`ipm::Iterate::accuracy`] times the block's length scale).
     short_of: Option<f64>,
-    /// The screening reach of the block's rows at the next projection ([`next_reach`]).
-    screen_reach: f64,
 }
 
 /// Why a block has no answer.
@@ -215,8 +214,8 @@ impl Engine {
             }
             return Ok(Projection::identity(problem, name));
         }
-        let blocks = Blocks::split_violated(problem);
-        if let Some(r) = blocks.infeasible_empty_row(problem) {
+        let parents = Blocks::split_violated(problem);
+        if let Some(r) = parents.infeasible_empty_row(problem) {
             return Err(ProjectionError::Infeasible {
                 backend: name.to_string(),
                 detail: format!(
@@ -229,15 +228,18 @@ impl Engine {
         self.orderings.forget_older();
         let setup_seconds = setup_start.elapsed().as_secs_f64();
         let solve_start = Instant::now();
-        let results = self.solve_blocks(&blocks, tol);
+        let (screening, blocks, results) = self.solve_screened(problem, parents, tol);
         let mut answers = Vec::with_capacity(results.len());
         let mut methods = Vec::with_capacity(results.len());
-        let mut reaches = Vec::with_capacity(results.len());
+        let reaches: Vec<f64> = blocks
+            .blocks()
+            .iter()
+            .map(|b| screening.next_reach(b.rows[0]))
+            .collect();
         for (index, (block, result)) in blocks.blocks().iter().zip(results).enumerate() {
             match result {
                 Ok(answer) => {
                     methods.push(Some(answer.method));
-                    reaches.push(answer.screen_reach);
                     answers.push(Projection {
                         x: answer.x,
                         multipliers: answer.lambda,
@@ -274,7 +276,6 @@ impl Engine {
                         answer.stats.counters.fallbacks =
                             answer.stats.counters.fallbacks.saturating_add(1);
                         methods.push(None);
-                        reaches.push(SCREEN_REACH);
                         answers.push(answer);
                     }
                     None => {
@@ -313,28 +314,174 @@ impl Engine {
         Ok(answer)
     }
 
-    /// Every block's answer, in order. When two blocks or more reach
+    /// The blocks of `problem` and their answers: the blocks of `parents` (those of every row),
+    /// split further where rows far from violated are left out ([`Screening`]), until the
+    /// answers satisfy every row left out. A block whose rows did not change keeps its answer
+    /// from one round to the next; the others start from the last round's multipliers, the
+    /// active set first. A parent with a block that has no answer, or still missing rows after
+    /// [`SCREEN_ROUNDS`] rounds, is taken whole.
+    fn solve_screened(
+        &mut self,
+        problem: &ProjectionProblem,
+        parents: Blocks,
+        tol: f64,
+    ) -> (Screening, Blocks, Vec<BlockResult>) {
+        let (memory, settings) = (&self.memory, &self.settings);
+        // A block is screened from [`LARGE_BLOCK_ROWS`] rows (a jam's candidate pairs), and at
+        // any size when it goes straight to the interior point, whose iterations pay for
+        // every row; its reach is the widest its remembered rows carry.
+        let mut screening = Screening::new(problem, &parents, |block| {
+            let keys = problem.row_keys().filter(|_| settings.warm_start);
+            let remembered = || {
+                let keys = keys?;
+                Some(block.rows.iter().filter_map(|&i| memory.get(&keys[i])))
+            };
+            let streak = remembered()
+                .and_then(|rows| rows.map(|rem| rem.interior_streak).max())
+                .unwrap_or(0);
+            let straight = settings.active_set_iterations == 0 || skips_active_set(streak);
+            (block.rows.len() >= LARGE_BLOCK_ROWS || straight).then(|| {
+                remembered()
+                    .into_iter()
+                    .flatten()
+                    .map(|rem| rem.screen_reach)
+                    .fold(SCREEN_REACH, f64::max)
+            })
+        });
+        if !screening.any() {
+            let todo: Vec<usize> = (0..parents.blocks().len()).collect();
+            let results = self.solve_blocks(&parents, &todo, &screening, None, tol);
+            return (screening, parents, results);
+        }
+        // A block is named by its first row and its number of rows: rows only join, so a
+        // block with the same first row and as many rows is the same block.
+        let name = |b: &Block| (b.rows[0], b.rows.len());
+        let mut solved: FastMap<(usize, usize), BlockResult> = FastMap::default();
+        let mut overlay: Option<FastMap<RowKey, Remembered>> = None;
+        let mut rounds = 0;
+        loop {
+            let blocks = Blocks::split_among(problem, screening.keep());
+            let mut results: Vec<Option<BlockResult>> = blocks
+                .blocks()
+                .iter()
+                .map(|b| solved.remove(&name(b)))
+                .collect();
+            let todo: Vec<usize> = (0..results.len())
+                .filter(|&b| results[b].is_none())
+                .collect();
+            let fresh = self.solve_blocks(&blocks, &todo, &screening, overlay.as_ref(), tol);
+            for (&b, result) in todo.iter().zip(fresh) {
+                results[b] = Some(result);
+            }
+            let results: Vec<BlockResult> = results
+                .into_iter()
+                .map(|r| r.expect("every block is solved or kept"))
+                .collect();
+            let mut x = problem.y().to_vec();
+            let mut failed = Vec::new();
+            for (block, result) in blocks.blocks().iter().zip(&results) {
+                match result {
+                    Ok(answer) => {
+                        for (&c, &v) in block.cols.iter().zip(&answer.x) {
+                            x[c] = v;
+                        }
+                    }
+                    Err(_) => failed.push(block.rows[0]),
+                }
+            }
+            let missed = screening.join_violated(problem, &x);
+            rounds += 1;
+            let unscreened = failed.iter().any(|&i| screening.screened(i));
+            if missed.is_empty() && !unscreened {
+                return (screening, blocks, results);
+            }
+            for &i in &failed {
+                screening.unscreen(i);
+            }
+            if rounds >= SCREEN_ROUNDS {
+                for &i in &missed {
+                    screening.unscreen(i);
+                }
+            }
+            overlay = Some(self.memory_with(problem, &blocks, &results));
+            for (block, result) in blocks.blocks().iter().zip(results) {
+                solved.insert(name(block), result);
+            }
+        }
+    }
+
+    /// The memory of the last projection with the support of `results` (answers of `blocks`,
+    /// a round of [`Self::solve_screened`]) written over it: blocks that grew by a few rows
+    /// start from their parts' answers, each row keeping its interior-point streak (so a jam
+    /// that skips the active set still does).
+    fn memory_with(
+        &self,
+        problem: &ProjectionProblem,
+        blocks: &Blocks,
+        results: &[BlockResult],
+    ) -> FastMap<RowKey, Remembered> {
+        let mut memory = self.memory.clone();
+        let Some(keys) = problem.row_keys() else {
+            return memory;
+        };
+        for (block, result) in blocks.blocks().iter().zip(results) {
+            let Ok(answer) = result else { continue };
+            for (t, &i) in block.rows.iter().enumerate() {
+                let lambda = answer.lambda[t];
+                let slack = || row_slack(&block.problem, t, &answer.x);
+                if !in_support(Some(answer.method), lambda, slack) {
+                    memory.remove(&keys[i]);
+                    continue;
+                }
+                let kept = memory.get(&keys[i]);
+                let remembered = Remembered {
+                    multiplier: lambda,
+                    interior_streak: kept.map_or(0, |r| r.interior_streak),
+                    screen_reach: kept.map_or(SCREEN_REACH, |r| r.screen_reach),
+                };
+                memory.insert(keys[i], remembered);
+            }
+        }
+        memory
+    }
+
+    /// The answers of the blocks `todo` (indices into `blocks`), in that order, each starting
+    /// from `memory` (the engine's own when `None`). When two blocks or more reach
     /// [`EngineSettings::parallel_rows`], the large blocks each form a group and the rest
     /// another; each group orders its factorizations from the memory as it stood before any
     /// of them, and the groups' memories are joined in a fixed order. The groups run on
     /// threads when there are threads to spare and one after the other otherwise — the same
     /// arithmetic either way, so the answers do not depend on the threads.
-    fn solve_blocks(&mut self, blocks: &Blocks, tol: f64) -> Vec<BlockResult> {
-        let all = blocks.blocks();
+    fn solve_blocks(
+        &mut self,
+        blocks: &Blocks,
+        todo: &[usize],
+        screening: &Screening,
+        memory: Option<&FastMap<RowKey, Remembered>>,
+        tol: f64,
+    ) -> Vec<BlockResult> {
+        let all: Vec<&Block> = todo.iter().map(|&b| &blocks.blocks()[b]).collect();
         let context = Context {
             settings: &self.settings,
-            memory: &self.memory,
+            memory: memory.unwrap_or(&self.memory),
             tol,
+        };
+        let layout = |block: &Block| {
+            if screening.screened(block.rows[0]) {
+                Layout::ByFill
+            } else {
+                Layout::ByUnknowns
+            }
         };
         let threads = match self.settings.threads {
             0 => std::thread::available_parallelism().map_or(1, usize::from),
             t => t,
         };
-        let groups = parallel_groups(all, self.settings.parallel_rows);
+        let groups = parallel_groups(&all, self.settings.parallel_rows);
         if groups.len() < 2 {
             return all
                 .iter()
-                .map(|block| solve_block(&context, &mut self.orderings, block))
+                .map(|block| solve_block(&context, &mut self.orderings, block, layout(block)))
                 .collect();
         }
         if threads < 2 {
@@ -350,7 +497,7 @@ impl Engine {
             let mut fork = orderings.fork();
             let results: Vec<BlockResult> = group
                 .iter()
-                .map(|&b| solve_block(&context, &mut fork, &all[b]))
+                .map(|&b| solve_block(&context, &mut fork, all[b], layout(all[b])))
                 .collect();
             (results, fork)
         };
@@ -407,16 +554,8 @@ impl Engine {
             };
             for &i in &block.rows {
                 let lambda = answer.multipliers[i];
-                if lambda <= 0.0 {
+                if !in_support(*method, lambda, || row_slack(problem, i, &answer.x)) {
                     continue;
-                }
-                // An interior point's multipliers are all positive: a row counts as in the
-                // support when its multiplier exceeds its slack.
-                if interior {
-                    let ax: f64 = problem.a().row(i).map(|(c, v)| v * answer.x[c]).sum();
-                    if lambda <= ax - problem.b()[i] {
-                        continue;
-                    }
                 }
                 self.memory.insert(
                     keys[i],
@@ -429,6 +568,13 @@ impl Engine {
             }
         }
     }
+}
+
+/// Whether a row with multiplier `lambda` in the answer of `method` (`None`: the fallback's)
+/// is in the support remembered for the next projection. An interior point's multipliers are
+/// all positive: there a row counts when its multiplier exceeds its `slack`.
+fn in_support(method: Option<Method>, lambda: f64, slack: impl FnOnce() -> f64) -> bool {
+    lambda > 0.0 && (method != Some(Method::InteriorPoint) || lambda > slack())
 }
 
 /// The error of a fallback that failed on block `index` too, said as this backend's (`name`):
@@ -467,16 +613,16 @@ fn through_fallback(
 /// The blocks (by index) grouped for threads: every block of at least `parallel_rows` rows
 /// on its own, then the rest together. A single group when fewer than two blocks are that
 /// large (or `parallel_rows` is `0`): nothing to share out.
-fn parallel_groups(blocks: &[Block], parallel_rows: usize) -> Vec<Vec<usize>> {
+fn parallel_groups(blocks: &[&Block], parallel_rows: usize) -> Vec<Vec<usize>> {
     let large = |b: &Block| parallel_rows > 0 && b.rows.len() >= parallel_rows;
     if blocks.iter().filter(|b| large(b)).count() < 2 {
         return vec![(0..blocks.len()).collect()];
     }
     let mut groups: Vec<Vec<usize>> = (0..blocks.len())
-        .filter(|&b| large(&blocks[b]))
+        .filter(|&b| large(blocks[b]))
         .map(|b| vec![b])
         .collect();
-    let rest: Vec<usize> = (0..blocks.len()).filter(|&b| !large(&blocks[b])).collect();
+    let rest: Vec<usize> = (0..blocks.len()).filter(|&b| !large(blocks[b])).collect();
     if !rest.is_empty() {
         groups.push(rest);
     }
@@ -510,20 +656,23 @@ const FARKAS_REACH: f64 = 1e6;
 
 /// Solves one block: the active set from the remembered support (unless its rows went to the
 /// interior point at the last projections, see [`skips_active_set`]), else the interior
-/// point, finished by the active set from its support when that converges within
-/// [`EngineSettings::finish_iterations`]. Every answer is certified by its KKT residuals.
-fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) -> BlockResult {
+/// point (its normal matrix factored in `layout`), finished by the active set from its support
+/// when that converges within [`EngineSettings::finish_iterations`]. Every answer is certified
+/// by its KKT residuals.
+fn solve_block(
+    context: &Context<'_>,
+    orderings: &mut Orderings,
+    block: &Block,
+    layout: Layout,
+) -> BlockResult {
     let p = &block.problem;
     let settings = context.settings;
     let m = p.n_rows();
     let r = p.shortfall(p.y());
-    let (start, streak, warm, reach) = warm_start(context, p, &r);
-    // The reach that would have kept every row a screened run missed (`None`: no repeat).
-    let mut needed: Option<f64> = None;
+    let (start, streak, warm) = warm_start(context, p, &r);
     // `warm`: some row of the block is remembered, with a positive multiplier.
     let floor = settings.interior_point_warm_floor;
-    let warm_starts = floor > 0.0 && floor.is_finite();
-    let mut guess = if warm && warm_starts {
+    let guess = if warm && floor > 0.0 && floor.is_finite() {
         remembered_multipliers(context, p)
     } else {
         None
@@ -546,7 +695,6 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
                     iterations: outcome.iterations,
                     warm,
                     short_of: None,
-                    screen_reach: next_reach(reach, needed),
                 });
             }
             Ok(outcome) => iterations += outcome.iterations,
@@ -559,93 +707,57 @@ fn solve_block(context: &Context<'_>, orderings: &mut Orderings, block: &Block) 
         iterations,
         reason: reason.to_string(),
     };
-    // The rows that can matter first (see [`screened_rows`]); when the answer violates a
-    // row left out and the finish cannot repair it, those rows join, and after
-    // [`SCREEN_ROUNDS`] such rounds every row is taken.
-    let mut keep = screened_rows(p, &r, reach);
-    let mut rounds = 0;
-    loop {
-        let (it, violated) = interior_point_on(
-            p,
-            &r,
-            keep.as_deref(),
-            settings,
-            CERTIFIABLE * context.tol,
-            guess.as_deref(),
-        )
+    let it = interior_point(p, &r, layout, settings, CERTIFIABLE * context.tol, guess)
         .map_err(|reason| unsolved(iterations, reason))?;
-        let missed = !violated.is_empty();
-        iterations = iterations.saturating_add(it.iterations);
-        // An interior point within its tolerance, or stalled near it (the directions'
-        // rounding, with weights spanning twenty orders of magnitude, sets a floor), is the
-        // answer when it is certified: within its accuracy of the projection, as exact as
-        // the scheme needs. The active set's finish is for the others.
-        let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
-        let acceptable = it.converged || it.accuracy <= settings.interior_point.acceptable;
-        if !missed && acceptable && certified(&x, &it.lambda) {
-            return Ok(BlockAnswer {
-                x,
-                lambda: it.lambda,
-                method: Method::InteriorPoint,
-                iterations,
-                warm,
-                short_of: (!it.converged).then_some(it.accuracy * it.length),
-                screen_reach: next_reach(reach, needed),
-            });
-        }
-        if settings.finish_iterations > 0 {
-            let finished = finish_interior_point(context, orderings, block, (&it, &r), missed);
-            match finished {
-                Finished::Answer(outcome) => {
-                    return Ok(BlockAnswer {
-                        x: outcome.x,
-                        lambda: outcome.lambda,
-                        method: Method::InteriorPoint,
-                        iterations: iterations.saturating_add(outcome.iterations),
-                        warm,
-                        short_of: None,
-                        screen_reach: next_reach(reach, needed),
-                    });
-                }
-                Finished::Infeasible(rows) => return Err(BlockFailure::Infeasible(rows)),
-                Finished::Spent(n) => iterations = iterations.saturating_add(n),
-            }
-        }
-        if missed {
-            rounds += 1;
-            match keep.as_mut() {
-                Some(rows) if rounds < SCREEN_ROUNDS => {
-                    violated.iter().for_each(|&i| rows[i] = true)
-                }
-                _ => keep = None,
-            }
-            // The run again differs from this one by the rows that joined: it starts from
-            // this run's multipliers (`0` on the rows it left out).
-            if warm_starts {
-                guess = Some(it.lambda);
-            }
-            let missed_reach = reach_to_keep(p, &r, &violated);
-            needed = Some(needed.map_or(missed_reach, |n: f64| n.max(missed_reach)));
-            continue;
-        }
-        if !it.converged {
-            if let Some(rows) = farkas(p, &r, &it.lambda) {
-                return Err(BlockFailure::Infeasible(rows));
-            }
-        }
-        debug_assert_eq!(r.len(), m);
-        return Err(unsolved(
+    iterations = iterations.saturating_add(it.iterations);
+    // An interior point within its tolerance, or stalled near it (the directions' rounding,
+    // with weights spanning twenty orders of magnitude, sets a floor), is the answer when it
+    // is certified: within its accuracy of the projection, as exact as the scheme needs. The
+    // active set's finish is for the others.
+    let x: Vec<f64> = p.y().iter().zip(&it.d).map(|(y, d)| y + d).collect();
+    let acceptable = it.converged || it.accuracy <= settings.interior_point.acceptable;
+    if acceptable && certified(&x, &it.lambda) {
+        return Ok(BlockAnswer {
+            x,
+            lambda: it.lambda,
+            method: Method::InteriorPoint,
             iterations,
-            &if it.converged {
-                "the interior point's answer failed the KKT check".to_string()
-            } else {
-                format!(
-                    "the interior point did not converge (accuracy {:.1e})",
-                    it.accuracy
-                )
-            },
-        ));
+            warm,
+            short_of: (!it.converged).then_some(it.accuracy * it.length),
+        });
     }
+    if settings.finish_iterations > 0 {
+        match finish_interior_point(context, orderings, block, (&it, &r)) {
+            Finished::Answer(outcome) => {
+                return Ok(BlockAnswer {
+                    x: outcome.x,
+                    lambda: outcome.lambda,
+                    method: Method::InteriorPoint,
+                    iterations: iterations.saturating_add(outcome.iterations),
+                    warm,
+                    short_of: None,
+                });
+            }
+            Finished::Infeasible(rows) => return Err(BlockFailure::Infeasible(rows)),
+            Finished::Spent(n) => iterations = iterations.saturating_add(n),
+        }
+    }
+    if !it.converged {
+        if let Some(rows) = farkas(p, &r, &it.lambda) {
+            return Err(BlockFailure::Infeasible(rows));
+        }
+    }
+    Err(unsolved(
+        iterations,
+        &if it.converged {
+            "the interior point's answer failed the KKT check".to_string()
+        } else {
+            format!(
+                "the interior point did not converge (accuracy {:.1e})",
+                it.accuracy
+            )
+        },
+    ))
 }
 
 /// What the active set's finish of an interior point came to.
@@ -665,14 +777,12 @@ fn certified(context: &Context<'_>, p: &ProjectionProblem, x: &[f64], lambda: &[
 }
 
 /// The active set from the support of the interior point's iterate `it` (of the block whose
-/// `y` falls short of its rows by `r`), its first pass alone; `missed` when the iterate, of
-/// screened rows, violates a row left out.
+/// `y` falls short of its rows by `r`), its first pass alone.
 fn finish_interior_point(
     context: &Context<'_>,
     orderings: &mut Orderings,
     block: &Block,
     (it, r): (&ipm::Iterate, &[f64]),
-    missed: bool,
 ) -> Finished {
     let p = &block.problem;
     let settings = context.settings;
@@ -699,12 +809,7 @@ fn finish_interior_point(
         apart <= AGREEMENT * it.accuracy.max(settings.interior_point.accuracy) * it.length
     };
     match res {
-        // An answer of the screened rows that violates a left-out row is no answer to
-        // agree with: the finish, which takes every row, stands on its certificate.
-        Ok(outcome)
-            if certified(context, p, &outcome.x, &outcome.lambda)
-                && (missed || agrees(&outcome.x)) =>
-        {
+        Ok(outcome) if certified(context, p, &outcome.x, &outcome.lambda) && agrees(&outcome.x) => {
             Finished::Answer(outcome)
         }
         Ok(outcome) => Finished::Spent(outcome.iterations),
@@ -742,9 +847,8 @@ fn first_pass(
 
 /// The active set's start: the remembered multipliers by row key, or, without any, the rows
 /// violated at `y` with their own half-space multipliers. Also the longest streak of interior
-/// points among the remembered rows, whether any row was remembered, and the widest screening
-/// reach among them ([`SCREEN_REACH`] without one).
-fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start, u32, bool, f64) {
+/// points among the remembered rows, and whether any row was remembered.
+fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start, u32, bool) {
     let m = p.n_rows();
     let remembered: Vec<Option<Remembered>> = match (context.settings.warm_start, p.row_keys()) {
         (true, Some(keys)) => keys
@@ -769,18 +873,13 @@ fn warm_start(context: &Context<'_>, p: &ProjectionProblem, r: &[f64]) -> (Start
         .map(|rem| rem.interior_streak)
         .max()
         .unwrap_or(0);
-    let reach = remembered
-        .iter()
-        .flatten()
-        .map(|rem| rem.screen_reach)
-        .fold(SCREEN_REACH, f64::max);
     let start = Start {
         lambda: support.iter().map(|&i| join[i]).collect(),
         support,
         join,
         join_at_most: None,
     };
-    (start, streak, warm, reach)
+    (start, streak, warm)
 }
 
 /// The previous projection's multiplier of each row of `p`, matched by row key (`0` for a row
@@ -824,147 +923,32 @@ fn finish_start(it: &ipm::Iterate, r: &[f64], p: &ProjectionProblem) -> Start {
     }
 }
 
-/// Rows that `y` satisfies with more room than this many times the block's largest violation
-/// are left out of the interior point's first try.
-const SCREEN_REACH: f64 = 0.5;
-
-/// The widest reach a block's screening grows to ([`next_reach`]).
-const SCREEN_REACH_MAX: f64 = 4.0;
-
-/// The factor by which a block's reach shrinks back towards [`SCREEN_REACH`] at each
-/// projection that needed no repeated run.
-const SCREEN_REACH_DECAY: f64 = 0.8;
-
-/// The screening reach of a block at the next projection: wide enough to have kept the rows
-/// its screened run missed and had to be repeated with (`needed`, with a quarter to spare;
-/// the hall's queues push along chains of contacts beyond the reach that suits a jam), else
-/// shrinking back.
-fn next_reach(reach: f64, needed: Option<f64>) -> f64 {
-    match needed {
-        Some(needed) => reach.max(1.25 * needed).min(SCREEN_REACH_MAX),
-        None => (SCREEN_REACH_DECAY * reach).max(SCREEN_REACH),
-    }
-}
-
-/// The least reach at which [`screened_rows`] keeps every row of `rows`: their room at `y`
-/// against the block's largest violation.
-fn reach_to_keep(p: &ProjectionProblem, r: &[f64], rows: &[usize]) -> f64 {
-    let (distance, worst) = signed_distances(p, r);
-    if worst > 0.0 {
-        rows.iter()
-            .map(|&i| -distance[i] / worst)
-            .fold(0.0, f64::max)
-    } else {
-        0.0
-    }
-}
-
-/// Each row's `rᵢ/‖aᵢ‖` (how far `y` violates it, negative for room; `0` for an empty row),
-/// and the largest violation among them (`0` when none is violated).
-fn signed_distances(p: &ProjectionProblem, r: &[f64]) -> (Vec<f64>, f64) {
-    let distance: Vec<f64> = (0..p.n_rows())
-        .map(|i| {
-            let norm = p.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
-            if norm > 0.0 {
-                r[i] / norm
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    let worst = distance.iter().fold(0.0, |acc: f64, d| acc.max(*d));
-    (distance, worst)
-}
-
-/// Rows are left out only when at least this fraction of the block's rows can be: a door
-/// queue, nearly every row tight, is solved whole at once.
-const SCREEN_FRACTION: f64 = 0.25;
-
-/// Rounds of rows joining a screened interior point before it takes every row.
-const SCREEN_ROUNDS: usize = 3;
-
-/// The rows an interior point needs to see first, or `None` for every row. A jam's block
-/// holds every pair within the broad phase's reach, and most of them stay apart: the normal
-/// matrix's fill, which the method's factorizations pay for, grows with rows it need not see.
-/// Rows that `y` satisfies with more room than `reach` times the block's largest violation
-/// are left out, when at least [`SCREEN_FRACTION`] of the rows are; `reach` is
-/// [`SCREEN_REACH`], or wider for a block whose screened run had to be repeated
-/// ([`next_reach`]).
-fn screened_rows(p: &ProjectionProblem, r: &[f64], reach: f64) -> Option<Vec<bool>> {
-    let m = p.n_rows();
-    let (distance, worst) = signed_distances(p, r);
-    let keep: Vec<bool> = distance.iter().map(|d| *d >= -reach * worst).collect();
-    let left_out = keep.iter().filter(|k| !**k).count();
-    ((left_out as f64) >= SCREEN_FRACTION * m as f64).then_some(keep)
-}
-
-/// The interior point on the rows `keep` marks (every row when `None`), as an iterate of the
-/// whole block: rows left out get `λ = 0` and the answer's slack. Also the rows left out that
-/// the answer violates.
-fn interior_point_on(
+/// The interior point on the block `p` (whose `y` falls short of its rows by `r`), its normal
+/// matrix factored in `layout`, from the multipliers `guess` when there are any.
+fn interior_point(
     p: &ProjectionProblem,
     r: &[f64],
-    keep: Option<&[bool]>,
+    layout: Layout,
     settings: &EngineSettings,
     kkt: f64,
-    guess: Option<&[f64]>,
-) -> Result<(ipm::Iterate, Vec<usize>), &'static str> {
-    let solve = |a: &SparseRows,
-                 r: &[f64],
-                 layout,
-                 guess: Option<&[f64]>|
-     -> Result<ipm::Iterate, &'static str> {
-        let mut normal = NormalMatrix::with_layout(a, layout)
-            .map_err(|_| "the normal matrix could not be analysed")?;
-        let warm = guess.map(|multipliers| ipm::Warm {
-            multipliers,
-            floor: settings.interior_point_warm_floor,
-        });
-        ipm::solve(
-            a,
-            r,
-            &mut normal,
-            settings.interior_point,
-            kkt,
-            settings.interior_point_iterations,
-            warm,
-        )
-        .ok_or("the interior point could not start")
-    };
-    let a = p.a();
-    let Some(keep) = keep else {
-        return Ok((solve(a, r, Layout::ByUnknowns, guess)?, Vec::new()));
-    };
-    let m = a.n_rows();
-    let rows: Vec<usize> = (0..m).filter(|&i| keep[i]).collect();
-    let mut sub = SparseRows::with_capacity(a.n_cols(), rows.len(), 0);
-    for &i in &rows {
-        sub.push_row(a.row(i));
-    }
-    let sub_r: Vec<f64> = rows.iter().map(|&i| r[i]).collect();
-    let sub_guess: Option<Vec<f64>> = guess.map(|g| rows.iter().map(|&i| g[i]).collect());
-    let it = solve(&sub, &sub_r, Layout::ByFill, sub_guess.as_deref())?;
-    let mut slack = vec![0.0; m];
-    a.mul_vec(&it.d, &mut slack);
-    slack.iter_mut().zip(r).for_each(|(s, ri)| *s -= ri);
-    let violated: Vec<usize> = (0..m).filter(|&i| !keep[i] && slack[i] <= 0.0).collect();
-    let mut lambda = vec![0.0; m];
-    for (k, &i) in rows.iter().enumerate() {
-        lambda[i] = it.lambda[k];
-        slack[i] = it.slack[k];
-    }
-    Ok((
-        ipm::Iterate {
-            d: it.d,
-            lambda,
-            slack,
-            iterations: it.iterations,
-            converged: it.converged,
-            accuracy: it.accuracy,
-            length: it.length,
-        },
-        violated,
-    ))
+    guess: Option<Vec<f64>>,
+) -> Result<ipm::Iterate, &'static str> {
+    let mut normal = NormalMatrix::with_layout(p.a(), layout)
+        .map_err(|_| "the normal matrix could not be analysed")?;
+    let warm = guess.as_deref().map(|multipliers| ipm::Warm {
+        multipliers,
+        floor: settings.interior_point_warm_floor,
+    });
+    ipm::solve(
+        p.a(),
+        r,
+        &mut normal,
+        settings.interior_point,
+        kkt,
+        settings.interior_point_iterations,
+        warm,
+    )
+    .ok_or("the interior point could not start")
 }
 
 /// One row's starting multiplier when it enters the support without a remembered one: the
@@ -1026,66 +1010,4 @@ fn farkas(p: &ProjectionProblem, r: &[f64], lambda: &[f64]) -> Option<Vec<usize>
             .filter(|&i| hat[i] > 1e-9)
             .collect::<Vec<_>>()
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A block whose screened run missed rows keeps them the next time (with a quarter to
-    /// spare, up to the widest reach); one that missed none shrinks back to the jam's reach.
-    #[test]
-    fn the_screening_reach_widens_after_a_repeat_and_shrinks_back() {
-        assert_eq!(next_reach(SCREEN_REACH, Some(0.8)), 1.0);
-        assert_eq!(next_reach(2.0, Some(0.8)), 2.0);
-        assert_eq!(next_reach(3.0, Some(10.0)), SCREEN_REACH_MAX);
-        assert_eq!(next_reach(1.0, None), 0.8);
-        assert_eq!(next_reach(0.55, None), SCREEN_REACH);
-    }
-
-    /// `d₀ ≥ 2` is violated by 2 at `y = 0`; `d₁ ≥ −0.7` has room 0.7 and `2 d₁ ≥ −3` room
-    /// 1.5 (as distances): keeping both needs a reach of 1.5 / 2. A row without entries
-    /// (`0 ≥ −1`) has neither room nor violation as a distance.
-    #[test]
-    fn the_reach_to_keep_rows_is_their_room_against_the_largest_violation() {
-        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)], vec![(1, 2.0)], vec![]]);
-        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![2.0, -0.7, -3.0, -1.0]).unwrap();
-        let r = p.shortfall(p.y());
-        assert!((reach_to_keep(&p, &r, &[1]) - 0.35).abs() < 1e-15);
-        assert!((reach_to_keep(&p, &r, &[1, 2]) - 0.75).abs() < 1e-15);
-        assert_eq!(reach_to_keep(&p, &r, &[3]), 0.0);
-        let keep = screened_rows(&p, &r, 0.5).unwrap();
-        assert_eq!(keep, vec![true, true, false, true]);
-    }
-
-    /// Screening leaves rows out only when at least a quarter of them can be: with one row
-    /// of five beyond the reach, or none, the block is solved whole.
-    #[test]
-    fn a_block_with_few_rows_beyond_the_reach_is_not_screened() {
-        let a = SparseRows::from_rows(
-            2,
-            &[
-                vec![(0, 1.0)],
-                vec![(1, 1.0)],
-                vec![(0, 1.0), (1, 1.0)],
-                vec![(0, -1.0)],
-                vec![(1, 2.0)],
-            ],
-        );
-        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![2.0, 1.0, 0.5, -0.5, -3.0]).unwrap();
-        let r = p.shortfall(p.y());
-        assert_eq!(screened_rows(&p, &r, 0.5), None);
-        assert_eq!(screened_rows(&p, &r, 10.0), None);
-        let keep = screened_rows(&p, &r, 0.2).unwrap();
-        assert_eq!(keep, vec![true, true, true, false, false]);
-    }
-
-    /// Where `y` violates no row there is no violation to measure room against: no reach.
-    #[test]
-    fn no_reach_is_needed_where_nothing_is_violated() {
-        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 1.0)]]);
-        let p = ProjectionProblem::new(vec![0.0, 0.0], a, vec![-1.0, -0.5]).unwrap();
-        let r = p.shortfall(p.y());
-        assert_eq!(reach_to_keep(&p, &r, &[0, 1]), 0.0);
-    }
 }

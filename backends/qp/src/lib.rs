@@ -47,6 +47,7 @@ mod engine;
 mod ipm;
 mod ldl;
 mod normal;
+mod screen;
 mod simplicial;
 
 pub use engine::{Engine, EngineSettings, Method};
