@@ -125,90 +125,53 @@ impl Blocks {
         Self::split_keeping(problem, |r| among[r], |r| violated_at_y(problem, r))
     }
 
+    /// [`Blocks::split_violated`], or, when `among` (given the rows of each block that would
+    /// build, in order) marks rows, [`Blocks::split_among`] those rows: a caller that screens
+    /// a block's rows by what the whole block holds finds its blocks without splitting the
+    /// problem twice when it leaves nothing out.
+    ///
+    /// ```
+    /// use sweeping_api::{Blocks, ProjectionProblem, SparseRows};
+    /// let a = SparseRows::from_rows(3, &[vec![(0, 1.0), (1, 1.0)], vec![(1, 1.0), (2, 1.0)]]);
+    /// let p = ProjectionProblem::new(vec![0.0; 3], a, vec![1.0, -1.0]).unwrap();
+    /// let whole = Blocks::split_violated_or_among(&p, |rows| {
+    ///     assert_eq!(rows, &[vec![0, 1]]);
+    ///     None
+    /// });
+    /// assert_eq!(whole.blocks()[0].rows, vec![0, 1]);
+    /// let screened = Blocks::split_violated_or_among(&p, |_| Some(vec![true, false]));
+    /// assert_eq!(screened.blocks()[0].rows, vec![0]);
+    /// ```
+    pub fn split_violated_or_among(
+        problem: &ProjectionProblem,
+        among: impl FnOnce(&[Vec<usize>]) -> Option<Vec<bool>>,
+    ) -> Self {
+        let components = Components::of(problem, |_| true, |r| violated_at_y(problem, r));
+        match among(&components.rows_of) {
+            Some(keep) => Self::split_among(problem, &keep),
+            None => Self::built(problem, components),
+        }
+    }
+
     /// The components of the graph of the rows for which `joins` is true that hold at least
-    /// one row for which `keep` is true; every empty row among those that join is listed in
-    /// [`Blocks::empty_rows`].
+    /// one row for which `keep` is true; every empty row is listed in [`Blocks::empty_rows`].
     fn split_keeping(
         problem: &ProjectionProblem,
         joins: impl Fn(usize) -> bool,
         keep: impl Fn(usize) -> bool,
     ) -> Self {
-        let a = problem.a();
-        let (m, n) = (a.n_rows(), a.n_cols());
-        let mut parent: Vec<usize> = (0..n).collect();
-        // Union by size keeps the trees shallow: linking a row's first root under the next
-        // one's, whatever their sizes, makes `find` a large part of this function's time
-        // (measured: `docs/lab/2026-11-25-less-work-and-speculated-rescue.md`). The
-        // components, and so the blocks, are the same either way.
-        let mut size = vec![1u32; n];
-        let mut unite = |parent: &mut [usize], p: usize, q: usize| {
-            let (ra, rb) = (find(parent, p), find(parent, q));
-            if ra != rb {
-                let (small, large) = if size[ra] < size[rb] {
-                    (ra, rb)
-                } else {
-                    (rb, ra)
-                };
-                parent[small] = large;
-                size[large] += size[small];
-            }
-        };
-        // A metric that couples two unknowns couples their rows' answers: moving one moves the
-        // other, so they belong to one block (and an unknown coupled to a block is in it).
-        if let Metric::Symmetric(w) = problem.metric() {
-            for i in 0..n {
-                for (j, v) in w.row(i) {
-                    if v != 0.0 && j != i {
-                        unite(&mut parent, i, j);
-                    }
-                }
-            }
-        }
-        let mut first_col = vec![usize::MAX; m];
-        for (r, first) in first_col.iter_mut().enumerate() {
-            if !joins(r) {
-                continue;
-            }
-            for (c, v) in a.row(r) {
-                if v == 0.0 {
-                    continue;
-                }
-                if *first == usize::MAX {
-                    *first = c;
-                } else {
-                    unite(&mut parent, *first, c);
-                }
-            }
-        }
-        // The components to build: those holding a kept row.
-        let mut wanted = vec![false; n];
-        for (r, &c) in first_col.iter().enumerate() {
-            if c != usize::MAX && keep(r) {
-                wanted[find(&mut parent, c)] = true;
-            }
-        }
-        // Blocks numbered in the order of their first row.
-        let mut block_of_root = vec![usize::MAX; n];
-        let mut rows_of: Vec<Vec<usize>> = Vec::new();
-        let mut empty_rows = Vec::new();
-        for (r, &c) in first_col.iter().enumerate() {
-            if !joins(r) {
-                continue;
-            }
-            if c == usize::MAX {
-                empty_rows.push(r);
-                continue;
-            }
-            let root = find(&mut parent, c);
-            if !wanted[root] {
-                continue;
-            }
-            if block_of_root[root] == usize::MAX {
-                block_of_root[root] = rows_of.len();
-                rows_of.push(Vec::new());
-            }
-            rows_of[block_of_root[root]].push(r);
-        }
+        Self::built(problem, Components::of(problem, joins, keep))
+    }
+
+    /// The blocks of `components`, built.
+    fn built(problem: &ProjectionProblem, components: Components) -> Self {
+        let Components {
+            rows_of,
+            empty_rows,
+            mut parent,
+            block_of_root,
+        } = components;
+        let (a, n) = (problem.a(), problem.dim());
         // An unknown touched by no non-zero was never united with anything: it is its own
         // root, and no block has that root; nor has the root of a component left out.
         let mut cols_of: Vec<Vec<usize>> = vec![Vec::new(); rows_of.len()];
@@ -318,6 +281,110 @@ impl Blocks {
             x,
             multipliers,
             stats,
+        }
+    }
+}
+
+/// The rows of a problem's blocks, before the blocks are built: the union–find of their
+/// unknowns and each root's block.
+struct Components {
+    rows_of: Vec<Vec<usize>>,
+    empty_rows: Vec<usize>,
+    parent: Vec<usize>,
+    block_of_root: Vec<usize>,
+}
+
+impl Components {
+    /// See [`Blocks::split_keeping`].
+    fn of(
+        problem: &ProjectionProblem,
+        joins: impl Fn(usize) -> bool,
+        keep: impl Fn(usize) -> bool,
+    ) -> Self {
+        let a = problem.a();
+        let (m, n) = (a.n_rows(), a.n_cols());
+        let mut parent: Vec<usize> = (0..n).collect();
+        // Union by size keeps the trees shallow: linking a row's first root under the next
+        // one's, whatever their sizes, makes `find` a large part of this function's time
+        // (measured: `docs/lab/2026-11-25-less-work-and-speculated-rescue.md`). The
+        // components, and so the blocks, are the same either way.
+        let mut size = vec![1u32; n];
+        let mut unite = |parent: &mut [usize], p: usize, q: usize| {
+            let (ra, rb) = (find(parent, p), find(parent, q));
+            if ra != rb {
+                let (small, large) = if size[ra] < size[rb] {
+                    (ra, rb)
+                } else {
+                    (rb, ra)
+                };
+                parent[small] = large;
+                size[large] += size[small];
+            }
+        };
+        // A metric that couples two unknowns couples their rows' answers: moving one moves the
+        // other, so they belong to one block (and an unknown coupled to a block is in it).
+        if let Metric::Symmetric(w) = problem.metric() {
+            for i in 0..n {
+                for (j, v) in w.row(i) {
+                    if v != 0.0 && j != i {
+                        unite(&mut parent, i, j);
+                    }
+                }
+            }
+        }
+        let mut first_col = vec![usize::MAX; m];
+        for (r, first) in first_col.iter_mut().enumerate() {
+            if !joins(r) {
+                continue;
+            }
+            for (c, v) in a.row(r) {
+                if v == 0.0 {
+                    continue;
+                }
+                if *first == usize::MAX {
+                    *first = c;
+                } else {
+                    unite(&mut parent, *first, c);
+                }
+            }
+        }
+        // The components to build: those holding a kept row.
+        let mut wanted = vec![false; n];
+        for (r, &c) in first_col.iter().enumerate() {
+            if c != usize::MAX && keep(r) {
+                wanted[find(&mut parent, c)] = true;
+            }
+        }
+        // Blocks numbered in the order of their first row.
+        let mut block_of_root = vec![usize::MAX; n];
+        let mut rows_of: Vec<Vec<usize>> = Vec::new();
+        let mut empty_rows = Vec::new();
+        for (r, &c) in first_col.iter().enumerate() {
+            if !joins(r) {
+                if a.row(r).all(|(_, v)| v == 0.0) {
+                    empty_rows.push(r);
+                }
+                continue;
+            }
+            if c == usize::MAX {
+                empty_rows.push(r);
+                continue;
+            }
+            let root = find(&mut parent, c);
+            if !wanted[root] {
+                continue;
+            }
+            if block_of_root[root] == usize::MAX {
+                block_of_root[root] = rows_of.len();
+                rows_of.push(Vec::new());
+            }
+            rows_of[block_of_root[root]].push(r);
+        }
+        Self {
+            rows_of,
+            empty_rows,
+            parent,
+            block_of_root,
         }
     }
 }

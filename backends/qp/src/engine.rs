@@ -214,8 +214,15 @@ impl Engine {
             }
             return Ok(Projection::identity(problem, name));
         }
-        let parents = Blocks::split_violated(problem);
-        if let Some(r) = parents.infeasible_empty_row(problem) {
+        let mut screening = None;
+        let blocks = Blocks::split_violated_or_among(problem, |parents| {
+            let screened = self.screening(problem, parents);
+            let keep = screened.any().then(|| screened.keep().to_vec());
+            screening = Some(screened);
+            keep
+        });
+        let screening = screening.expect("the split hands over its blocks' rows");
+        if let Some(r) = blocks.infeasible_empty_row(problem) {
             return Err(ProjectionError::Infeasible {
                 backend: name.to_string(),
                 detail: format!(
@@ -228,7 +235,7 @@ impl Engine {
         self.orderings.forget_older();
         let setup_seconds = setup_start.elapsed().as_secs_f64();
         let solve_start = Instant::now();
-        let (screening, blocks, results) = self.solve_screened(problem, parents, tol);
+        let (screening, blocks, results) = self.solve_screened(problem, screening, blocks, tol);
         let mut answers = Vec::with_capacity(results.len());
         let mut methods = Vec::with_capacity(results.len());
         let reaches: Vec<f64> = blocks
@@ -323,35 +330,14 @@ impl Engine {
     fn solve_screened(
         &mut self,
         problem: &ProjectionProblem,
-        parents: Blocks,
+        mut screening: Screening,
+        first: Blocks,
         tol: f64,
     ) -> (Screening, Blocks, Vec<BlockResult>) {
-        let (memory, settings) = (&self.memory, &self.settings);
-        // A block is screened from [`LARGE_BLOCK_ROWS`] rows (a jam's candidate pairs), and at
-        // any size when it goes straight to the interior point, whose iterations pay for
-        // every row; its reach is the widest its remembered rows carry.
-        let mut screening = Screening::new(problem, &parents, |block| {
-            let keys = problem.row_keys().filter(|_| settings.warm_start);
-            let remembered = || {
-                let keys = keys?;
-                Some(block.rows.iter().filter_map(|&i| memory.get(&keys[i])))
-            };
-            let streak = remembered()
-                .and_then(|rows| rows.map(|rem| rem.interior_streak).max())
-                .unwrap_or(0);
-            let straight = settings.active_set_iterations == 0 || skips_active_set(streak);
-            (block.rows.len() >= LARGE_BLOCK_ROWS || straight).then(|| {
-                remembered()
-                    .into_iter()
-                    .flatten()
-                    .map(|rem| rem.screen_reach)
-                    .fold(SCREEN_REACH, f64::max)
-            })
-        });
         if !screening.any() {
-            let todo: Vec<usize> = (0..parents.blocks().len()).collect();
-            let results = self.solve_blocks(&parents, &todo, &screening, None, tol);
-            return (screening, parents, results);
+            let todo: Vec<usize> = (0..first.blocks().len()).collect();
+            let results = self.solve_blocks(&first, &todo, &screening, None, tol);
+            return (screening, first, results);
         }
         // A block is named by its first row and its number of rows: rows only join, so a
         // block with the same first row and as many rows is the same block.
@@ -359,8 +345,11 @@ impl Engine {
         let mut solved: FastMap<(usize, usize), BlockResult> = FastMap::default();
         let mut overlay: Option<FastMap<RowKey, Remembered>> = None;
         let mut rounds = 0;
+        let mut next = Some(first);
         loop {
-            let blocks = Blocks::split_among(problem, screening.keep());
+            let blocks = next
+                .take()
+                .unwrap_or_else(|| Blocks::split_among(problem, screening.keep()));
             let mut results: Vec<Option<BlockResult>> = blocks
                 .blocks()
                 .iter()
@@ -408,6 +397,32 @@ impl Engine {
                 solved.insert(name(block), result);
             }
         }
+    }
+
+    /// The screening of `problem`'s blocks (`parents`: the rows of each). A block
+    /// is screened from [`LARGE_BLOCK_ROWS`] rows (a jam's candidate pairs), and at any size
+    /// when it goes straight to the interior point, whose iterations pay for every row; its
+    /// reach is the widest its remembered rows carry.
+    fn screening(&self, problem: &ProjectionProblem, parents: &[Vec<usize>]) -> Screening {
+        let (memory, settings) = (&self.memory, &self.settings);
+        let keys = problem.row_keys().filter(|_| settings.warm_start);
+        Screening::new(problem, parents, |rows| {
+            let remembered = || {
+                let keys = keys?;
+                Some(rows.iter().filter_map(|&i| memory.get(&keys[i])))
+            };
+            let streak = remembered()
+                .and_then(|rows| rows.map(|rem| rem.interior_streak).max())
+                .unwrap_or(0);
+            let straight = settings.active_set_iterations == 0 || skips_active_set(streak);
+            (rows.len() >= LARGE_BLOCK_ROWS || straight).then(|| {
+                remembered()
+                    .into_iter()
+                    .flatten()
+                    .map(|rem| rem.screen_reach)
+                    .fold(SCREEN_REACH, f64::max)
+            })
+        })
     }
 
     /// The memory of the last projection with the support of `results` (answers of `blocks`,

@@ -4,12 +4,12 @@
 //! apart: at twice the paper's density the candidate pairs connect everybody into one block,
 //! while the rows that can be active form thousands of small clusters. Rows that `y`
 //! satisfies with more room than a reach times their block's largest violation are left out,
-//! and the rows kept split into blocks of their own ([`Blocks::split_among`]); an answer that
+//! and the rows kept split into blocks of their own ([`Blocks::split_among`](sweeping_api::Blocks::split_among)); an answer that
 //! satisfies every row left out is the projection onto the whole set (it is the closest point
 //! of a larger set and lies in the smaller one). Rows left out that it violates join, their
 //! blocks are solved again, and after [`SCREEN_ROUNDS`] rounds a block's parent is taken whole.
 
-use sweeping_api::{Block, Blocks, ProjectionProblem};
+use sweeping_api::ProjectionProblem;
 
 /// Rows that `y` satisfies with more room than this many times their block's largest
 /// violation are left out at first.
@@ -84,35 +84,31 @@ pub(crate) struct Screening {
 }
 
 impl Screening {
-    /// The screening of `parents` (the blocks of every row of `problem`): a parent for which
-    /// `reach_of` gives a reach leaves out the rows with more room at `y` than that reach times
-    /// its largest violation, when at least [`SCREEN_FRACTION`] of them are; one for which it
-    /// gives `None` is taken whole.
+    /// The screening of `parents` (the rows of each block of every row of `problem`, see
+    /// [`Blocks::split_violated_or_among`](sweeping_api::Blocks::split_violated_or_among)): a parent for which `reach_of` gives a reach leaves out the
+    /// rows with more room at `y` than that reach times its largest violation, when at least
+    /// [`SCREEN_FRACTION`] of them are; one for which it gives `None` is taken whole.
     pub(crate) fn new(
         problem: &ProjectionProblem,
-        parents: &Blocks,
-        reach_of: impl Fn(&Block) -> Option<f64>,
+        parents: &[Vec<usize>],
+        reach_of: impl Fn(&[usize]) -> Option<f64>,
     ) -> Self {
         let m = problem.n_rows();
         let distance = signed_distances(problem, &problem.shortfall(problem.y()));
         let mut keep = vec![false; m];
         let mut parent_of = vec![usize::MAX; m];
         let parents = parents
-            .blocks()
             .iter()
             .enumerate()
-            .map(|(index, block)| {
-                let worst = block
-                    .rows
-                    .iter()
-                    .fold(0.0, |acc: f64, &i| acc.max(distance[i]));
-                let reach = reach_of(block);
+            .map(|(index, rows)| {
+                let worst = rows.iter().fold(0.0, |acc: f64, &i| acc.max(distance[i]));
+                let reach = reach_of(rows);
                 let kept = |i: usize| reach.is_none_or(|reach| distance[i] >= -reach * worst);
-                let left_out = block.rows.iter().filter(|&&i| !kept(i)).count();
+                let left_out = rows.iter().filter(|&&i| !kept(i)).count();
                 let screened =
-                    left_out > 0 && left_out as f64 >= SCREEN_FRACTION * block.rows.len() as f64;
+                    left_out > 0 && left_out as f64 >= SCREEN_FRACTION * rows.len() as f64;
                 let reach = reach.unwrap_or(SCREEN_REACH);
-                for &i in &block.rows {
+                for &i in rows {
                     parent_of[i] = index;
                     keep[i] = !screened || kept(i);
                 }
@@ -196,7 +192,7 @@ impl Screening {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sweeping_api::SparseRows;
+    use sweeping_api::{Blocks, SparseRows};
 
     /// A block whose screening missed rows keeps them the next time (with a quarter to
     /// spare, up to the widest reach); one that missed none shrinks back to the jam's reach.
@@ -228,8 +224,8 @@ mod tests {
     #[test]
     fn rows_with_room_beyond_the_reach_are_left_out_and_the_rest_split() {
         let p = chain();
-        let parents = Blocks::split_violated(&p);
-        assert_eq!(parents.blocks().len(), 1);
+        let parents = vec![vec![0, 1, 2, 3]];
+        assert_eq!(Blocks::split_violated(&p).blocks()[0].rows, parents[0]);
         let screening = Screening::new(&p, &parents, |_| Some(SCREEN_REACH));
         assert!(screening.any() && screening.screened(0));
         assert_eq!(screening.keep(), &[true, false, true, false]);
@@ -251,7 +247,7 @@ mod tests {
     #[test]
     fn a_violated_row_left_out_joins_and_widens_the_next_reach() {
         let p = chain();
-        let parents = Blocks::split_violated(&p);
+        let parents = vec![vec![0, 1, 2, 3]];
         let mut screening = Screening::new(&p, &parents, |_| Some(SCREEN_REACH));
         let satisfied = [1.0, 1.0, 0.5, 0.5];
         assert!(screening.join_violated(&p, &satisfied).is_empty());
