@@ -103,7 +103,9 @@ impl Screening {
             .map(|(index, rows)| {
                 let worst = rows.iter().fold(0.0, |acc: f64, &i| acc.max(distance[i]));
                 let reach = reach_of(rows);
-                let kept = |i: usize| reach.is_none_or(|reach| distance[i] >= -reach * worst);
+                // A row whose distance is not a number stays, so that its block's solver
+                // reports it.
+                let kept = |i: usize| reach.is_none_or(|reach| !(distance[i] < -reach * worst));
                 let left_out = rows.iter().filter(|&&i| !kept(i)).count();
                 let screened =
                     left_out > 0 && left_out as f64 >= SCREEN_FRACTION * rows.len() as f64;
@@ -241,6 +243,38 @@ mod tests {
         assert!(!few.any());
     }
 
+    /// Room and violation are distances: `x₀ ≥ 1` is violated by 1 at `y = 0`, and `3 x₁ ≥ −3.3`
+    /// has room 3.3 in its own units but 1.1 as a distance, so a reach of 1.2 keeps it and one
+    /// of 1 leaves it out.
+    #[test]
+    fn room_is_measured_as_a_distance() {
+        let a = SparseRows::from_rows(2, &[vec![(0, 1.0)], vec![(1, 3.0)]]);
+        let p = ProjectionProblem::new(vec![0.0; 2], a, vec![1.0, -3.3]).unwrap();
+        let parents = vec![vec![0, 1]];
+        assert_eq!(
+            Screening::new(&p, &parents, |_| Some(1.2)).keep(),
+            &[true; 2]
+        );
+        assert_eq!(
+            Screening::new(&p, &parents, |_| Some(1.0)).keep(),
+            &[true, false]
+        );
+    }
+
+    /// A row whose violation at `y` overflows (`∞ − ∞`) is not left out: its block's solver
+    /// sees it and reports it.
+    #[test]
+    fn a_row_whose_violation_is_not_a_number_stays() {
+        let a = SparseRows::from_rows(
+            4,
+            &[vec![(0, 1.0)], vec![(1, 1e10), (2, 1e10)], vec![(3, 1.0)]],
+        );
+        let y = vec![0.0, 1e300, -1e300, 0.0];
+        let p = ProjectionProblem::new(y, a, vec![1.0, 0.0, -100.0]).unwrap();
+        let screening = Screening::new(&p, &[vec![0, 1, 2]], |_| Some(SCREEN_REACH));
+        assert_eq!(screening.keep(), &[true, true, false]);
+    }
+
     /// A point that satisfies the rows left out lets none join; one that violates row 1 makes
     /// it join, and the parent remembers the reach that would have kept it (its room √2
     /// against the largest violation √2: 1, and a quarter to spare).
@@ -259,5 +293,9 @@ mod tests {
         screening.unscreen(0);
         assert!(!screening.any());
         assert_eq!(screening.keep(), &[true; 4]);
+        // A row outside every parent has none to take whole.
+        let mut partial = Screening::new(&p, &[vec![0, 1, 2]], |_| Some(SCREEN_REACH));
+        partial.unscreen(3);
+        assert_eq!(partial.keep(), &[true, false, true, false]);
     }
 }
