@@ -105,7 +105,9 @@ impl Screening {
                 let reach = reach_of(rows);
                 // A row whose distance is not a number stays, so that its block's solver
                 // reports it.
-                let kept = |i: usize| reach.is_none_or(|reach| !(distance[i] < -reach * worst));
+                let kept = |i: usize| {
+                    reach.is_none_or(|reach| distance[i].is_nan() || distance[i] >= -reach * worst)
+                };
                 let left_out = rows.iter().filter(|&&i| !kept(i)).count();
                 let screened =
                     left_out > 0 && left_out as f64 >= SCREEN_FRACTION * rows.len() as f64;
