@@ -26,10 +26,10 @@ pub struct EngineSettings {
     /// With [`warm_start`](Self::warm_start), the interior point starts from the previous
     /// projection's multipliers (by row key; `0` for a row without one) when the block has
     /// any, the start's slacks and multipliers raised to at least this fraction of the
-    /// block's length scale. A run repeated because rows that screening left out came back
-    /// violated starts from the last run's multipliers under the same floor, with or
-    /// without `warm_start`. `0` (or anything but a finite positive number) starts every
-    /// run from Mehrotra's point. Default `0.1`.
+    /// block's length scale. With `warm_start`, a block solved again because rows that
+    /// screening left out came back violated starts from the last round's answers as if they
+    /// were remembered. `0` (or anything but a finite positive number) starts every run from
+    /// Mehrotra's point. Default `0.1`.
     pub interior_point_warm_floor: f64,
     /// Most active-set iterations per block from the warm start before the interior point
     /// takes the block (at most 16 on blocks of 400 rows or more); `0` sends every block to
@@ -40,8 +40,8 @@ pub struct EngineSettings {
     /// the interior point when it changes by hundreds (a jam).
     pub active_set_iterations: u32,
     /// Most active-set iterations when it finishes an interior point's answer that is not the
-    /// block's answer on its own (short of its tolerance, failing the KKT check, or violating
-    /// a row it left out), from the interior point's support (rows whose multiplier exceeds
+    /// block's answer on its own (short of its tolerance, or failing the KKT check), from the
+    /// interior point's support (rows whose multiplier exceeds
     /// their slack), the most violated row joining alone; `0` never finishes. Default `16`.
     pub finish_iterations: u32,
     /// Start the active set from the previous projection's support, matched by row keys.

@@ -2,7 +2,11 @@
 //!
 //! [`Engine`] is the method of the native backend (`sweeping-native`); its [`active_set`] also
 //! polishes Clarabel's answers (`sweeping-clarabel`). A projection splits into blocks
-//! (connected components of the rows, [`sweeping_api::Blocks`]), and each block is solved by
+//! (connected components of the rows, [`sweeping_api::Blocks`]). A jam's block holds every
+//! candidate pair, most of them far apart: rows with more room at `y` than half the block's
+//! largest violation are left out first, and the rows kept split into blocks of their own;
+//! rows left out that the answer violates join, and the blocks they change are solved again.
+//! Each block is solved by
 //!
 //! 1. **the active set** ([`active_set`]: Lawson–Hanson on the dual, its `LDLᵀ` factors
 //!    bordered as rows join and leave) from the previous projection's support, matched by
@@ -18,8 +22,7 @@
 //!    unique — is its normal case: the normal matrix stays positive definite whatever the
 //!    rows. It runs to its accuracy contract ([`Tolerance`]),
 //!    and its answer, certified, is the block's: within that accuracy of the projection. An
-//!    answer short of the contract, failing the certificate or violating a row the interior
-//!    point left out is **finished** by the active set from its support (the rows whose
+//!    answer short of the contract or failing the certificate is **finished** by the active set from its support (the rows whose
 //!    multiplier exceeds their slack) within [`EngineSettings::finish_iterations`]; the
 //!    finish is kept only where it agrees with the interior point's answer.
 //!
