@@ -4,10 +4,11 @@
 //! apart: at twice the paper's density the candidate pairs connect everybody into one block,
 //! while the rows that can be active form thousands of small clusters. Rows that `y`
 //! satisfies with more room than a reach times their block's largest violation are left out,
-//! and the rows kept split into blocks of their own ([`Blocks::split_among`](sweeping_api::Blocks::split_among)); an answer that
-//! satisfies every row left out is the projection onto the whole set (it is the closest point
-//! of a larger set and lies in the smaller one). Rows left out that it violates join, their
-//! blocks are solved again, and after [`SCREEN_ROUNDS`] rounds a block's parent is taken whole.
+//! and the rows kept split into blocks of their own
+//! ([`Blocks::split_among`](sweeping_api::Blocks::split_among)); an answer that satisfies
+//! every row left out is the projection onto the whole set (it is the closest point of a
+//! larger set and lies in the smaller one). Rows left out that it violates join, their blocks
+//! are solved again, and after [`SCREEN_ROUNDS`] rounds a block's parent is taken whole.
 
 use sweeping_api::ProjectionProblem;
 
