@@ -86,9 +86,10 @@ pub(crate) struct Screening {
 
 impl Screening {
     /// The screening of `parents` (the rows of each block of every row of `problem`, see
-    /// [`Blocks::split_violated_or_among`](sweeping_api::Blocks::split_violated_or_among)): a parent for which `reach_of` gives a reach leaves out the
-    /// rows with more room at `y` than that reach times its largest violation, when at least
-    /// [`SCREEN_FRACTION`] of them are; one for which it gives `None` is taken whole.
+    /// [`Blocks::split_violated_or_among`](sweeping_api::Blocks::split_violated_or_among)): a
+    /// parent for which `reach_of` gives a reach leaves out the rows with more room at `y` than
+    /// that reach times its largest violation, when at least [`SCREEN_FRACTION`] of them are;
+    /// one for which it gives `None` is taken whole.
     pub(crate) fn new(
         problem: &ProjectionProblem,
         parents: &[Vec<usize>],
