@@ -79,7 +79,8 @@ fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_s
     // The chain pushed from the left and from the right in turn: each solve's warm start (the
     // other side's support) is wrong by every row, and one guess of the support method cannot
     // mend it, so every solve goes to the interior point.
-    let (left, right) = (chain(12, false), chain(12, true));
+    // 420 points: from 400 rows a block's streak skips the active set.
+    let (left, right) = (chain(420, false), chain(420, true));
     // The interior point from Mehrotra's point, so that its iterations do not depend on the
     // last solve (its warm start has a test of its own, below).
     let mut native = NativeProjector::new(NativeSettings {
@@ -116,6 +117,30 @@ fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_s
     for attempted in [0, 1, 2, 4, 8] {
         let same = if attempted % 2 == 0 { 0 } else { 1 };
         assert_eq!(iterations[attempted], iterations[same], "{iterations:?}");
+    }
+}
+
+#[test]
+fn a_small_block_tries_the_active_set_whatever_its_streak() {
+    // The same chains at 12 points: below 400 rows every solve tries the support method's
+    // guess first (a jam's small clusters inherit the streak of the large one they were part
+    // of), so every solve of a side reports the iterations of its first.
+    let (left, right) = (chain(12, false), chain(12, true));
+    let mut native = NativeProjector::new(NativeSettings {
+        active_set_iterations: 1,
+        interior_point_warm_floor: 0.0,
+        ..NativeSettings::default()
+    });
+    let mut iterations = Vec::new();
+    for solve in 0..9 {
+        let p = if solve % 2 == 0 { &left } else { &right };
+        let sol = native.project(p).unwrap();
+        assert_eq!(sol.stats.counters.escalations, 1, "solve {solve}");
+        assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
+        iterations.push(sol.stats.iterations);
+    }
+    for (solve, &it) in iterations.iter().enumerate() {
+        assert_eq!(it, iterations[solve % 2], "{iterations:?}");
     }
 }
 

@@ -401,7 +401,7 @@ impl Engine {
 
     /// The screening of `problem`'s blocks (`parents`: the rows of each). A block
     /// is screened from [`LARGE_BLOCK_ROWS`] rows (a jam's candidate pairs), and at any size
-    /// when it goes straight to the interior point, whose iterations pay for every row; its
+    /// when the active set is off: the interior point's iterations pay for every row. Its
     /// reach is the widest its remembered rows carry.
     fn screening(&self, problem: &ProjectionProblem, parents: &[Vec<usize>]) -> Screening {
         let (memory, settings) = (&self.memory, &self.settings);
@@ -414,7 +414,8 @@ impl Engine {
             let streak = remembered()
                 .and_then(|rows| rows.map(|rem| rem.interior_streak).max())
                 .unwrap_or(0);
-            let straight = settings.active_set_iterations == 0 || skips_active_set(streak);
+            let straight =
+                settings.active_set_iterations == 0 || skips_active_set(streak, rows.len());
             (rows.len() >= LARGE_BLOCK_ROWS || straight).then(|| {
                 remembered()
                     .into_iter()
@@ -694,7 +695,7 @@ fn solve_block(
     };
     let mut iterations = 0;
     let certified = |x: &[f64], lambda: &[f64]| certified(context, p, x, lambda);
-    if settings.active_set_iterations > 0 && !skips_active_set(streak) {
+    if settings.active_set_iterations > 0 && !skips_active_set(streak, m) {
         let cap = if m >= LARGE_BLOCK_ROWS {
             settings.active_set_iterations.min(LARGE_BLOCK_ITERATIONS)
         } else {
@@ -977,11 +978,13 @@ fn own_multiplier(p: &ProjectionProblem, i: usize, r: f64) -> f64 {
     }
 }
 
-/// A block whose rows went to the interior point at the last three projections or more
-/// skips the active set, except when that count is a power of two (which finds out when the
-/// jam is over).
-fn skips_active_set(streak: u32) -> bool {
-    streak >= 3 && !streak.is_power_of_two()
+/// A block of [`LARGE_BLOCK_ROWS`] rows or more whose rows went to the interior point at the
+/// last three projections or more skips the active set, except when that count is a power of
+/// two (which finds out when the jam is over). A smaller block always tries it: a jam's small
+/// clusters inherit the streak of the large one they were part of, and on them a failed
+/// attempt costs less than an interior point's analysis.
+fn skips_active_set(streak: u32, rows: usize) -> bool {
+    rows >= LARGE_BLOCK_ROWS && streak >= 3 && !streak.is_power_of_two()
 }
 
 /// The size of the terms of `b − A y`, `maxᵢ |bᵢ| + Σⱼ |aᵢⱼ yⱼ|`: what its rounding is

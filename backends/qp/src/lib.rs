@@ -12,8 +12,8 @@
 //!    bordered as rows join and leave) from the previous projection's support, matched by
 //!    [`sweeping_api::RowKey`], for at most [`EngineSettings::active_set_iterations`]. A crowd
 //!    walking, or a queue moving, changes its support by a few rows a step: one to a few
-//!    iterations, its tests at `1e-12`. A block that went to the interior point at its last three
-//!    projections or more skips this attempt (but at powers of two).
+//!    iterations, its tests at `1e-12`. A block of 400 rows or more that went to the interior
+//!    point at its last three projections or more skips this attempt (but at powers of two).
 //! 2. otherwise **the interior point** (Mehrotra's predictor–corrector on the normal equations
 //!    `(I + AᵀWA) Δd = …`, one sparse Cholesky factorization an iteration, the pattern
 //!    analysed once per block), started from the previous projection's multipliers by row key
