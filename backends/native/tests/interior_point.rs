@@ -3,7 +3,7 @@
 //! goes to the interior point solve after solve.
 
 use sweeping_api::conformance::max_gap;
-use sweeping_api::{ProjectionProblem, Projector, RowKey, SparseRows};
+use sweeping_api::{Projection, ProjectionProblem, Projector, RowKey, SparseRows};
 use sweeping_clarabel::ClarabelProjector;
 use sweeping_native::{NativeProjector, NativeSettings};
 
@@ -74,36 +74,45 @@ fn a_push_through_a_chain_is_answered_by_the_interior_point_within_its_accuracy(
     assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
 }
 
-#[test]
-fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_stays_exact() {
-    // The chain pushed from the left and from the right in turn: each solve's warm start (the
-    // other side's support) is wrong by every row, and one guess of the support method cannot
-    // mend it, so every solve goes to the interior point.
-    // 420 points: from 400 rows a block's streak skips the active set.
-    let (left, right) = (chain(420, false), chain(420, true));
-    // The interior point from Mehrotra's point, so that its iterations do not depend on the
-    // last solve (its warm start has a test of its own, below).
+/// The chains of `k` points pushed from the left and from the right, solved in turn nine
+/// times: each solve's warm start (the other side's support) is wrong by every row, and one
+/// guess of the support method cannot mend it, so every solve goes to the interior point,
+/// which starts from Mehrotra's point so that its iterations do not depend on the last solve
+/// (its warm start has a test of its own, below). Each problem with its answer, certified
+/// and without fallback.
+fn solved_in_turn(k: usize) -> Vec<(ProjectionProblem, Projection)> {
+    let (left, right) = (chain(k, false), chain(k, true));
     let mut native = NativeProjector::new(NativeSettings {
         active_set_iterations: 1,
         interior_point_warm_floor: 0.0,
         ..NativeSettings::default()
     });
+    (0..9)
+        .map(|solve| {
+            let p = if solve % 2 == 0 { &left } else { &right };
+            let sol = native.project(p).unwrap();
+            assert_eq!(
+                (sol.stats.counters.escalations, sol.stats.counters.fallbacks),
+                (1, 0),
+                "solve {solve}"
+            );
+            assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
+            (p.clone(), sol)
+        })
+        .collect()
+}
+
+#[test]
+fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_stays_exact() {
+    // 420 points: from 400 rows a block's streak skips the active set.
+    let solves = solved_in_turn(420);
     let mut clarabel = ClarabelProjector::default();
-    let mut iterations = Vec::new();
-    for solve in 0..9 {
-        let p = if solve % 2 == 0 { &left } else { &right };
-        let sol = native.project(p).unwrap();
-        assert_eq!(
-            (sol.stats.counters.escalations, sol.stats.counters.fallbacks),
-            (1, 0),
-            "solve {solve}"
-        );
+    for (solve, (p, sol)) in solves.iter().enumerate() {
         let reference = clarabel.project(p).unwrap();
         let gap = max_gap(&sol.x, &reference.x);
         assert!(gap <= 1e-8, "solve {solve}: {gap:.3e} from Clarabel");
-        assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
-        iterations.push(sol.stats.iterations);
     }
+    let iterations: Vec<u32> = solves.iter().map(|(_, sol)| sol.stats.iterations).collect();
     // The interior point then does not depend on the warm start, so a solve that went straight
     // to it (the 4th, 6th, 7th and 8th: streaks 3, 5, 6, 7) reports one iteration fewer, the
     // support method's one guess, than the same problem solved with the attempt.
@@ -122,23 +131,13 @@ fn a_block_sent_to_the_interior_point_solve_after_solve_goes_there_at_once_and_s
 
 #[test]
 fn a_small_block_tries_the_active_set_whatever_its_streak() {
-    // The same chains at 12 points: below 400 rows every solve tries the support method's
-    // guess first (a jam's small clusters inherit the streak of the large one they were part
-    // of), so every solve of a side reports the iterations of its first.
-    let (left, right) = (chain(12, false), chain(12, true));
-    let mut native = NativeProjector::new(NativeSettings {
-        active_set_iterations: 1,
-        interior_point_warm_floor: 0.0,
-        ..NativeSettings::default()
-    });
-    let mut iterations = Vec::new();
-    for solve in 0..9 {
-        let p = if solve % 2 == 0 { &left } else { &right };
-        let sol = native.project(p).unwrap();
-        assert_eq!(sol.stats.counters.escalations, 1, "solve {solve}");
-        assert!(p.kkt_residuals(&sol.x, &sol.multipliers).max() <= 1e-10);
-        iterations.push(sol.stats.iterations);
-    }
+    // Below 400 rows every solve tries the support method's guess first (a jam's small
+    // clusters inherit the streak of the large one they were part of), so every solve of a
+    // side reports the iterations of its first.
+    let iterations: Vec<u32> = solved_in_turn(12)
+        .iter()
+        .map(|(_, sol)| sol.stats.iterations)
+        .collect();
     for (solve, &it) in iterations.iter().enumerate() {
         assert_eq!(it, iterations[solve % 2], "{iterations:?}");
     }
