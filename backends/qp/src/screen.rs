@@ -45,18 +45,15 @@ pub(crate) fn row_slack(p: &ProjectionProblem, i: usize, x: &[f64]) -> f64 {
     p.a().row(i).map(|(c, v)| v * x[c]).sum::<f64>() - p.b()[i]
 }
 
-/// Each row's `rᵢ/‖aᵢ‖` (how far `y` violates it, negative for room; `0` for an empty row).
-fn signed_distances(p: &ProjectionProblem, r: &[f64]) -> Vec<f64> {
-    (0..p.n_rows())
-        .map(|i| {
-            let norm = p.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
-            if norm > 0.0 {
-                r[i] / norm
-            } else {
-                0.0
-            }
-        })
-        .collect()
+/// Row `i`'s `(bᵢ − aᵢ·y)/‖aᵢ‖`: how far `y` violates it, negative for room; `0` for an
+/// empty row.
+fn signed_distance(p: &ProjectionProblem, i: usize) -> f64 {
+    let norm = p.a().row(i).map(|(_, v)| v * v).sum::<f64>().sqrt();
+    if norm > 0.0 {
+        -row_slack(p, i, p.y()) / norm
+    } else {
+        0.0
+    }
 }
 
 /// What the screening knows of one block of every row (a parent of the blocks solved).
@@ -79,7 +76,8 @@ pub(crate) struct Screening {
     keep: Vec<bool>,
     /// Each row's parent (`usize::MAX` outside every parent).
     parent_of: Vec<usize>,
-    /// Each row's violation at `y` as a distance ([`signed_distances`]).
+    /// The violation at `y`, as a distance ([`signed_distance`]), of each row of a parent that
+    /// may be screened (`0` for the others).
     distance: Vec<f64>,
     parents: Vec<Parent>,
 }
@@ -96,15 +94,20 @@ impl Screening {
         reach_of: impl Fn(&[usize]) -> Option<f64>,
     ) -> Self {
         let m = problem.n_rows();
-        let distance = signed_distances(problem, &problem.shortfall(problem.y()));
+        // Distances only where a parent may be screened: most steps of a crowd have none.
+        let mut distance = vec![0.0; m];
         let mut keep = vec![false; m];
         let mut parent_of = vec![usize::MAX; m];
         let parents = parents
             .iter()
             .enumerate()
             .map(|(index, rows)| {
-                let worst = rows.iter().fold(0.0, |acc: f64, &i| acc.max(distance[i]));
                 let reach = reach_of(rows);
+                if reach.is_some() {
+                    rows.iter()
+                        .for_each(|&i| distance[i] = signed_distance(problem, i));
+                }
+                let worst = rows.iter().fold(0.0, |acc: f64, &i| acc.max(distance[i]));
                 // A row whose distance is not a number stays, so that its block's solver
                 // reports it.
                 let kept = |i: usize| {
