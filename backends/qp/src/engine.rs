@@ -400,26 +400,18 @@ impl Engine {
     }
 
     /// The screening of `problem`'s blocks (`parents`: the rows of each). A block
-    /// is screened from [`LARGE_BLOCK_ROWS`] rows (a jam's candidate pairs), and at any size
-    /// when the active set is off: the interior point's iterations pay for every row. Its
-    /// reach is the widest its remembered rows carry.
+    /// is screened from [`LARGE_BLOCK_ROWS`] rows (a jam's candidate pairs, and the only
+    /// blocks that skip the active set on their streak), and at any size when the active set
+    /// is off: the interior point's iterations pay for every row. Its reach is the widest its
+    /// remembered rows carry.
     fn screening(&self, problem: &ProjectionProblem, parents: &[Vec<usize>]) -> Screening {
         let (memory, settings) = (&self.memory, &self.settings);
         let keys = problem.row_keys().filter(|_| settings.warm_start);
         Screening::new(problem, parents, |rows| {
-            let remembered = || {
-                let keys = keys?;
-                Some(rows.iter().filter_map(|&i| memory.get(&keys[i])))
-            };
-            let streak = remembered()
-                .and_then(|rows| rows.map(|rem| rem.interior_streak).max())
-                .unwrap_or(0);
-            let straight =
-                settings.active_set_iterations == 0 || skips_active_set(streak, rows.len());
-            (rows.len() >= LARGE_BLOCK_ROWS || straight).then(|| {
-                remembered()
-                    .into_iter()
-                    .flatten()
+            let screens = rows.len() >= LARGE_BLOCK_ROWS || settings.active_set_iterations == 0;
+            screens.then(|| {
+                keys.into_iter()
+                    .flat_map(|keys| rows.iter().filter_map(|&i| memory.get(&keys[i])))
                     .map(|rem| rem.screen_reach)
                     .fold(SCREEN_REACH, f64::max)
             })
