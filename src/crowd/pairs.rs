@@ -3,8 +3,7 @@
 use super::verlet::{self, Anchor, ListPolicy, NeighbourSearch};
 use super::Population;
 use crate::constraint::{
-    linearize, second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow,
-    SecondOrderData,
+    second_order, ConstraintFamily, ConstraintKernel, FamilyKind, LinearizedRow, SecondOrderData,
 };
 use num_dual::DualNum;
 use std::sync::{Arc, Mutex};
@@ -25,6 +24,22 @@ impl ConstraintKernel<4> for DiskPairKernel {
 
     fn is_time_dependent(&self) -> bool {
         false
+    }
+}
+
+impl DiskPairKernel {
+    /// `D` and `∇D` at `z`, in the autodiff's own arithmetic: with `u = dx² + dy²`, the dual
+    /// numbers carry `∂u = ±2dx, ±2dy` exactly and `√u`'s derivative factor `√u · u⁻¹ · ½`;
+    /// the same operations in the same order give the same bits without the dual numbers,
+    /// whose gradient was a fifth of a jammed crowd's step.
+    pub(crate) fn linearized(sum_radii: f64, z: [f64; 4]) -> (f64, [f64; 4]) {
+        let dx = z[2] - z[0];
+        let dy = z[3] - z[1];
+        let u = dx * dx + dy * dy;
+        let root = u.sqrt();
+        let factor = root * u.recip() * 0.5;
+        let (gx, gy) = ((dx + dx) * factor, (dy + dy) * factor);
+        (root - sum_radii, [-gx, -gy, gx, gy])
     }
 }
 
@@ -540,17 +555,17 @@ impl ConstraintFamily for DiskPairs {
         top[0].sqrt() + top[1].sqrt()
     }
 
-    fn linearize(&self, index: usize, t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {
+    fn linearize(&self, index: usize, _t: f64, q: &[f64], want_dt: bool, out: &mut LinearizedRow) {
         let (i, j) = self.pair(index);
         let r = self.population.radius(i) + self.population.radius(j);
-        let lin = linearize(&DiskPairKernel, &r, t, Self::gather(q, i, j), want_dt);
-        out.value = lin.value;
-        out.dt = lin.dt;
+        let (value, gradient) = DiskPairKernel::linearized(r, Self::gather(q, i, j));
+        out.value = value;
+        out.dt = want_dt.then_some(0.0);
         out.columns.clear();
         out.columns
             .extend_from_slice(&[2 * i, 2 * i + 1, 2 * j, 2 * j + 1]);
         out.gradient.clear();
-        out.gradient.extend_from_slice(&lin.gradient);
+        out.gradient.extend_from_slice(&gradient);
     }
 
     fn value(&self, index: usize, t: f64, q: &[f64], _: &mut LinearizedRow) -> f64 {
@@ -839,5 +854,36 @@ mod tests {
         let all: Vec<usize> = (0..4).map(|k| fam.member(2 * k, 2 * k + 1)).collect();
         assert_eq!(sorted_candidates(&fam, &q, 2.95), all);
         assert_eq!(lists_used(&fam), (1, crate::crowd::verlet::MIN_SERVED + 1));
+    }
+
+    proptest::proptest! {
+        /// The closed form is the autodiff's linearization to the bit (value, gradient), at
+        /// any two positions, near or far, and reports coincident people as not finite too.
+        #[test]
+        fn the_closed_form_linearization_is_the_autodiffs_to_the_bit(
+            z in proptest::array::uniform4(-50.0f64..50.0),
+            near in proptest::array::uniform2(-1e-6f64..1e-6),
+            sum_radii in 0.0f64..1.0,
+        ) {
+            let close = [z[0], z[1], z[0] + near[0], z[1] + near[1]];
+            for z in [z, close] {
+                let autodiff = crate::constraint::linearize(&DiskPairKernel, &sum_radii, 0.0, z, true);
+                let (value, gradient) = DiskPairKernel::linearized(sum_radii, z);
+                proptest::prop_assert_eq!(value.to_bits(), autodiff.value.to_bits());
+                for (ours, theirs) in gradient.iter().zip(&autodiff.gradient) {
+                    proptest::prop_assert_eq!(ours.to_bits(), theirs.to_bits());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn coincident_people_have_no_finite_gradient_either_way() {
+        let z = [1.5, -2.0, 1.5, -2.0];
+        let autodiff = crate::constraint::linearize(&DiskPairKernel, &0.4, 0.0, z, false);
+        let (value, gradient) = DiskPairKernel::linearized(0.4, z);
+        assert_eq!(value, autodiff.value);
+        assert!(gradient.iter().all(|g| !g.is_finite()));
+        assert!(autodiff.gradient.iter().all(|g| !g.is_finite()));
     }
 }
