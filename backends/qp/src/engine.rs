@@ -481,10 +481,6 @@ impl Engine {
                 Layout::ByUnknowns
             }
         };
-        let threads = match self.settings.threads {
-            0 => std::thread::available_parallelism().map_or(1, usize::from),
-            t => t,
-        };
         let groups = parallel_groups(&all, self.settings.parallel_rows);
         if groups.len() < 2 {
             return all
@@ -492,6 +488,10 @@ impl Engine {
                 .map(|block| solve_block(&context, &mut self.orderings, block, layout(block)))
                 .collect();
         }
+        let threads = match self.settings.threads {
+            0 => cores(),
+            t => t,
+        };
         if threads < 2 {
             self.pool = None;
         } else if self.pool.as_ref().is_none_or(|(size, _)| *size != threads) {
@@ -616,6 +616,13 @@ fn through_fallback(
             message: format!("{handed}, which failed too: {other}"),
         },
     }
+}
+
+/// The machine's cores, asked once: the standard library reads the control group's files at
+/// every call, which cost a small crowd's step a twentieth of its time.
+fn cores() -> usize {
+    static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, usize::from))
 }
 
 /// The blocks (by index) grouped for threads: every block of at least `parallel_rows` rows
