@@ -878,6 +878,28 @@ mod tests {
     }
 
     #[test]
+    fn the_familys_row_of_a_pair_is_the_kernels_linearization_on_its_columns() {
+        let pop = Arc::new(Population::new(vec![0.2, 0.25, 0.3]));
+        let fam = DiskPairs::new(pop);
+        let q = [0.0, 0.0, 3.0, -1.0, 1.0, 2.0];
+        let mut row = LinearizedRow::default();
+        for want_dt in [false, true] {
+            fam.linearize(fam.member(0, 2), 0.5, &q, want_dt, &mut row);
+            let autodiff = crate::constraint::linearize(
+                &DiskPairKernel,
+                &0.5,
+                0.5,
+                [q[0], q[1], q[4], q[5]],
+                want_dt,
+            );
+            assert_eq!(row.columns, vec![0, 1, 4, 5]);
+            assert_eq!(row.value, autodiff.value);
+            assert_eq!(row.gradient, autodiff.gradient.to_vec());
+            assert_eq!(row.dt, want_dt.then_some(0.0));
+        }
+    }
+
+    #[test]
     fn coincident_people_have_no_finite_gradient_either_way() {
         let z = [1.5, -2.0, 1.5, -2.0];
         let autodiff = crate::constraint::linearize(&DiskPairKernel, &0.4, 0.0, z, false);
