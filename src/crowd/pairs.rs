@@ -879,24 +879,35 @@ mod tests {
 
     #[test]
     fn the_familys_row_of_a_pair_is_the_kernels_linearization_on_its_columns() {
-        let pop = Arc::new(Population::new(vec![0.2, 0.25, 0.3]));
+        let pop = Arc::new(Population::new(vec![0.2, 0.25, 0.3, 0.35]));
         let fam = DiskPairs::new(pop);
-        let q = [0.0, 0.0, 3.0, -1.0, 1.0, 2.0];
+        let q = [0.0, 0.0, 3.0, -1.0, 1.0, 2.0, 5.0, 4.0];
         let mut row = LinearizedRow::default();
         for want_dt in [false, true] {
-            fam.linearize(fam.member(0, 2), 0.5, &q, want_dt, &mut row);
+            fam.linearize(fam.member(1, 3), 0.5, &q, want_dt, &mut row);
             let autodiff = crate::constraint::linearize(
                 &DiskPairKernel,
-                &0.5,
+                &0.6,
                 0.5,
-                [q[0], q[1], q[4], q[5]],
+                [q[2], q[3], q[6], q[7]],
                 want_dt,
             );
-            assert_eq!(row.columns, vec![0, 1, 4, 5]);
+            assert_eq!(row.columns, vec![2, 3, 6, 7]);
             assert_eq!(row.value, autodiff.value);
             assert_eq!(row.gradient, autodiff.gradient.to_vec());
             assert_eq!(row.dt, want_dt.then_some(0.0));
         }
+    }
+
+    #[test]
+    fn all_pairs_are_candidates_whatever_the_cutoff() {
+        let pop = Arc::new(Population::new(vec![0.2; 3]));
+        let fam = DiskPairs::all_pairs(pop);
+        assert!(!fam.culls());
+        let far_apart = [0.0, 0.0, 50.0, 0.0, 0.0, 80.0];
+        let mut found = Vec::new();
+        fam.candidates(0.0, &far_apart, 0.1, &mut found);
+        assert_eq!(found.len(), 3);
     }
 
     #[test]
