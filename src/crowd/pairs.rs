@@ -884,15 +884,16 @@ mod tests {
         let q = [0.0, 0.0, 3.0, -1.0, 1.0, 2.0, 5.0, 4.0];
         let mut row = LinearizedRow::default();
         for want_dt in [false, true] {
-            fam.linearize(fam.member(1, 3), 0.5, &q, want_dt, &mut row);
+            // People 0 and 3: `2·i` and `2·j` differ from `2 + i`, `2 / i` and the like.
+            fam.linearize(fam.member(0, 3), 0.5, &q, want_dt, &mut row);
             let autodiff = crate::constraint::linearize(
                 &DiskPairKernel,
-                &0.6,
+                &(0.2 + 0.35),
                 0.5,
-                [q[2], q[3], q[6], q[7]],
+                [q[0], q[1], q[6], q[7]],
                 want_dt,
             );
-            assert_eq!(row.columns, vec![2, 3, 6, 7]);
+            assert_eq!(row.columns, vec![0, 1, 6, 7]);
             assert_eq!(row.value, autodiff.value);
             assert_eq!(row.gradient, autodiff.gradient.to_vec());
             assert_eq!(row.dt, want_dt.then_some(0.0));
