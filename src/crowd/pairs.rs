@@ -28,10 +28,10 @@ impl ConstraintKernel<4> for DiskPairKernel {
 }
 
 impl DiskPairKernel {
-    /// `D` and `∇D` at `z`, in the autodiff's own arithmetic: with `u = dx² + dy²`, the dual
-    /// numbers carry `∂u = ±2dx, ±2dy` exactly and `√u`'s derivative factor `√u · u⁻¹ · ½`;
-    /// the same operations in the same order give the same bits without the dual numbers,
-    /// whose gradient was a fifth of a jammed crowd's step.
+    /// `D` and `∇D` at `z` without dual numbers, for the assembly's hottest loop, in the
+    /// autodiff's own arithmetic: with `u = dx² + dy²`, the dual numbers carry `∂u = ±2dx,
+    /// ±2dy` exactly and `√u`'s derivative factor `√u · u⁻¹ · ½`, so the same operations in
+    /// the same order give the same bits (tested against [`linearize`](crate::constraint::linearize)).
     pub(crate) fn linearized(sum_radii: f64, z: [f64; 4]) -> (f64, [f64; 4]) {
         let dx = z[2] - z[0];
         let dy = z[3] - z[1];
@@ -858,7 +858,7 @@ mod tests {
 
     proptest::proptest! {
         /// The closed form is the autodiff's linearization to the bit (value, gradient), at
-        /// any two positions, near or far, and reports coincident people as not finite too.
+        /// any two positions, far apart or a micrometre apart.
         #[test]
         fn the_closed_form_linearization_is_the_autodiffs_to_the_bit(
             z in proptest::array::uniform4(-50.0f64..50.0),

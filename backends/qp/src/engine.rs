@@ -619,7 +619,7 @@ fn through_fallback(
 }
 
 /// The machine's cores, asked once: the standard library reads the control group's files at
-/// every call, which cost a small crowd's step a twentieth of its time.
+/// every call, too slow a question for every projection of a small crowd.
 fn cores() -> usize {
     static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
     *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, usize::from))
